@@ -1,0 +1,3 @@
+#![warn(missing_docs)]
+//! tensegrity-deploy
+pub mod model;

@@ -1,0 +1,148 @@
+//! Motor commands applied in small increments.
+//!
+//! Friction makes the response path dependent, so a command (a payout change
+//! for each continuous cable) is applied in equal increments, each no larger
+//! than `max_increment_m`, and each relaxed to equilibrium from the previous
+//! one. Results converge as the increment shrinks (see the tests).
+
+use thiserror::Error;
+
+use super::relax::{ForwardModel, RelaxReport, RelaxStatus, Workspace};
+use super::state::DeploymentState;
+
+/// A command the model cannot apply.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CommandError {
+    /// The payout list does not have one entry per continuous cable.
+    #[error("command has {given} payouts but the structure has {expected} continuous cables")]
+    WrongLength {
+        /// Entries given.
+        given: usize,
+        /// Continuous cables in the structure.
+        expected: usize,
+    },
+    /// A payout is NaN or infinite.
+    #[error("payout for continuous cable {cable} is not finite")]
+    NotFinite {
+        /// Cable index.
+        cable: usize,
+    },
+    /// Reeling in would leave no material in the first segment.
+    #[error("continuous cable {cable}: reeling in would leave {left_m:.4} m in the first segment")]
+    ReeledThrough {
+        /// Cable index.
+        cable: usize,
+        /// Rest length that would remain, m.
+        left_m: f64,
+    },
+    /// The increment size is not positive.
+    #[error("command increment must be positive, got {0} m")]
+    BadIncrement(f64),
+}
+
+/// Receives each increment's result as a command is applied. The CLI's
+/// progress bar is one; numerics never print.
+pub trait IncrementObserver {
+    /// Called after increment `index` (0-based) of `count`.
+    fn on_increment(&mut self, index: usize, count: usize, report: &RelaxReport);
+}
+
+/// An observer that ignores everything.
+impl IncrementObserver for () {
+    fn on_increment(&mut self, _: usize, _: usize, _: &RelaxReport) {}
+}
+
+/// What applying one command did.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CommandReport {
+    /// Worst status over the increments (the first non-converged one stops
+    /// the command).
+    pub status: RelaxStatus,
+    /// Increments applied.
+    pub increments: usize,
+    /// DR iterations over all increments.
+    pub iterations: usize,
+    /// Largest final residual over the increments, N.
+    pub max_residual_n: f64,
+    /// Largest final friction residual over the increments, N.
+    pub max_friction_residual_n: f64,
+}
+
+/// Shortest rest length a first segment may be reeled down to, m.
+const MIN_SEGMENT_REST_M: f64 = 1e-3;
+
+impl ForwardModel {
+    /// Applies payout changes `delta_payout_m` (one per continuous cable,
+    /// positive pays out) in increments of at most `max_increment_m`.
+    ///
+    /// Stops at the first increment that does not converge and reports its
+    /// status; the state is then that increment's last iterate.
+    pub fn apply_payout(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        delta_payout_m: &[f64],
+        max_increment_m: f64,
+        observer: &mut dyn IncrementObserver,
+    ) -> Result<CommandReport, CommandError> {
+        let n_cables = self.structure.continuous_cables.len();
+        if delta_payout_m.len() != n_cables {
+            return Err(CommandError::WrongLength {
+                given: delta_payout_m.len(),
+                expected: n_cables,
+            });
+        }
+        if !(max_increment_m > 0.0 && max_increment_m.is_finite()) {
+            return Err(CommandError::BadIncrement(max_increment_m));
+        }
+        let mut largest = 0.0f64;
+        for (c, d) in delta_payout_m.iter().enumerate() {
+            if !d.is_finite() {
+                return Err(CommandError::NotFinite { cable: c });
+            }
+            largest = largest.max(d.abs());
+        }
+        // Guard against reeling a first segment to nothing; sliding can move
+        // material back during the command, but a plan that needs it is wrong.
+        for (c, d) in delta_payout_m.iter().enumerate() {
+            let first = state.segment_rest_lengths_m[state.segment_offsets[c]];
+            if first + d < MIN_SEGMENT_REST_M {
+                return Err(CommandError::ReeledThrough {
+                    cable: c,
+                    left_m: first + d,
+                });
+            }
+        }
+        // The tiny relative slack avoids an extra increment from rounding.
+        let count = ((largest / max_increment_m) * (1.0 - 1e-12))
+            .ceil()
+            .max(1.0) as usize;
+        let mut out = CommandReport {
+            status: RelaxStatus::Converged,
+            increments: 0,
+            iterations: 0,
+            max_residual_n: 0.0,
+            max_friction_residual_n: 0.0,
+        };
+        for k in 0..count {
+            for (c, d) in delta_payout_m.iter().enumerate() {
+                let step = d / count as f64;
+                state.segment_rest_lengths_m[state.segment_offsets[c]] += step;
+                state.payout_m[c] += step;
+            }
+            state.stick_all_joints();
+            let r = self.relax(state, ws);
+            observer.on_increment(k, count, &r);
+            out.increments += 1;
+            out.iterations += r.iterations;
+            out.max_residual_n = out.max_residual_n.max(r.max_residual_n);
+            out.max_friction_residual_n =
+                out.max_friction_residual_n.max(r.max_friction_residual_n);
+            if !r.status.is_converged() {
+                out.status = r.status;
+                break;
+            }
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,18 @@
+//! The forward model: structure, joint friction and the DR solver.
+//!
+//! Pure numerics: no files, no printing, no globals.
+
+pub mod command;
+pub mod friction;
+pub mod relax;
+pub mod sliding;
+pub mod state;
+pub mod structure;
+
+pub use command::{CommandError, CommandReport, IncrementObserver};
+pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFriction};
+pub use relax::{ForwardModel, MemberForces, RelaxReport, RelaxSettings, RelaxStatus, Workspace};
+pub use state::{DeploymentState, JointSlip};
+pub use structure::{
+    ContinuousCable, Member, MemberKind, Node, NodeIndex, Structure, StructureError,
+};

@@ -1,0 +1,256 @@
+//! Return mapping of continuous-cable sliding at the joints.
+//!
+//! For fixed node positions the tension of a segment depends only on its rest
+//! length `s`: `T(s) = EA·(L − s)/s` while taut, 0 when slack. Moving material
+//! `Δ` from segment `b` into its upstream neighbour `a` lowers `T_a` and raises
+//! `T_b`. Trial state: the joint holds. If the trial tension ratio lies
+//! outside the capstan cone, material slides, towards the higher-tension
+//! side, exactly as far as puts the ratio on the bound. This is the return
+//! mapping of rate-independent friction: path dependent, no hardening.
+//!
+//! A cable's joints are coupled through shared segments, so the mapping
+//! sweeps the joints Gauss–Seidel style; the DR loop that calls it every
+//! iteration finishes what a sweep leaves.
+
+use nalgebra::Vector3;
+
+use super::friction::JointFriction;
+use super::state::JointSlip;
+
+/// Tension of a segment with geometric length `length_m` and rest length
+/// `rest_m`, N. Zero when slack.
+#[inline]
+pub fn segment_tension(ea_n: f64, length_m: f64, rest_m: f64) -> f64 {
+    if length_m > rest_m {
+        ea_n * (length_m - rest_m) / rest_m
+    } else {
+        0.0
+    }
+}
+
+/// Interior angle θ at a joint, rad, from the unit directions of the
+/// incoming segment (pointing into the joint) and the outgoing one (pointing
+/// away). π for a straight cable.
+#[inline]
+pub fn interior_angle(dir_in: &Vector3<f64>, dir_out: &Vector3<f64>) -> f64 {
+    (-dir_in.dot(dir_out)).clamp(-1.0, 1.0).acos()
+}
+
+/// Most Gauss–Seidel sweeps over a cable's joints per call.
+const MAX_SWEEPS: usize = 8;
+
+/// Applies the friction return mapping to one continuous cable.
+///
+/// `lengths_m`, `dirs`: geometric length and unit direction (from `path[i]`
+/// to `path[i+1]`) of each segment; `rest_m`: rest lengths, updated in place;
+/// `slip`: per-joint slip state (index 0 unused). Returns the largest capstan
+/// violation left, N (`T_high − bound·T_low`, 0 when all joints are inside
+/// their cones), which is the joint's unbalanced friction.
+pub fn map_cable(
+    ea_n: f64,
+    lengths_m: &[f64],
+    dirs: &[Vector3<f64>],
+    rest_m: &mut [f64],
+    slip: &mut [JointSlip],
+    friction: &JointFriction,
+    tol_n: f64,
+) -> f64 {
+    let n = rest_m.len();
+    if n < 2 {
+        return 0.0;
+    }
+    // The cone depends on geometry only, which is fixed during the mapping.
+    let mut worst = 0.0;
+    for _ in 0..MAX_SWEEPS {
+        worst = 0.0;
+        for j in 1..n {
+            let (a, b) = (j - 1, j);
+            let theta = interior_angle(&dirs[a], &dirs[b]);
+            let t_a = segment_tension(ea_n, lengths_m[a], rest_m[a]);
+            let t_b = segment_tension(ea_n, lengths_m[b], rest_m[b]);
+            // Direction of the would-be slide: towards the higher tension.
+            let towards_motor = t_a >= t_b;
+            let sliding_this_way = matches!(
+                (slip[j], towards_motor),
+                (JointSlip::TowardsMotor, true) | (JointSlip::TowardsEnd, false)
+            );
+            let start_bound = friction.ratio_bound(theta, sliding_this_way);
+            let (t_hi, t_lo) = if towards_motor {
+                (t_a, t_b)
+            } else {
+                (t_b, t_a)
+            };
+            let violation = t_hi - start_bound * t_lo;
+            if violation <= tol_n {
+                if violation > worst {
+                    worst = violation;
+                }
+                continue;
+            }
+            // Slide onto the kinetic bound.
+            let bound = friction.ratio_bound(theta, true);
+            let (hi, lo) = if towards_motor { (a, b) } else { (b, a) };
+            let delta = slide_to_bound(
+                ea_n,
+                lengths_m[hi],
+                rest_m[hi],
+                lengths_m[lo],
+                rest_m[lo],
+                bound,
+                tol_n,
+            );
+            rest_m[hi] += delta;
+            rest_m[lo] -= delta;
+            slip[j] = if towards_motor {
+                JointSlip::TowardsMotor
+            } else {
+                JointSlip::TowardsEnd
+            };
+            let left = segment_tension(ea_n, lengths_m[hi], rest_m[hi])
+                - bound * segment_tension(ea_n, lengths_m[lo], rest_m[lo]);
+            if left.abs() > worst {
+                worst = left.abs();
+            }
+        }
+        if worst <= tol_n {
+            break;
+        }
+    }
+    worst
+}
+
+/// Material Δ ≥ 0 to move from the low-tension segment into the
+/// high-tension one so that `T_hi = bound·T_lo`.
+///
+/// `g(Δ) = T_hi(s_hi + Δ) − bound·T_lo(s_lo − Δ)` is decreasing; `g(0) > 0`
+/// and `g(L_hi − s_hi) ≤ 0` (the high side just slack) bracket the root.
+/// Safeguarded Newton: the tension–rest-length curves are nearly linear over
+/// the tiny slides of one iteration, so it converges in two or three steps.
+fn slide_to_bound(
+    ea_n: f64,
+    l_hi: f64,
+    s_hi: f64,
+    l_lo: f64,
+    s_lo: f64,
+    bound: f64,
+    tol_n: f64,
+) -> f64 {
+    let g = |d: f64| {
+        segment_tension(ea_n, l_hi, s_hi + d) - bound * segment_tension(ea_n, l_lo, s_lo - d)
+    };
+    let dg = |d: f64| {
+        let mut v = 0.0;
+        if l_hi > s_hi + d {
+            v -= ea_n * l_hi / ((s_hi + d) * (s_hi + d));
+        }
+        if l_lo > s_lo - d {
+            v -= bound * ea_n * l_lo / ((s_lo - d) * (s_lo - d));
+        }
+        v
+    };
+    let mut lo = 0.0;
+    // Never move more material than the low side holds.
+    let mut hi = (l_hi - s_hi).min(0.999 * s_lo);
+    let mut d = 0.0;
+    let target = 1e-3 * tol_n;
+    for _ in 0..60 {
+        let gd = g(d);
+        if gd.abs() <= target {
+            break;
+        }
+        if gd > 0.0 {
+            lo = d;
+        } else {
+            hi = d;
+        }
+        let slope = dg(d);
+        let newton = if slope < 0.0 {
+            d - gd / slope
+        } else {
+            f64::NAN
+        };
+        d = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        if hi - lo <= 1e-15 * (s_hi + s_lo) {
+            break;
+        }
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::friction::JointFriction;
+
+    fn straight_dirs(n: usize) -> Vec<Vector3<f64>> {
+        vec![Vector3::x(); n]
+    }
+
+    #[test]
+    fn frictionless_mapping_equalises_tension() {
+        let lengths = [1.0, 1.0, 1.0];
+        let mut rest = [0.999, 0.9995, 0.998];
+        let mut slip = [JointSlip::Stuck; 3];
+        let total: f64 = rest.iter().sum();
+        let f = JointFriction::frictionless();
+        let mut left = f64::MAX;
+        for _ in 0..50 {
+            left = map_cable(
+                1e6,
+                &lengths,
+                &straight_dirs(3),
+                &mut rest,
+                &mut slip,
+                &f,
+                1e-9,
+            );
+        }
+        assert!(left < 1e-6, "violation left {left}");
+        let t: Vec<f64> = (0..3).map(|i| segment_tension(1e6, 1.0, rest[i])).collect();
+        assert!(
+            (t[0] - t[1]).abs() < 1e-6 && (t[1] - t[2]).abs() < 1e-6,
+            "{t:?}"
+        );
+        let after: f64 = rest.iter().sum();
+        assert!(
+            (after - total).abs() < 1e-15,
+            "sliding must conserve material"
+        );
+    }
+
+    #[test]
+    fn joint_inside_the_cone_does_not_slide() {
+        // 90° wrap, μ = 0.2: bound e^(0.2·π/2) ≈ 1.37. Ratio 1.2 holds.
+        let dirs = [Vector3::x(), Vector3::y()];
+        let lengths = [1.0, 1.0];
+        let ea = 1e6;
+        let s_b = 1.0 / (1.0 + 500.0 / ea);
+        let s_a = 1.0 / (1.0 + 600.0 / ea);
+        let mut rest = [s_a, s_b];
+        let mut slip = [JointSlip::Stuck; 2];
+        let f = JointFriction::constant(0.2).unwrap();
+        map_cable(ea, &lengths, &dirs, &mut rest, &mut slip, &f, 1e-9);
+        assert_eq!(rest, [s_a, s_b]);
+        assert_eq!(slip[1], JointSlip::Stuck);
+    }
+
+    #[test]
+    fn joint_outside_the_cone_slides_onto_the_bound() {
+        let dirs = [Vector3::x(), Vector3::y()];
+        let lengths = [1.0, 1.0];
+        let ea = 1e6;
+        let mut rest = [1.0 / (1.0 + 900.0 / ea), 1.0 / (1.0 + 500.0 / ea)];
+        let mut slip = [JointSlip::Stuck; 2];
+        let f = JointFriction::constant(0.2).unwrap();
+        map_cable(ea, &lengths, &dirs, &mut rest, &mut slip, &f, 1e-9);
+        let t_a = segment_tension(ea, 1.0, rest[0]);
+        let t_b = segment_tension(ea, 1.0, rest[1]);
+        let bound = (0.2 * std::f64::consts::FRAC_PI_2).exp();
+        assert!((t_a / t_b - bound).abs() < 1e-9, "ratio {}", t_a / t_b);
+        assert_eq!(slip[1], JointSlip::TowardsMotor);
+    }
+}
