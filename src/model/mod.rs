@@ -16,3 +16,7 @@ pub use state::{DeploymentState, JointSlip};
 pub use structure::{
     ContinuousCable, Member, MemberKind, Node, NodeIndex, Structure, StructureError,
 };
+pub mod form_finding;
+pub mod friction_rig;
+pub mod reference_bridge;
+pub use reference_bridge::{reference_bridge, BridgeError, BridgeParameters};

@@ -88,3 +88,19 @@ impl DeploymentState {
             .fold(0.0, f64::max)
     }
 }
+
+impl DeploymentState {
+    /// Distance between the nodes of each midspan pair, m.
+    pub fn midspan_gaps_m(&self, structure: &Structure) -> Vec<f64> {
+        structure
+            .midspan_pairs
+            .iter()
+            .map(|[a, b]| (self.positions_m[*a] - self.positions_m[*b]).norm())
+            .collect()
+    }
+
+    /// Largest midspan gap, m; `None` for a structure without midspan pairs.
+    pub fn max_midspan_gap_m(&self, structure: &Structure) -> Option<f64> {
+        self.midspan_gaps_m(structure).into_iter().reduce(f64::max)
+    }
+}

@@ -317,7 +317,17 @@ impl Structure {
             }
             Ok(())
         };
-        for (i, m) in self.members.iter().enumerate() {
+        // Entries are named by their index among members of the same kind,
+        // as a structure file lists them.
+        let mut per_kind = [0usize; 3];
+        for m in &self.members {
+            let slot = match m.kind {
+                MemberKind::Strut { .. } => 0,
+                MemberKind::Cable { .. } => 1,
+                MemberKind::Spring { .. } => 2,
+            };
+            let i = per_kind[slot];
+            per_kind[slot] += 1;
             let entry = format!("{}s[{i}] (\"{}\")", m.kind.name(), m.id);
             if !member_ids.insert(m.id.as_str()) {
                 return Err(StructureError::DuplicateId {

@@ -1,0 +1,155 @@
+//! Command files: motor payout changes per step, as tidy CSV.
+//!
+//! ```csv
+//! step,cable,payout_change_m
+//! 1,A_cc0,-0.01
+//! 1,B_cc0,-0.01
+//! 2,A_cc1,0.005
+//! ```
+//! One row per step and cable. `step` is a non-negative integer; rows of one
+//! step are applied together, steps in increasing order (a step may not
+//! reappear after a later one). `cable` is a continuous-cable id of the
+//! structure; cables a step does not list keep their payout. `payout_change_m`
+//! is the change of payout in metres: positive pays cable out (folding),
+//! negative reels it in (deploying). A step may list a cable once.
+
+use std::path::Path;
+
+use super::FileError;
+use crate::model::Structure;
+
+/// The header a command file must have.
+pub const COMMAND_HEADER: [&str; 3] = ["step", "cable", "payout_change_m"];
+
+/// A validated sequence of payout commands.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommandSequence {
+    /// Step numbers as written in the file.
+    pub step_labels: Vec<u64>,
+    /// Payout change per step and continuous cable (structure order), m.
+    pub payout_change_m: Vec<Vec<f64>>,
+}
+
+/// Reads a command file for `structure`.
+pub fn read_commands(path: &Path, structure: &Structure) -> Result<CommandSequence, FileError> {
+    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    parse_commands(&text, path, structure)
+}
+
+/// Parses command CSV; `path` names the source in errors.
+pub fn parse_commands(
+    text: &str,
+    path: &Path,
+    structure: &Structure,
+) -> Result<CommandSequence, FileError> {
+    let field_error = |line: usize, field: &str, message: String| FileError::Field {
+        path: path.to_path_buf(),
+        line,
+        field: field.to_string(),
+        message,
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let header = reader
+        .headers()
+        .map_err(|e| field_error(1, "header", e.to_string()))?
+        .clone();
+    if header.iter().collect::<Vec<_>>() != COMMAND_HEADER {
+        return Err(field_error(
+            1,
+            "header",
+            format!(
+                "expected columns `{}`, found `{}`",
+                COMMAND_HEADER.join(","),
+                header.iter().collect::<Vec<_>>().join(",")
+            ),
+        ));
+    }
+    let n_cables = structure.continuous_cables.len();
+    let mut out = CommandSequence {
+        step_labels: vec![],
+        payout_change_m: vec![],
+    };
+    let mut seen_in_step = vec![false; n_cables];
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map(|p| p.line() as usize).unwrap_or(0);
+            field_error(line, "row", e.to_string())
+        })?;
+        let line = record.position().map(|p| p.line() as usize).unwrap_or(0);
+        let step: u64 = record[0].parse().map_err(|_| {
+            field_error(
+                line,
+                "step",
+                format!("\"{}\" is not a non-negative integer", &record[0]),
+            )
+        })?;
+        let cable = structure
+            .continuous_cables
+            .iter()
+            .position(|c| c.id == record[1])
+            .ok_or_else(|| {
+                field_error(
+                    line,
+                    "cable",
+                    format!("no continuous cable \"{}\" in the structure", &record[1]),
+                )
+            })?;
+        let change: f64 = record[2]
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| {
+                field_error(
+                    line,
+                    "payout_change_m",
+                    format!("\"{}\" is not a finite number", &record[2]),
+                )
+            })?;
+        match out.step_labels.last() {
+            Some(&last) if last == step => {}
+            Some(&last) if last > step => {
+                return Err(field_error(
+                    line,
+                    "step",
+                    format!("step {step} comes after step {last}; steps must increase"),
+                ))
+            }
+            _ => {
+                out.step_labels.push(step);
+                out.payout_change_m.push(vec![0.0; n_cables]);
+                seen_in_step.fill(false);
+            }
+        }
+        let row = out
+            .payout_change_m
+            .last_mut()
+            .expect("a step was just pushed");
+        if std::mem::replace(&mut seen_in_step[cable], true) {
+            return Err(field_error(
+                line,
+                "cable",
+                format!("cable \"{}\" appears twice in step {step}", &record[1]),
+            ));
+        }
+        row[cable] = change;
+    }
+    if out.step_labels.is_empty() {
+        return Err(field_error(1, "row", "the file has no commands".into()));
+    }
+    Ok(out)
+}
+
+/// Writes a command sequence in the same format (zero changes omitted).
+pub fn commands_to_csv(seq: &CommandSequence, structure: &Structure) -> String {
+    let mut s = COMMAND_HEADER.join(",") + "\n";
+    for (label, row) in seq.step_labels.iter().zip(&seq.payout_change_m) {
+        for (c, v) in row.iter().enumerate() {
+            if *v != 0.0 {
+                s += &format!("{label},{},{v}\n", structure.continuous_cables[c].id);
+            }
+        }
+    }
+    s
+}

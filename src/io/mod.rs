@@ -1,0 +1,120 @@
+//! Files: the only part of the library that touches the file system.
+//!
+//! Every reader validates what it reads and names the file, and the line
+//! and field or the entry, in its error. Every writer writes atomically
+//! (a temporary file in the same folder, then a rename), so a crash or a
+//! failed run never leaves a half-written file in place of a good one.
+
+pub mod commands;
+pub mod results;
+pub mod structure_file;
+
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use crate::model::StructureError;
+
+/// An error reading or writing a file, naming the file and the place in it.
+#[derive(Debug, Error)]
+pub enum FileError {
+    /// The file could not be read.
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The file could not be written.
+    #[error("{}: cannot write: {source}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// Malformed syntax (JSON or TOML).
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    Syntax {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What the parser said.
+        message: String,
+    },
+    /// A value that parses but makes no sense, in a CSV file.
+    #[error("{}: line {line}, field `{field}`: {message}", path.display())]
+    Field {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// Column name.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An entry of a JSON document that makes no sense.
+    #[error("{}: {entry}: {message}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Which entry, e.g. `cables[3] ("c3")`.
+        entry: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The structure failed validation.
+    #[error("{}: {source}", path.display())]
+    Structure {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        source: StructureError,
+    },
+}
+
+impl FileError {
+    fn read(path: &Path, source: std::io::Error) -> Self {
+        FileError::Read {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    fn write(path: &Path, source: std::io::Error) -> Self {
+        FileError::Write {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary sibling, flushed, then
+/// renamed over the target.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
+    use std::io::Write;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        FileError::write(path, e)
+    })
+}
