@@ -1,1 +1,154 @@
-fn main() {}
+//! Speed of the forward model. Run: `cargo bench --bench relaxation`.
+//!
+//! - one 1 cm payout increment on one cable of the full bridge, μ = 0.2,
+//!   warm-started from equilibrium, default tolerance;
+//! - the 7×7 cable net from its initial geometry to 1e-6 m accuracy;
+//! - cost per DR iteration on bridges of 2, 4, 8 and 16 modules per half
+//!   (a fixed 256 iterations from a perturbed state), to show it grows
+//!   linearly with the number of members.
+//! Iterations per solve are printed once before timing.
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use nalgebra::Vector3;
+use tensegrity_deploy::model::{
+    reference_bridge, BridgeParameters, ForwardModel, JointFriction, Member, MemberKind, Node,
+    RelaxSettings, Structure, Workspace,
+};
+
+fn single_increment(c: &mut Criterion) {
+    let model = ForwardModel::new(
+        reference_bridge(&BridgeParameters::default()).unwrap(),
+        JointFriction::constant(0.2).unwrap(),
+        RelaxSettings::default(),
+    );
+    let mut ws = Workspace::default();
+    let start = model.reference_state();
+    let mut cmd = vec![0.0; model.structure.continuous_cables.len()];
+    cmd[0] = -0.01;
+    let mut probe = start.clone();
+    let r = model
+        .apply_payout(&mut probe, &mut ws, &cmd, 0.01, &mut ())
+        .unwrap();
+    eprintln!(
+        "1 cm increment, μ = 0.2: {:?}, {} iterations",
+        r.status, r.iterations
+    );
+    c.bench_function("bridge_1cm_increment_mu0.2", |b| {
+        b.iter_batched(
+            || start.clone(),
+            |mut s| {
+                model
+                    .apply_payout(&mut s, &mut ws, &cmd, 0.01, &mut ())
+                    .unwrap()
+            },
+            BatchSize::SmallInput,
+        )
+    });
+}
+
+fn cable_net() -> ForwardModel {
+    #[derive(serde::Deserialize)]
+    struct Reference {
+        #[serde(rename = "EA_N")]
+        ea_n: f64,
+        nodes_initial_m: Vec<[f64; 3]>,
+        members: Vec<[usize; 2]>,
+        fixed_nodes: Vec<usize>,
+        rest_length_m: Vec<f64>,
+        #[serde(rename = "loads_N")]
+        loads_n: Vec<[f64; 3]>,
+    }
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/cable-net-7x7.json"
+    ))
+    .unwrap();
+    let r: Reference = serde_json::from_str(&text).unwrap();
+    let nodes = (0..r.nodes_initial_m.len())
+        .map(|i| Node {
+            id: format!("n{i}"),
+            position_m: Vector3::from(r.nodes_initial_m[i]),
+            mass_kg: 0.0,
+            fixed: [r.fixed_nodes.contains(&i); 3],
+            load_n: Vector3::from(r.loads_n[i]),
+        })
+        .collect();
+    let members = r
+        .members
+        .iter()
+        .enumerate()
+        .map(|(k, ab)| Member {
+            id: format!("c{k}"),
+            kind: MemberKind::Cable { ea_n: r.ea_n },
+            nodes: *ab,
+            rest_length_m: r.rest_length_m[k],
+        })
+        .collect();
+    let s = Structure::new("net", nodes, members, vec![], Vector3::zeros(), vec![]).unwrap();
+    // 1e-7 relative of ~1e4 N tensions: 1e-3 N, which holds positions to
+    // well under 1e-6 m (see tests/cable_net_reference.rs).
+    let settings = RelaxSettings {
+        tol_force_rel: 1e-7,
+        ..RelaxSettings::default()
+    };
+    ForwardModel::new(s, JointFriction::frictionless(), settings)
+}
+
+fn cable_net_solve(c: &mut Criterion) {
+    let model = cable_net();
+    let mut ws = Workspace::default();
+    let mut probe = model.reference_state();
+    let r = model.relax(&mut probe, &mut ws);
+    eprintln!("cable net: {:?}, {} iterations", r.status, r.iterations);
+    c.bench_function("cable_net_7x7_from_flat", |b| {
+        b.iter_batched(
+            || model.reference_state(),
+            |mut s| model.relax(&mut s, &mut ws),
+            BatchSize::SmallInput,
+        )
+    });
+}
+
+fn per_iteration_scaling(c: &mut Criterion) {
+    let mut group = c.benchmark_group("dr_256_iterations");
+    for modules in [2usize, 4, 8, 16] {
+        // Longer cantilevers need stiffer springs and more prestress to
+        // form-find; the same values at every size keep the comparison fair.
+        let p = BridgeParameters {
+            modules_per_half: modules,
+            spring_stiffness_n_per_m: 20_000.0,
+            continuous_cable_tension_n: 1100.0,
+            ..BridgeParameters::default()
+        };
+        let s = reference_bridge(&p).unwrap();
+        let elements = s.members.len() + s.segment_count();
+        let settings = RelaxSettings {
+            max_iter: 256,
+            tol_force_rel: 1e-300,
+            ..RelaxSettings::default()
+        };
+        let model = ForwardModel::new(s, JointFriction::constant(0.2).unwrap(), settings);
+        let mut start = model.reference_state();
+        // Perturb: pay out every cable 1 mm so the solve has work to do.
+        for c in 0..model.structure.continuous_cables.len() {
+            start.segment_rest_lengths_m[start.segment_offsets[c]] += 0.001;
+        }
+        let mut ws = Workspace::default();
+        group.bench_function(format!("{modules}_modules_{elements}_elements"), |b| {
+            b.iter_batched(
+                || start.clone(),
+                |mut st| model.relax(&mut st, &mut ws),
+                BatchSize::SmallInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    single_increment,
+    cable_net_solve,
+    per_iteration_scaling
+);
+criterion_main!(benches);

@@ -265,7 +265,14 @@ pub fn reference_bridge(p: &BridgeParameters) -> Result<Structure, BridgeError> 
             let (min_n, max_n, target_n, weight) = match kind {
                 Kind::Strut => (-1e5, -p.strut_min_compression_n, 0.0, 1e-2),
                 Kind::Cable => (p.cable_min_tension_n, 1e5, p.cable_target_tension_n, 1.0),
-                Kind::Spring => (p.spring_min_tension_n, 1e5, p.spring_target_tension_n, 1.0),
+                // A spring's rest length must stay positive: cap its
+                // tension at 80 % of k·L (rest length ≥ 20 % of its length).
+                Kind::Spring => (
+                    p.spring_min_tension_n,
+                    0.8 * p.spring_stiffness_n_per_m * len(*ends),
+                    p.spring_target_tension_n,
+                    1.0,
+                ),
             };
             ForceGroup {
                 elements: vec![*ends],
