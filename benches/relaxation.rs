@@ -9,10 +9,8 @@
 //! Iterations per solve are printed once before timing.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use nalgebra::Vector3;
 use tensegrity_deploy::model::{
-    reference_bridge, BridgeParameters, ForwardModel, JointFriction, Member, MemberKind, Node,
-    RelaxSettings, Structure, Workspace,
+    reference_bridge, BridgeParameters, ForwardModel, JointFriction, RelaxSettings, Workspace,
 };
 
 fn single_increment(c: &mut Criterion) {
@@ -46,45 +44,11 @@ fn single_increment(c: &mut Criterion) {
     });
 }
 
+#[path = "../tests/common/cable_net.rs"]
+mod cable_net_reference;
+
 fn cable_net() -> ForwardModel {
-    #[derive(serde::Deserialize)]
-    struct Reference {
-        #[serde(rename = "EA_N")]
-        ea_n: f64,
-        nodes_initial_m: Vec<[f64; 3]>,
-        members: Vec<[usize; 2]>,
-        fixed_nodes: Vec<usize>,
-        rest_length_m: Vec<f64>,
-        #[serde(rename = "loads_N")]
-        loads_n: Vec<[f64; 3]>,
-    }
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/cable-net-7x7.json"
-    ))
-    .unwrap();
-    let r: Reference = serde_json::from_str(&text).unwrap();
-    let nodes = (0..r.nodes_initial_m.len())
-        .map(|i| Node {
-            id: format!("n{i}"),
-            position_m: Vector3::from(r.nodes_initial_m[i]),
-            mass_kg: 0.0,
-            fixed: [r.fixed_nodes.contains(&i); 3],
-            load_n: Vector3::from(r.loads_n[i]),
-        })
-        .collect();
-    let members = r
-        .members
-        .iter()
-        .enumerate()
-        .map(|(k, ab)| Member {
-            id: format!("c{k}"),
-            kind: MemberKind::Cable { ea_n: r.ea_n },
-            nodes: *ab,
-            rest_length_m: r.rest_length_m[k],
-        })
-        .collect();
-    let s = Structure::new("net", nodes, members, vec![], Vector3::zeros(), vec![]).unwrap();
+    let (s, _) = cable_net_reference::load();
     // 1e-7 relative of ~1e4 N tensions: 1e-3 N, which holds positions to
     // well under 1e-6 m (see tests/cable_net_reference.rs).
     let settings = RelaxSettings {

@@ -7,67 +7,11 @@
 //! those need (1e-9 of the largest tension ≈ 1e-5 N).
 
 use nalgebra::Vector3;
-use tensegrity_deploy::model::{
-    ForwardModel, JointFriction, Member, MemberKind, Node, RelaxSettings, Structure, Workspace,
-};
+use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Workspace};
 
-#[derive(serde::Deserialize)]
-struct Reference {
-    #[serde(rename = "EA_N")]
-    ea_n: f64,
-    nodes_initial_m: Vec<[f64; 3]>,
-    members: Vec<[usize; 2]>,
-    fixed_nodes: Vec<usize>,
-    rest_length_m: Vec<f64>,
-    #[serde(rename = "loads_N")]
-    loads_n: Vec<[f64; 3]>,
-    nodes_equilibrium_m: Vec<[f64; 3]>,
-    #[serde(rename = "tension_equilibrium_N")]
-    tension_equilibrium_n: Vec<f64>,
-}
-
-fn load() -> (Structure, Reference) {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/cable-net-7x7.json"
-    ))
-    .unwrap();
-    let r: Reference = serde_json::from_str(&text).unwrap();
-    let nodes = r
-        .nodes_initial_m
-        .iter()
-        .enumerate()
-        .map(|(i, p)| Node {
-            id: format!("n{i}"),
-            position_m: Vector3::from(*p),
-            mass_kg: 0.0,
-            fixed: [r.fixed_nodes.contains(&i); 3],
-            load_n: Vector3::from(r.loads_n[i]),
-        })
-        .collect();
-    let members = r
-        .members
-        .iter()
-        .zip(&r.rest_length_m)
-        .enumerate()
-        .map(|(k, (ab, l0))| Member {
-            id: format!("c{k}"),
-            kind: MemberKind::Cable { ea_n: r.ea_n },
-            nodes: *ab,
-            rest_length_m: *l0,
-        })
-        .collect();
-    let s = Structure::new(
-        "cable net 7x7",
-        nodes,
-        members,
-        vec![],
-        Vector3::zeros(),
-        vec![],
-    )
-    .unwrap();
-    (s, r)
-}
+#[path = "common/cable_net.rs"]
+mod cable_net;
+use cable_net::load;
 
 #[test]
 fn cable_net_matches_independent_newton_solution() {
