@@ -219,11 +219,10 @@ fn print_summary(model: &ForwardModel, records: &[StepRecord], out: &Path) {
             .max_midspan_gap_m(&model.structure)
             .map(|g| format!("{:.3}", 1e3 * g))
             .unwrap_or_else(|| "-".into());
-        let status = serde_json::to_value(r.report.status).unwrap();
         println!(
             "{:>5} {:>10} {:>6} {:>10} {:>12.2e} {:>14}",
             r.step,
-            status.as_str().unwrap_or(""),
+            r.report.status.as_str(),
             r.report.increments,
             r.report.iterations,
             r.report.max_residual_n,

@@ -4,8 +4,8 @@
 
 use nalgebra::Vector3;
 use tensegrity_deploy::model::{
-    reference_bridge, BridgeParameters, DeploymentState, ForwardModel, JointFriction, MemberKind,
-    RelaxSettings, Structure, Workspace,
+    reference_bridge, BridgeParameters, CommandReport, DeploymentState, ForwardModel,
+    JointFriction, MemberKind, RelaxSettings, Structure, Workspace,
 };
 
 fn bridge() -> Structure {
@@ -57,18 +57,29 @@ fn designed_geometry_is_the_equilibrium_under_self_weight() {
     }
 }
 
-fn reel_all(m: &ForwardModel, state: &mut DeploymentState, amount_m: f64, increment_m: f64) {
-    let n = m.structure.continuous_cables.len();
+/// Applies `change` (one payout change per cable) and asserts convergence.
+fn apply(
+    m: &ForwardModel,
+    state: &mut DeploymentState,
+    change: &[f64],
+    increment_m: f64,
+) -> CommandReport {
     let r = m
         .apply_payout(
             state,
             &mut Workspace::default(),
-            &vec![amount_m; n],
+            change,
             increment_m,
             &mut (),
         )
         .unwrap();
     assert!(r.status.is_converged(), "{r:?}");
+    r
+}
+
+fn reel_all(m: &ForwardModel, state: &mut DeploymentState, amount_m: f64, increment_m: f64) {
+    let n = m.structure.continuous_cables.len();
+    apply(m, state, &vec![amount_m; n], increment_m);
 }
 
 #[test]
@@ -115,16 +126,7 @@ fn frictionless_segments_carry_equal_tension_after_sliding() {
     let mut change = vec![0.0; n];
     change[0] = -0.005;
     change[3] = 0.003;
-    let r = m
-        .apply_payout(
-            &mut state,
-            &mut Workspace::default(),
-            &change,
-            0.001,
-            &mut (),
-        )
-        .unwrap();
-    assert!(r.status.is_converged());
+    let r = apply(&m, &mut state, &change, 0.001);
     let f = m.member_forces(&state);
     for c in 0..n {
         let seg = &f.segment_n[state.segment_offsets[c]..state.segment_offsets[c + 1]];
@@ -162,14 +164,7 @@ fn mirrored_commands_give_mirrored_halves() {
     let n = m.structure.continuous_cables.len();
     // Cable k of half A and cable k of half B get the same command.
     let change: Vec<f64> = (0..n).map(|c| -0.001 * (1 + c % 5) as f64).collect();
-    m.apply_payout(
-        &mut state,
-        &mut Workspace::default(),
-        &change,
-        0.001,
-        &mut (),
-    )
-    .unwrap();
+    apply(&m, &mut state, &change, 0.001);
     let half = m.structure.nodes.len() / 2;
     let length = BridgeParameters::default().bridge_length_m();
     for i in 0..half {
@@ -187,16 +182,7 @@ fn reel_in_and_out(m: &ForwardModel, amount_m: f64) -> f64 {
     let mut change = vec![0.0; m.structure.continuous_cables.len()];
     for sign in [-1.0, 1.0] {
         change[0] = sign * amount_m;
-        let r = m
-            .apply_payout(
-                &mut state,
-                &mut Workspace::default(),
-                &change,
-                0.001,
-                &mut (),
-            )
-            .unwrap();
-        assert!(r.status.is_converged(), "{r:?}");
+        apply(m, &mut state, &change, 0.001);
     }
     state.max_position_difference_m(&start)
 }

@@ -52,11 +52,7 @@ pub fn write_simulation(
             let gap = r.state.max_midspan_gap_m(s);
             w.write_record([
                 r.step.to_string(),
-                serde_json::to_value(r.report.status)
-                    .unwrap()
-                    .as_str()
-                    .unwrap_or("")
-                    .to_string(),
+                r.report.status.as_str().to_string(),
                 r.report.increments.to_string(),
                 r.report.iterations.to_string(),
                 format!("{:e}", r.report.max_residual_n),

@@ -86,6 +86,17 @@ impl RelaxStatus {
         self == RelaxStatus::Converged
     }
 
+    /// Short name, as in result files: `converged`, `iteration_limit`,
+    /// `diverged`, `unstable_mechanism`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RelaxStatus::Converged => "converged",
+            RelaxStatus::IterationLimit => "iteration_limit",
+            RelaxStatus::Diverged => "diverged",
+            RelaxStatus::UnstableMechanism => "unstable_mechanism",
+        }
+    }
+
     /// Plain words for the command line.
     pub fn describe(self) -> &'static str {
         match self {
@@ -525,5 +536,22 @@ impl ForwardModel {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RelaxStatus;
+
+    #[test]
+    fn status_names_match_their_serialised_form() {
+        for s in [
+            RelaxStatus::Converged,
+            RelaxStatus::IterationLimit,
+            RelaxStatus::Diverged,
+            RelaxStatus::UnstableMechanism,
+        ] {
+            assert_eq!(serde_json::to_value(s).unwrap(), s.as_str());
+        }
     }
 }
