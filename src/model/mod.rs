@@ -7,16 +7,20 @@ pub mod friction;
 pub mod relax;
 pub mod sliding;
 pub mod state;
+pub mod stiffness;
 pub mod structure;
 
 pub use command::{CommandError, CommandReport, IncrementObserver};
 pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFriction};
 pub use relax::{ForwardModel, MemberForces, RelaxReport, RelaxSettings, RelaxStatus, Workspace};
 pub use state::{DeploymentState, JointSlip};
+pub use stiffness::{min_stiffness_eigenvalue, tangent_stiffness, FreeDofs, JointMode};
 pub use structure::{
     ContinuousCable, Member, MemberKind, Node, NodeIndex, Structure, StructureError,
 };
 pub mod form_finding;
 pub mod friction_rig;
 pub mod reference_bridge;
-pub use reference_bridge::{reference_bridge, BridgeError, BridgeParameters};
+pub use reference_bridge::{
+    reference_bridge, BridgeError, BridgeParameters, BridgeTopology, SpringPlacement,
+};

@@ -41,7 +41,7 @@
 use nalgebra::Vector3;
 use thiserror::Error;
 
-use super::form_finding::{find_prestress, ForceGroup};
+use super::form_finding::{find_stable_prestress, ForceGroup};
 use super::structure::{ContinuousCable, Member, MemberKind, Node, Structure, StructureError};
 
 /// Every value the generator assumes, with its source or reasoning.
@@ -93,6 +93,62 @@ pub struct BridgeParameters {
     pub strut_min_compression_n: f64,
     /// Gravitational acceleration, m/s².
     pub gravity_m_per_s2: f64,
+    /// Smallest eigenvalue the deployed state's tangent stiffness must have
+    /// with every continuous cable sliding freely (μ = 0), N/m. Form finding
+    /// enforces it; it is the margin against the prestress-stabilised
+    /// mechanisms of the clustered cables. Must be positive for the
+    /// frictionless model to be stable.
+    pub min_stiffness_n_per_m: f64,
+    /// Which nodes members connect.
+    pub topology: BridgeTopology,
+}
+
+/// Where the 15 springs of a half go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpringPlacement {
+    /// Ring members of the interior rings are springs; the abutment and
+    /// midspan rings and the axial members are cables.
+    InteriorRings,
+    /// Axial members and the shared ring are springs; the other interior
+    /// rings and the midspan ring are cables (the abutment ring, whose nodes
+    /// are all supported, has none).
+    AxialAndSharedRing,
+}
+
+/// Node connectivity of a module, as offsets in the ring index `k`
+/// (node `(r, k)` is node `k mod 5` of ring `r`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BridgeTopology {
+    /// Rotation of each ring from the previous one, degrees.
+    pub ring_twist_deg: f64,
+    /// Middle-ring circumradius over `ring_radius_m`.
+    pub middle_ring_radius_ratio: f64,
+    /// Second short strut: `(2m+1, k)–(2m+2, k + offset)`.
+    pub second_strut_offset: usize,
+    /// Long strut: `(2m+2, k)–(2m, k + offset)`.
+    pub long_strut_offset: usize,
+    /// Axial member: `(2m, k)–(2m+2, k + offset)`.
+    pub axial_offset: usize,
+    /// Continuous cable `k` passes node `(r, k + offset·r)`.
+    pub cable_ring_offset: usize,
+    /// Where the springs go.
+    pub springs: SpringPlacement,
+}
+
+impl Default for BridgeTopology {
+    fn default() -> Self {
+        BridgeTopology {
+            ring_twist_deg: 54.0,
+            middle_ring_radius_ratio: 0.7,
+            second_strut_offset: 1,
+            long_strut_offset: 4,
+            axial_offset: 4,
+            cable_ring_offset: 4,
+            springs: SpringPlacement::InteriorRings,
+        }
+    }
 }
 
 impl Default for BridgeParameters {
@@ -117,6 +173,8 @@ impl Default for BridgeParameters {
             spring_target_tension_n: 200.0,
             strut_min_compression_n: 10.0,
             gravity_m_per_s2: 9.81,
+            min_stiffness_n_per_m: 300.0,
+            topology: BridgeTopology::default(),
         }
     }
 }
@@ -155,6 +213,15 @@ pub enum BridgeError {
     /// No prestress meets the bounds in this geometry.
     #[error("form finding found no admissible prestress (QP status {0:?}); change ring radius, module length or tension bounds")]
     NoPrestress(crate::qp::QpStatus),
+    /// Prestress exists but none makes the frictionless structure as stiff
+    /// as asked.
+    #[error("no prestress gives a tangent stiffness above {wanted_n_per_m} N/m with sliding joints (best found {achieved_n_per_m:.1} N/m); lower `min_stiffness_n_per_m` or change the geometry")]
+    Unstable {
+        /// Smallest eigenvalue reached, N/m.
+        achieved_n_per_m: f64,
+        /// `min_stiffness_n_per_m`.
+        wanted_n_per_m: f64,
+    },
     /// The QP solver could not be set up.
     #[error(transparent)]
     Qp(#[from] crate::qp::QpError),
@@ -164,6 +231,8 @@ pub enum BridgeError {
 }
 
 const SIDES: usize = 5;
+/// Cutting-plane rounds allowed to reach the stiffness bound.
+const STABILITY_ROUNDS: usize = 60;
 
 #[derive(Clone, Copy, PartialEq)]
 enum Kind {
@@ -184,15 +253,25 @@ pub fn reference_bridge(p: &BridgeParameters) -> Result<Structure, BridgeError> 
     let mut x = Vec::with_capacity(half_nodes);
     for r in 0..rings {
         for k in 0..SIDES {
-            let psi = (-90.0 + 72.0 * k as f64 + 36.0 * r as f64).to_radians();
+            let psi = (-90.0 + 72.0 * k as f64 + p.topology.ring_twist_deg * r as f64).to_radians();
+            let radius = if r % 2 == 1 {
+                p.ring_radius_m * p.topology.middle_ring_radius_ratio
+            } else {
+                p.ring_radius_m
+            };
             x.push(Vector3::new(
                 0.5 * p.module_length_m * r as f64,
-                p.ring_radius_m * psi.cos(),
-                p.ring_radius_m * psi.sin(),
+                radius * psi.cos(),
+                radius * psi.sin(),
             ));
         }
     }
+    let t = &p.topology;
     let mut members: Vec<(Kind, [usize; 2], String)> = Vec::new();
+    let axial_kind = match t.springs {
+        SpringPlacement::InteriorRings => Kind::Cable,
+        SpringPlacement::AxialAndSharedRing => Kind::Spring,
+    };
     for m in 0..n {
         let (e0, mid, e1) = (2 * m, 2 * m + 1, 2 * m + 2);
         for k in 0..SIDES {
@@ -203,34 +282,41 @@ pub fn reference_bridge(p: &BridgeParameters) -> Result<Structure, BridgeError> 
             ));
             members.push((
                 Kind::Strut,
-                [idx(mid, k), idx(e1, k)],
+                [idx(mid, k), idx(e1, k + t.second_strut_offset)],
                 format!("strut_m{m}_b{k}"),
             ));
             members.push((
                 Kind::Strut,
-                [idx(e1, k), idx(e0, k + 2)],
+                [idx(e1, k), idx(e0, k + t.long_strut_offset)],
                 format!("strut_m{m}_long{k}"),
             ));
-            // Axial: node (2m+2, k+4) sits at the same angle as (2m, k).
             members.push((
-                Kind::Cable,
-                [idx(e0, k), idx(e1, k + 4)],
-                format!("diag_m{m}_{k}"),
+                axial_kind,
+                [idx(e0, k), idx(e1, k + t.axial_offset)],
+                format!("axial_m{m}_{k}"),
             ));
         }
     }
     for r in 0..rings {
-        let kind = if r == 0 || r == rings - 1 {
-            Kind::Cable
-        } else {
-            Kind::Spring
+        let kind = match t.springs {
+            SpringPlacement::InteriorRings if r == 0 || r == rings - 1 => Kind::Cable,
+            SpringPlacement::InteriorRings => Kind::Spring,
+            SpringPlacement::AxialAndSharedRing if r == 2 => Kind::Spring,
+            SpringPlacement::AxialAndSharedRing => Kind::Cable,
         };
+        if kind == Kind::Cable && r == 0 && t.springs == SpringPlacement::AxialAndSharedRing {
+            continue;
+        }
         for k in 0..SIDES {
             members.push((kind, [idx(r, k), idx(r, k + 1)], format!("ring{r}_{k}")));
         }
     }
     let paths: Vec<Vec<usize>> = (0..SIDES)
-        .map(|k| (0..rings).map(|r| idx(r, k + SIDES * rings - r)).collect())
+        .map(|k| {
+            (0..rings)
+                .map(|r| idx(r, k + t.cable_ring_offset * r))
+                .collect()
+        })
         .collect();
     let fixed: Vec<[bool; 3]> = (0..half_nodes).map(|i| [i < SIDES; 3]).collect();
 
@@ -258,6 +344,8 @@ pub fn reference_bridge(p: &BridgeParameters) -> Result<Structure, BridgeError> 
     let loads: Vec<Vector3<f64>> = mass.iter().map(|m| *m * g).collect();
 
     // Prestress in equilibrium with self-weight.
+    let ea_strut = p.steel_youngs_modulus_pa * p.strut_area_m2();
+    let ei_strut = p.steel_youngs_modulus_pa * p.strut_inertia_m4();
     let scale = p.continuous_cable_tension_n;
     let mut groups: Vec<ForceGroup> = members
         .iter()
@@ -274,33 +362,52 @@ pub fn reference_bridge(p: &BridgeParameters) -> Result<Structure, BridgeError> 
                     1.0,
                 ),
             };
+            let axial_stiffness_n_per_m = match kind {
+                Kind::Strut => ea_strut / len(*ends),
+                Kind::Cable => p.cable_ea_n / len(*ends),
+                Kind::Spring => p.spring_stiffness_n_per_m,
+            };
             ForceGroup {
                 elements: vec![*ends],
                 min_n,
                 max_n,
                 target_n,
                 weight: weight / (scale * scale),
+                axial_stiffness_n_per_m,
             }
         })
         .collect();
     for path in &paths {
+        let total: f64 = path.windows(2).map(|w| len([w[0], w[1]])).sum();
         groups.push(ForceGroup {
             elements: path.windows(2).map(|w| [w[0], w[1]]).collect(),
             min_n: p.continuous_cable_tension_n,
             max_n: p.continuous_cable_tension_n,
             target_n: p.continuous_cable_tension_n,
             weight: 1.0 / (scale * scale),
+            axial_stiffness_n_per_m: p.cable_ea_n / total,
         });
     }
-    let solution = find_prestress(&x, &fixed, &loads, &groups)?;
-    if !solution.status.is_solved() {
-        return Err(BridgeError::NoPrestress(solution.status));
+    let found = find_stable_prestress(
+        &x,
+        &fixed,
+        &loads,
+        &groups,
+        p.min_stiffness_n_per_m,
+        STABILITY_ROUNDS,
+    )?;
+    if !found.solution.status.is_solved() {
+        return Err(BridgeError::NoPrestress(found.solution.status));
     }
-    let force = &solution.x;
+    if !found.is_stable(p.min_stiffness_n_per_m) {
+        return Err(BridgeError::Unstable {
+            achieved_n_per_m: found.min_eigenvalue_n_per_m,
+            wanted_n_per_m: p.min_stiffness_n_per_m,
+        });
+    }
+    let force = &found.solution.x;
 
     // Rest lengths from forces: the designed geometry is the equilibrium.
-    let ea_strut = p.steel_youngs_modulus_pa * p.strut_area_m2();
-    let ei_strut = p.steel_youngs_modulus_pa * p.strut_inertia_m4();
     let make_member =
         |(kind, ends, id): &(Kind, [usize; 2], String), t: f64, offset: usize, prefix: &str| {
             let l = len(*ends);

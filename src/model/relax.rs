@@ -17,8 +17,8 @@
 use nalgebra::Vector3;
 
 use super::friction::JointFriction;
-use super::sliding::{map_cable, segment_tension};
-use super::state::DeploymentState;
+use super::sliding::{map_cable, segment_tension, IncrementStart};
+use super::state::{DeploymentState, JointSlip};
 use super::structure::Structure;
 
 /// Settings of the DR solver. Defaults are what the reference bridge needs
@@ -181,6 +181,8 @@ pub struct Workspace {
     start: Vec<Vector3<f64>>,
     seg_len: Vec<f64>,
     seg_dir: Vec<Vector3<f64>>,
+    rest_start: Vec<f64>,
+    slip_start: Vec<JointSlip>,
 }
 
 impl Workspace {
@@ -191,6 +193,8 @@ impl Workspace {
         self.start.resize(nodes, Vector3::zeros());
         self.seg_len.resize(segments, 0.0);
         self.seg_dir.resize(segments, Vector3::zeros());
+        self.rest_start.resize(segments, 0.0);
+        self.slip_start.resize(segments, JointSlip::Stuck);
     }
 }
 
@@ -282,6 +286,8 @@ impl ForwardModel {
         let dt = s.time_step;
         let max_disp = s.max_displacement_rel * self.size_m;
         ws.start.copy_from_slice(&state.positions_m);
+        ws.rest_start.copy_from_slice(&state.segment_rest_lengths_m);
+        ws.slip_start.copy_from_slice(&state.joint_slip);
         ws.velocity.fill(Vector3::zeros());
 
         let (mut max_t, mut friction_left) = self.residual(state, ws);
@@ -404,7 +410,13 @@ impl ForwardModel {
             }
         }
         let mut friction_left = 0.0f64;
-        // A coarse tolerance for the mapping suffices: the DR loop repeats it.
+        // Backward-Euler return mapping: sliding is always mapped from the
+        // material distribution at the start of the solve to the current
+        // geometry, so the result depends on where the increment starts and
+        // ends, not on the pseudo-dynamic path DR takes in between (mapping
+        // incrementally along that path lets transient overshoot slide
+        // material, and the answer then fails to converge as increments
+        // shrink).
         let map_tol = 1e-9;
         for (c, cable) in self.structure.continuous_cables.iter().enumerate() {
             let (o0, o1) = (state.segment_offsets[c], state.segment_offsets[c + 1]);
@@ -414,6 +426,10 @@ impl ForwardModel {
                 &ws.seg_dir[o0..o1],
                 &mut state.segment_rest_lengths_m[o0..o1],
                 &mut state.joint_slip[o0..o1],
+                IncrementStart {
+                    rest_m: &ws.rest_start[o0..o1],
+                    slip: &ws.slip_start[o0..o1],
+                },
                 &self.friction,
                 map_tol,
             );

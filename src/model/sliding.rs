@@ -37,21 +37,44 @@ pub fn interior_angle(dir_in: &Vector3<f64>, dir_out: &Vector3<f64>) -> f64 {
 }
 
 /// Most Gauss–Seidel sweeps over a cable's joints per call.
-const MAX_SWEEPS: usize = 8;
+const MAX_SWEEPS: usize = 100;
+
+/// The start of a return mapping: the material distribution and joint slip
+/// states at the start of the load increment.
+#[derive(Debug, Clone, Copy)]
+pub struct IncrementStart<'a> {
+    /// Rest length of each segment at the start of the increment, m.
+    pub rest_m: &'a [f64],
+    /// Slip state of each joint at the start (index 0 unused).
+    pub slip: &'a [JointSlip],
+}
 
 /// Applies the friction return mapping to one continuous cable.
 ///
 /// `lengths_m`, `dirs`: geometric length and unit direction (from `path[i]`
-/// to `path[i+1]`) of each segment; `rest_m`: rest lengths, updated in place;
-/// `slip`: per-joint slip state (index 0 unused). Returns the largest capstan
-/// violation left, N (`T_high − bound·T_low`, 0 when all joints are inside
-/// their cones), which is the joint's unbalanced friction.
+/// to `path[i+1]`) of each segment. `rest_m` holds the rest lengths: on
+/// entry any guess (the last mapping's result is a good one), on exit the
+/// mapped values; `slip` receives the joints' slip states.
+///
+/// The mapping is relative to `start`: joint `j` has moved
+/// `Δ_j = Σ_{i<j} (rest_i − start_i)` of material into segment `j−1` since
+/// the increment began, and the mapped state is the one in which every joint
+/// either has `Δ_j = 0` with its tension ratio inside the capstan cone, or
+/// sits on the bound of the side it slid towards. The answer depends on the
+/// start and the current geometry only, not on the guess or on how the
+/// geometry got here (backward Euler). Each joint is solved in turn from
+/// `Δ_j = 0` given its neighbours (so a joint that over-slid earlier in the
+/// sweep slides back), and sweeps repeat until one finds nothing to change.
+///
+/// Returns the largest segment-tension change the last sweep made, N: the
+/// friction force left unbalanced at the joints (0 once converged).
 pub fn map_cable(
     ea_n: f64,
     lengths_m: &[f64],
     dirs: &[Vector3<f64>],
     rest_m: &mut [f64],
     slip: &mut [JointSlip],
+    start: IncrementStart<'_>,
     friction: &JointFriction,
     tol_n: f64,
 ) -> f64 {
@@ -59,19 +82,23 @@ pub fn map_cable(
     if n < 2 {
         return 0.0;
     }
-    // The cone depends on geometry only, which is fixed during the mapping.
     let mut worst = 0.0;
     for _ in 0..MAX_SWEEPS {
         worst = 0.0;
+        // Material moved into segments 0..j−1 since the start.
+        let mut moved_before = 0.0;
         for j in 1..n {
             let (a, b) = (j - 1, j);
+            let moved = moved_before + rest_m[a] - start.rest_m[a];
+            // The joint's own trial: its slide undone, neighbours as they are.
+            let (trial_a, trial_b) = (rest_m[a] - moved, rest_m[b] + moved);
             let theta = interior_angle(&dirs[a], &dirs[b]);
-            let t_a = segment_tension(ea_n, lengths_m[a], rest_m[a]);
-            let t_b = segment_tension(ea_n, lengths_m[b], rest_m[b]);
+            let t_a = segment_tension(ea_n, lengths_m[a], trial_a);
+            let t_b = segment_tension(ea_n, lengths_m[b], trial_b);
             // Direction of the would-be slide: towards the higher tension.
             let towards_motor = t_a >= t_b;
             let sliding_this_way = matches!(
-                (slip[j], towards_motor),
+                (start.slip[j], towards_motor),
                 (JointSlip::TowardsMotor, true) | (JointSlip::TowardsEnd, false)
             );
             let start_bound = friction.ratio_bound(theta, sliding_this_way);
@@ -81,36 +108,39 @@ pub fn map_cable(
                 (t_b, t_a)
             };
             let violation = t_hi - start_bound * t_lo;
-            if violation <= tol_n {
-                if violation > worst {
-                    worst = violation;
-                }
-                continue;
-            }
-            // Slide onto the kinetic bound.
-            let bound = friction.ratio_bound(theta, true);
-            let (hi, lo) = if towards_motor { (a, b) } else { (b, a) };
-            let delta = slide_to_bound(
-                ea_n,
-                lengths_m[hi],
-                rest_m[hi],
-                lengths_m[lo],
-                rest_m[lo],
-                bound,
-                tol_n,
-            );
-            rest_m[hi] += delta;
-            rest_m[lo] -= delta;
-            slip[j] = if towards_motor {
-                JointSlip::TowardsMotor
+            let (new_a, new_b, new_slip) = if violation <= tol_n {
+                (trial_a, trial_b, JointSlip::Stuck)
             } else {
-                JointSlip::TowardsEnd
+                // Slide from the trial onto the kinetic bound.
+                let bound = friction.ratio_bound(theta, true);
+                let (s_hi, l_hi, s_lo, l_lo) = if towards_motor {
+                    (trial_a, lengths_m[a], trial_b, lengths_m[b])
+                } else {
+                    (trial_b, lengths_m[b], trial_a, lengths_m[a])
+                };
+                let delta = slide_to_bound(ea_n, l_hi, s_hi, l_lo, s_lo, bound, tol_n);
+                if towards_motor {
+                    (trial_a + delta, trial_b - delta, JointSlip::TowardsMotor)
+                } else {
+                    (trial_a - delta, trial_b + delta, JointSlip::TowardsEnd)
+                }
             };
-            let left = segment_tension(ea_n, lengths_m[hi], rest_m[hi])
-                - bound * segment_tension(ea_n, lengths_m[lo], rest_m[lo]);
-            if left.abs() > worst {
-                worst = left.abs();
+            // What this joint changed, in force: the sweep's convergence test.
+            let change = (segment_tension(ea_n, lengths_m[a], new_a)
+                - segment_tension(ea_n, lengths_m[a], rest_m[a]))
+            .abs()
+            .max(
+                (segment_tension(ea_n, lengths_m[b], new_b)
+                    - segment_tension(ea_n, lengths_m[b], rest_m[b]))
+                .abs(),
+            );
+            if change > worst {
+                worst = change;
             }
+            rest_m[a] = new_a;
+            rest_m[b] = new_b;
+            slip[j] = new_slip;
+            moved_before += rest_m[a] - start.rest_m[a];
         }
         if worst <= tol_n {
             break;
@@ -190,6 +220,59 @@ mod tests {
         vec![Vector3::x(); n]
     }
 
+    fn stuck(rest_m: &[f64]) -> IncrementStart<'_> {
+        IncrementStart {
+            rest_m,
+            slip: &[JointSlip::Stuck; 8][..rest_m.len()],
+        }
+    }
+
+    #[test]
+    fn over_slid_joint_slides_back() {
+        // Regression: a Gauss–Seidel sweep that only ever slides forward
+        // leaves joint 1 over-slid once joint 2 has moved, so the result
+        // depended on the DR path and did not converge as increments shrank.
+        // Mapped from the start, the answer must not depend on the guess.
+        let dirs = [Vector3::x(), Vector3::y(), Vector3::x()];
+        let lengths = [1.0, 1.0, 1.0];
+        let ea = 1e6;
+        let t = |n: f64| 1.0 / (1.0 + n / ea);
+        let start = [t(900.0), t(500.0), t(300.0)];
+        let f = JointFriction::constant(0.2).unwrap();
+        let mut from_start = start;
+        let mut slip = [JointSlip::Stuck; 3];
+        map_cable(
+            ea,
+            &lengths,
+            &dirs,
+            &mut from_start,
+            &mut slip,
+            stuck(&start),
+            &f,
+            1e-9,
+        );
+        // A wild guess (all material shifted to the end) maps to the same state.
+        let mut from_guess = [start[0] - 1e-4, start[1], start[2] + 1e-4];
+        map_cable(
+            ea,
+            &lengths,
+            &dirs,
+            &mut from_guess,
+            &mut slip,
+            stuck(&start),
+            &f,
+            1e-9,
+        );
+        for i in 0..3 {
+            assert!(
+                (from_start[i] - from_guess[i]).abs() < 1e-12,
+                "{from_start:?} vs {from_guess:?}"
+            );
+        }
+        let sum = |r: &[f64]| r.iter().sum::<f64>();
+        assert!((sum(&from_start) - sum(&start)).abs() < 1e-15);
+    }
+
     #[test]
     fn frictionless_mapping_equalises_tension() {
         let lengths = [1.0, 1.0, 1.0];
@@ -197,18 +280,20 @@ mod tests {
         let mut slip = [JointSlip::Stuck; 3];
         let total: f64 = rest.iter().sum();
         let f = JointFriction::frictionless();
-        let mut left = f64::MAX;
-        for _ in 0..50 {
-            left = map_cable(
-                1e6,
-                &lengths,
-                &straight_dirs(3),
-                &mut rest,
-                &mut slip,
-                &f,
-                1e-9,
-            );
-        }
+        let start = rest;
+        let left = map_cable(
+            1e6,
+            &lengths,
+            &straight_dirs(3),
+            &mut rest,
+            &mut slip,
+            IncrementStart {
+                rest_m: &start,
+                slip: &[JointSlip::Stuck; 3],
+            },
+            &f,
+            1e-9,
+        );
         assert!(left < 1e-6, "violation left {left}");
         let t: Vec<f64> = (0..3).map(|i| segment_tension(1e6, 1.0, rest[i])).collect();
         assert!(
@@ -233,7 +318,17 @@ mod tests {
         let mut rest = [s_a, s_b];
         let mut slip = [JointSlip::Stuck; 2];
         let f = JointFriction::constant(0.2).unwrap();
-        map_cable(ea, &lengths, &dirs, &mut rest, &mut slip, &f, 1e-9);
+        let start = rest;
+        map_cable(
+            ea,
+            &lengths,
+            &dirs,
+            &mut rest,
+            &mut slip,
+            stuck(&start),
+            &f,
+            1e-9,
+        );
         assert_eq!(rest, [s_a, s_b]);
         assert_eq!(slip[1], JointSlip::Stuck);
     }
@@ -246,7 +341,17 @@ mod tests {
         let mut rest = [1.0 / (1.0 + 900.0 / ea), 1.0 / (1.0 + 500.0 / ea)];
         let mut slip = [JointSlip::Stuck; 2];
         let f = JointFriction::constant(0.2).unwrap();
-        map_cable(ea, &lengths, &dirs, &mut rest, &mut slip, &f, 1e-9);
+        let start = rest;
+        map_cable(
+            ea,
+            &lengths,
+            &dirs,
+            &mut rest,
+            &mut slip,
+            stuck(&start),
+            &f,
+            1e-9,
+        );
         let t_a = segment_tension(ea, 1.0, rest[0]);
         let t_b = segment_tension(ea, 1.0, rest[1]);
         let bound = (0.2 * std::f64::consts::FRAC_PI_2).exp();
