@@ -1,7 +1,9 @@
 //! Speed of the forward model. Run: `cargo bench --bench relaxation`.
 //!
-//! - one 1 cm payout increment on one cable of the full bridge, μ = 0.2,
-//!   warm-started from equilibrium, default tolerance;
+//! - one 1 cm payout increment on one cable of the full bridge, μ = 0 and
+//!   0.2, warm-started from equilibrium, default tolerance;
+//! - a whole deployment: every cable reeled in 40 cm in 1 cm increments,
+//!   from the folded state (every cable paid out 40 cm), μ = 0 and 0.2;
 //! - the 7×7 cable net from its initial geometry to 1e-6 m accuracy;
 //! - cost per DR iteration on bridges of 2, 4, 8 and 16 modules per half
 //!   (a fixed 256 iterations from a perturbed state), to show it grows
@@ -13,35 +15,78 @@ use tensegrity_deploy::model::{
     reference_bridge, BridgeParameters, ForwardModel, JointFriction, RelaxSettings, Workspace,
 };
 
-fn single_increment(c: &mut Criterion) {
-    let model = ForwardModel::new(
+fn bridge_model(mu: f64) -> ForwardModel {
+    ForwardModel::new(
         reference_bridge(&BridgeParameters::default()).unwrap(),
-        JointFriction::constant(0.2).unwrap(),
+        JointFriction::constant(mu).unwrap(),
         RelaxSettings::default(),
-    );
-    let mut ws = Workspace::default();
-    let start = model.reference_state();
-    let mut cmd = vec![0.0; model.structure.continuous_cables.len()];
-    cmd[0] = -0.01;
-    let mut probe = start.clone();
-    let r = model
-        .apply_payout(&mut probe, &mut ws, &cmd, 0.01, &mut ())
-        .unwrap();
-    eprintln!(
-        "1 cm increment, μ = 0.2: {:?}, {} iterations",
-        r.status, r.iterations
-    );
-    c.bench_function("bridge_1cm_increment_mu0.2", |b| {
-        b.iter_batched(
-            || start.clone(),
-            |mut s| {
-                model
-                    .apply_payout(&mut s, &mut ws, &cmd, 0.01, &mut ())
-                    .unwrap()
-            },
-            BatchSize::SmallInput,
-        )
-    });
+    )
+}
+
+fn single_increment(c: &mut Criterion) {
+    for mu in [0.0, 0.2] {
+        let model = bridge_model(mu);
+        let mut ws = Workspace::default();
+        let start = model.reference_state();
+        let mut cmd = vec![0.0; model.structure.continuous_cables.len()];
+        cmd[0] = -0.01;
+        let mut probe = start.clone();
+        let r = model
+            .apply_payout(&mut probe, &mut ws, &cmd, 0.01, &mut ())
+            .unwrap();
+        eprintln!(
+            "1 cm on one cable, μ = {mu}: {:?}, {} Newton + {} DR iterations",
+            r.status, r.newton_iterations, r.iterations
+        );
+        c.bench_function(&format!("bridge_1cm_one_cable_mu{mu}"), |b| {
+            b.iter_batched(
+                || start.clone(),
+                |mut s| {
+                    model
+                        .apply_payout(&mut s, &mut ws, &cmd, 0.01, &mut ())
+                        .unwrap()
+                },
+                BatchSize::SmallInput,
+            )
+        });
+    }
+}
+
+/// Every cable reeled in 40 cm in 1 cm increments, from the state that
+/// paying every cable out 40 cm (folding) leaves.
+fn whole_deployment(c: &mut Criterion) {
+    let mut group = c.benchmark_group("bridge_deploy_40cm_1cm_steps");
+    group.sample_size(10);
+    for mu in [0.0, 0.2] {
+        let model = bridge_model(mu);
+        let n = model.structure.continuous_cables.len();
+        let mut ws = Workspace::default();
+        let mut folded = model.reference_state();
+        let fold = model
+            .apply_payout(&mut folded, &mut ws, &vec![0.4; n], 0.01, &mut ())
+            .unwrap();
+        assert!(fold.status.is_converged(), "folding: {fold:?}");
+        let mut probe = folded.clone();
+        let r = model
+            .apply_payout(&mut probe, &mut ws, &vec![-0.4; n], 0.01, &mut ())
+            .unwrap();
+        eprintln!(
+            "deploy 40 cm, μ = {mu}: {:?}, {} increments, {} Newton + {} DR iterations",
+            r.status, r.increments, r.newton_iterations, r.iterations
+        );
+        group.bench_function(format!("mu{mu}"), |b| {
+            b.iter_batched(
+                || folded.clone(),
+                |mut s| {
+                    model
+                        .apply_payout(&mut s, &mut ws, &vec![-0.4; n], 0.01, &mut ())
+                        .unwrap()
+                },
+                BatchSize::SmallInput,
+            )
+        });
+    }
+    group.finish();
 }
 
 #[path = "../tests/common/cable_net.rs"]
@@ -78,10 +123,15 @@ fn per_iteration_scaling(c: &mut Criterion) {
     for modules in [2usize, 4, 8, 16] {
         // Longer cantilevers need stiffer springs and more prestress to
         // form-find; the same values at every size keep the comparison fair.
+        // These are structures to time, not designs: a 16-module (16 m)
+        // cantilever admits no prestress under full gravity, and stability is
+        // not needed for 256 iterations.
         let p = BridgeParameters {
             modules_per_half: modules,
             spring_stiffness_n_per_m: 20_000.0,
             continuous_cable_tension_n: 1100.0,
+            gravity_m_per_s2: 2.0,
+            min_stiffness_n_per_m: f64::NEG_INFINITY,
             ..BridgeParameters::default()
         };
         let s = reference_bridge(&p).unwrap();
@@ -89,6 +139,7 @@ fn per_iteration_scaling(c: &mut Criterion) {
         let settings = RelaxSettings {
             max_iter: 256,
             tol_force_rel: 1e-300,
+            newton_max_iter: 0,
             ..RelaxSettings::default()
         };
         let model = ForwardModel::new(s, JointFriction::constant(0.2).unwrap(), settings);
@@ -112,6 +163,7 @@ fn per_iteration_scaling(c: &mut Criterion) {
 criterion_group!(
     benches,
     single_increment,
+    whole_deployment,
     cable_net_solve,
     per_iteration_scaling
 );

@@ -169,6 +169,7 @@ fn simulate_cmd(a: &ArgMatches) -> Result<()> {
             status: initial.status,
             increments: 0,
             iterations: initial.iterations,
+            newton_iterations: initial.newton_iterations,
             max_residual_n: initial.max_residual_n,
             max_friction_residual_n: initial.max_friction_residual_n,
         },

@@ -206,3 +206,35 @@ fn frictionless_reel_in_and_out_returns_to_start() {
     let off = reel_in_and_out(&model(0.0, 1e-8), 0.05);
     assert!(off < 1e-6, "off by {off} m");
 }
+
+/// Newton (with DR as fallback) and pure DR are two solvers of the same
+/// increment equations; they must land on the same state.
+#[test]
+fn newton_and_dynamic_relaxation_agree() {
+    for mu in [0.0, 0.2] {
+        let solve = |newton_max_iter: usize| {
+            let settings = RelaxSettings {
+                tol_force_rel: 1e-9,
+                newton_max_iter,
+                ..RelaxSettings::default()
+            };
+            let m = ForwardModel::new(bridge(), JointFriction::constant(mu).unwrap(), settings);
+            let mut state = m.reference_state();
+            let mut change = vec![0.0; m.structure.continuous_cables.len()];
+            change[0] = -0.02;
+            change[3] = 0.01;
+            change[7] = -0.01;
+            let r = apply(&m, &mut state, &change, 0.005);
+            (state, r)
+        };
+        let (newton, rn) = solve(20);
+        let (dr, rd) = solve(0);
+        assert_eq!(rd.newton_iterations, 0);
+        assert!(rn.newton_iterations > 0);
+        // Both stop within 1e-9 of ~1.5 kN (1.5e-6 N) on stiffnesses of at
+        // least ~300 N/m (the softest mode): 5e-9 m apart at most; 1e-7 m
+        // leaves margin for the friction mapping's own tolerance.
+        let apart = newton.max_position_difference_m(&dr);
+        assert!(apart < 1e-7, "μ = {mu}: Newton and DR differ by {apart} m");
+    }
+}

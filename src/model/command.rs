@@ -62,6 +62,8 @@ pub struct CommandReport {
     pub increments: usize,
     /// DR iterations over all increments.
     pub iterations: usize,
+    /// Newton iterations over all increments (see [`super::RelaxSettings`]).
+    pub newton_iterations: usize,
     /// Largest final residual over the increments, N.
     pub max_residual_n: f64,
     /// Largest final friction residual over the increments, N.
@@ -121,20 +123,19 @@ impl ForwardModel {
             status: RelaxStatus::Converged,
             increments: 0,
             iterations: 0,
+            newton_iterations: 0,
             max_residual_n: 0.0,
             max_friction_residual_n: 0.0,
         };
+        let increment: Vec<f64> = delta_payout_m.iter().map(|d| d / count as f64).collect();
         for k in 0..count {
-            for (c, d) in delta_payout_m.iter().enumerate() {
-                let step = d / count as f64;
-                state.segment_rest_lengths_m[state.segment_offsets[c]] += step;
-                state.payout_m[c] += step;
-            }
-            state.stick_all_joints();
-            let r = self.relax(state, ws);
+            let newton = self.newton_increment(state, ws, &increment);
+            out.newton_iterations += newton.iterations;
+            let r = self.relax_from(state, ws, false);
             observer.on_increment(k, count, &r);
             out.increments += 1;
             out.iterations += r.iterations;
+            out.newton_iterations += r.newton_iterations;
             out.max_residual_n = out.max_residual_n.max(r.max_residual_n);
             out.max_friction_residual_n =
                 out.max_friction_residual_n.max(r.max_friction_residual_n);

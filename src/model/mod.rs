@@ -4,6 +4,7 @@
 
 pub mod command;
 pub mod friction;
+mod newton;
 pub mod relax;
 pub mod sliding;
 pub mod state;

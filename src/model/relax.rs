@@ -17,7 +17,7 @@
 use nalgebra::Vector3;
 
 use super::friction::JointFriction;
-use super::sliding::{map_cable, segment_tension, IncrementStart};
+use super::sliding::{map_cable, map_cable_with_slip, segment_tension, IncrementStart};
 use super::state::{DeploymentState, JointSlip};
 use super::structure::Structure;
 
@@ -48,6 +48,21 @@ pub struct RelaxSettings {
     /// structure's bounding-box diagonal stops with
     /// [`RelaxStatus::UnstableMechanism`]. Default 0.5.
     pub max_displacement_rel: f64,
+    /// Newton–Raphson iterations tried before DR, with the consistent
+    /// tangent of the friction mapping ([`super::stiffness`]). Default 20;
+    /// 0 gives pure DR. Newton reaches the tolerance in a few iterations
+    /// where DR needs thousands; DR takes over from the best Newton iterate
+    /// whenever Newton stalls (slackening members, loss of stability), and
+    /// the convergence test is the same either way.
+    pub newton_max_iter: usize,
+    /// Newton is skipped on structures with more free degrees of freedom
+    /// than this (its dense factorisation grows with their cube). Default
+    /// 1500.
+    pub newton_max_dofs: usize,
+    /// Largest Newton step, as a fraction of the bounding-box diagonal;
+    /// longer steps are shortened. Default 0.05: one step may not fold the
+    /// structure into another equilibrium.
+    pub newton_max_step_rel: f64,
 }
 
 impl Default for RelaxSettings {
@@ -60,6 +75,9 @@ impl Default for RelaxSettings {
             mass_factor: 1.0,
             mass_update_resets: 16,
             max_displacement_rel: 0.5,
+            newton_max_iter: 20,
+            newton_max_dofs: 1500,
+            newton_max_step_rel: 0.05,
         }
     }
 }
@@ -127,6 +145,8 @@ pub struct RelaxReport {
     pub status: RelaxStatus,
     /// DR iterations taken.
     pub iterations: usize,
+    /// Newton iterations taken before DR.
+    pub newton_iterations: usize,
     /// Kinetic-damping resets.
     pub resets: usize,
     /// Largest out-of-balance force on a free node at the end, N.
@@ -175,7 +195,7 @@ enum ElementLaw {
 /// Reusable buffers for [`ForwardModel::relax`]; one per thread.
 #[derive(Debug, Clone, Default)]
 pub struct Workspace {
-    force: Vec<Vector3<f64>>,
+    pub(super) force: Vec<Vector3<f64>>,
     velocity: Vec<Vector3<f64>>,
     mass: Vec<Vector3<f64>>,
     start: Vec<Vector3<f64>>,
@@ -183,10 +203,26 @@ pub struct Workspace {
     seg_dir: Vec<Vector3<f64>>,
     rest_start: Vec<f64>,
     slip_start: Vec<JointSlip>,
+    /// Largest member force at the last residual evaluation, N.
+    last_max_t: f64,
+    /// When set, [`ForwardModel::residual`] keeps the state's joint slip
+    /// states and solves the material distribution for them (Newton's
+    /// active-set phase) instead of running the return mapping.
+    pub(super) slip_fixed: bool,
+    /// Continuation step (fraction of an increment) that last succeeded.
+    pub(super) continuation_step: f64,
 }
 
 impl Workspace {
-    fn fit(&mut self, nodes: usize, segments: usize) {
+    /// Records `state`'s material and slip as the start of an increment.
+    pub(super) fn start_increment(&mut self, state: &DeploymentState) {
+        self.fit(state.positions_m.len(), state.segment_rest_lengths_m.len());
+        self.rest_start
+            .copy_from_slice(&state.segment_rest_lengths_m);
+        self.slip_start.copy_from_slice(&state.joint_slip);
+    }
+
+    pub(super) fn fit(&mut self, nodes: usize, segments: usize) {
         self.force.resize(nodes, Vector3::zeros());
         self.velocity.resize(nodes, Vector3::zeros());
         self.mass.resize(nodes, Vector3::zeros());
@@ -280,21 +316,38 @@ impl ForwardModel {
     /// first call [`DeploymentState::stick_all_joints`]. A state that is
     /// already in equilibrium returns after zero iterations.
     pub fn relax(&self, state: &mut DeploymentState, ws: &mut Workspace) -> RelaxReport {
+        self.relax_from(state, ws, true)
+    }
+
+    /// [`Self::relax`], with the Newton phase optional (skipped by callers
+    /// that have just tried Newton on the same increment).
+    pub(super) fn relax_from(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        try_newton: bool,
+    ) -> RelaxReport {
         let n_nodes = self.structure.nodes.len();
         ws.fit(n_nodes, state.segment_rest_lengths_m.len());
         let s = &self.settings;
         let dt = s.time_step;
         let max_disp = s.max_displacement_rel * self.size_m;
         ws.start.copy_from_slice(&state.positions_m);
-        ws.rest_start.copy_from_slice(&state.segment_rest_lengths_m);
-        ws.slip_start.copy_from_slice(&state.joint_slip);
+        ws.start_increment(state);
         ws.velocity.fill(Vector3::zeros());
 
         let (mut max_t, mut friction_left) = self.residual(state, ws);
+        let newton_iterations = if try_newton {
+            self.newton(state, ws, &mut max_t, &mut friction_left)
+                .iterations
+        } else {
+            0
+        };
         self.update_masses(state, ws);
         let mut report = RelaxReport {
             status: RelaxStatus::IterationLimit,
             iterations: 0,
+            newton_iterations,
             resets: 0,
             max_residual_n: 0.0,
             max_friction_residual_n: friction_left,
@@ -304,7 +357,7 @@ impl ForwardModel {
         let mut ke_prev = 0.0;
         let mut resets_since_mass = 0;
         loop {
-            let tol = s.tol_force_abs.max(s.tol_force_rel * max_t);
+            let tol = self.tolerance(max_t);
             let max_r = self.max_free_residual(ws);
             report.max_residual_n = max_r;
             report.max_friction_residual_n = friction_left;
@@ -375,7 +428,36 @@ impl ForwardModel {
         }
     }
 
-    fn ran_away(&self, state: &DeploymentState, ws: &Workspace, max_disp: f64) -> bool {
+    /// Makes `state` the start of an increment in `ws` and maps sliding for
+    /// its geometry, leaving its residual in `ws.force` (for tests).
+    #[cfg(test)]
+    pub(super) fn prime(&self, state: &mut DeploymentState, ws: &mut Workspace) {
+        ws.start_increment(state);
+        self.residual(state, ws);
+    }
+
+    /// Number of free degrees of freedom.
+    pub(super) fn free_dof_count(&self) -> usize {
+        self.structure
+            .nodes
+            .iter()
+            .map(|n| n.fixed.iter().filter(|f| !**f).count())
+            .sum()
+    }
+
+    /// Bounding-box diagonal of the as-built structure, m.
+    pub(super) fn size_m(&self) -> f64 {
+        self.size_m
+    }
+
+    /// The force tolerance for the largest member force `max_t`, N.
+    pub(super) fn tolerance(&self, max_t: f64) -> f64 {
+        self.settings
+            .tol_force_abs
+            .max(self.settings.tol_force_rel * max_t)
+    }
+
+    pub(super) fn ran_away(&self, state: &DeploymentState, ws: &Workspace, max_disp: f64) -> bool {
         state
             .positions_m
             .iter()
@@ -383,7 +465,7 @@ impl ForwardModel {
             .any(|(x, x0)| !((x - x0).norm() <= max_disp))
     }
 
-    fn max_free_residual(&self, ws: &Workspace) -> f64 {
+    pub(super) fn max_free_residual(&self, ws: &Workspace) -> f64 {
         let mut worst = 0.0f64;
         for (r, mask) in ws.force.iter().zip(&self.free_mask) {
             let n = r.component_mul(mask).norm();
@@ -397,7 +479,7 @@ impl ForwardModel {
     /// Maps sliding for the current geometry, then fills `ws.force` with the
     /// out-of-balance force at every node (external plus member forces).
     /// Returns the largest member force and the friction residual left.
-    fn residual(&self, state: &mut DeploymentState, ws: &mut Workspace) -> (f64, f64) {
+    pub(super) fn residual(&self, state: &mut DeploymentState, ws: &mut Workspace) -> (f64, f64) {
         let x = &state.positions_m;
         // Segment geometry first: the return mapping needs it.
         let n_members = self.structure.members.len();
@@ -417,9 +499,26 @@ impl ForwardModel {
         // incrementally along that path lets transient overshoot slide
         // material, and the answer then fails to converge as increments
         // shrink).
-        let map_tol = 1e-9;
+        // The mapping only needs to be a little tighter than the force
+        // tolerance: DR and Newton call it again at every iterate.
+        let map_tol = 1e-2 * self.tolerance(ws.last_max_t);
         for (c, cable) in self.structure.continuous_cables.iter().enumerate() {
             let (o0, o1) = (state.segment_offsets[c], state.segment_offsets[c + 1]);
+            if ws.slip_fixed {
+                map_cable_with_slip(
+                    cable.ea_n,
+                    &ws.seg_len[o0..o1],
+                    &ws.seg_dir[o0..o1],
+                    &mut state.segment_rest_lengths_m[o0..o1],
+                    &state.joint_slip[o0..o1],
+                    IncrementStart {
+                        rest_m: &ws.rest_start[o0..o1],
+                        slip: &ws.slip_start[o0..o1],
+                    },
+                    &self.friction,
+                );
+                continue;
+            }
             let left = map_cable(
                 cable.ea_n,
                 &ws.seg_len[o0..o1],
@@ -462,6 +561,7 @@ impl ForwardModel {
             ws.force[e.b] -= f;
             max_t = max_t.max(t.abs());
         }
+        ws.last_max_t = max_t;
         (max_t, friction_left)
     }
 

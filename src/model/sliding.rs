@@ -38,6 +38,8 @@ pub fn interior_angle(dir_in: &Vector3<f64>, dir_out: &Vector3<f64>) -> f64 {
 
 /// Most Gauss–Seidel sweeps over a cable's joints per call.
 const MAX_SWEEPS: usize = 100;
+/// Active-set rounds before the mapping falls back to sweeps.
+const MAX_ACTIVE_SET_ROUNDS: usize = 8;
 
 /// The start of a return mapping: the material distribution and joint slip
 /// states at the start of the load increment.
@@ -66,9 +68,104 @@ pub struct IncrementStart<'a> {
 /// `Δ_j = 0` given its neighbours (so a joint that over-slid earlier in the
 /// sweep slides back), and sweeps repeat until one finds nothing to change.
 ///
-/// Returns the largest segment-tension change the last sweep made, N: the
-/// friction force left unbalanced at the joints (0 once converged).
+/// The answer is found by active sets: `slip` on entry is a guess of the
+/// joints' states (the last mapping's are a good one; stuck at the start of
+/// an increment), the material is distributed for it exactly
+/// ([`map_cable_with_slip`]), and joints that contradict the result are
+/// flipped, until none does. Should that not settle in
+/// [`MAX_ACTIVE_SET_ROUNDS`] rounds, Gauss–Seidel sweeps finish: each joint
+/// is solved in turn from `Δ_j = 0` given its neighbours (so a joint that
+/// over-slid earlier slides back), until a sweep finds nothing to change.
+///
+/// A joint exactly on its cone's edge counts as sliding (always so at
+/// μ = 0): any further load slides it, which is what a tangent needs.
+///
+/// Returns the friction force left unbalanced at the joints, N: 0 from the
+/// active-set solution, else the largest tension change of the last sweep.
+#[allow(clippy::too_many_arguments)]
 pub fn map_cable(
+    ea_n: f64,
+    lengths_m: &[f64],
+    dirs: &[Vector3<f64>],
+    rest_m: &mut [f64],
+    slip: &mut [JointSlip],
+    start: IncrementStart<'_>,
+    friction: &JointFriction,
+    tol_n: f64,
+) -> f64 {
+    for _ in 0..MAX_ACTIVE_SET_ROUNDS {
+        map_cable_with_slip(ea_n, lengths_m, dirs, rest_m, slip, start, friction);
+        if !revise_slip(ea_n, lengths_m, dirs, rest_m, slip, start, friction, tol_n) {
+            return 0.0;
+        }
+    }
+    map_cable_by_sweeps(ea_n, lengths_m, dirs, rest_m, slip, start, friction, tol_n)
+}
+
+/// Flips the joints whose slip state contradicts the material distribution
+/// [`map_cable_with_slip`] gave for it: a stuck joint whose tension ratio
+/// reaches its cone's edge (within `tol_n`) starts sliding towards its
+/// higher tension; a sliding joint whose material moved the wrong way (by
+/// more than `tol_n` of tension) sticks. Returns whether any joint changed.
+#[allow(clippy::too_many_arguments)]
+fn revise_slip(
+    ea_n: f64,
+    lengths_m: &[f64],
+    dirs: &[Vector3<f64>],
+    rest_m: &[f64],
+    slip: &mut [JointSlip],
+    start: IncrementStart<'_>,
+    friction: &JointFriction,
+    tol_n: f64,
+) -> bool {
+    let mut changed = false;
+    let mut moved = 0.0;
+    for j in 1..rest_m.len() {
+        moved += rest_m[j - 1] - start.rest_m[j - 1];
+        let theta = interior_angle(&dirs[j - 1], &dirs[j]);
+        let revised = match slip[j] {
+            JointSlip::Stuck => {
+                let t_a = segment_tension(ea_n, lengths_m[j - 1], rest_m[j - 1]);
+                let t_b = segment_tension(ea_n, lengths_m[j], rest_m[j]);
+                let towards_motor = t_a >= t_b;
+                let sliding_this_way = matches!(
+                    (start.slip[j], towards_motor),
+                    (JointSlip::TowardsMotor, true) | (JointSlip::TowardsEnd, false)
+                );
+                let b = friction.ratio_bound(theta, sliding_this_way);
+                let (hi, lo) = if towards_motor {
+                    (t_a, t_b)
+                } else {
+                    (t_b, t_a)
+                };
+                if hi - b * lo >= -tol_n && hi > 0.0 {
+                    if towards_motor {
+                        JointSlip::TowardsMotor
+                    } else {
+                        JointSlip::TowardsEnd
+                    }
+                } else {
+                    JointSlip::Stuck
+                }
+            }
+            // Without friction at this angle either direction is right.
+            s if friction.ratio_bound(theta, true) == 1.0 => s,
+            JointSlip::TowardsMotor if -moved * ea_n / rest_m[j - 1] > tol_n => JointSlip::Stuck,
+            JointSlip::TowardsEnd if moved * ea_n / rest_m[j] > tol_n => JointSlip::Stuck,
+            s => s,
+        };
+        if revised != slip[j] {
+            slip[j] = revised;
+            changed = true;
+        }
+    }
+    changed
+}
+
+/// The sweeping form of [`map_cable`]: the fallback when active sets do not
+/// settle. Returns the largest segment-tension change the last sweep made, N.
+#[allow(clippy::too_many_arguments)]
+fn map_cable_by_sweeps(
     ea_n: f64,
     lengths_m: &[f64],
     dirs: &[Vector3<f64>],
@@ -108,8 +205,18 @@ pub fn map_cable(
                 (t_b, t_a)
             };
             let violation = t_hi - start_bound * t_lo;
-            let (new_a, new_b, new_slip) = if violation <= tol_n {
+            let slide_label = if towards_motor {
+                JointSlip::TowardsMotor
+            } else {
+                JointSlip::TowardsEnd
+            };
+            let (new_a, new_b, new_slip) = if violation < -tol_n {
                 (trial_a, trial_b, JointSlip::Stuck)
+            } else if violation <= tol_n {
+                // On the cone's edge without moving (always so at μ = 0):
+                // any further load slides it, so it counts as sliding for
+                // the tangent.
+                (trial_a, trial_b, slide_label)
             } else {
                 // Slide from the trial onto the kinetic bound.
                 let bound = friction.ratio_bound(theta, true);
@@ -120,9 +227,9 @@ pub fn map_cable(
                 };
                 let delta = slide_to_bound(ea_n, l_hi, s_hi, l_lo, s_lo, bound, tol_n);
                 if towards_motor {
-                    (trial_a + delta, trial_b - delta, JointSlip::TowardsMotor)
+                    (trial_a + delta, trial_b - delta, slide_label)
                 } else {
-                    (trial_a - delta, trial_b + delta, JointSlip::TowardsEnd)
+                    (trial_a - delta, trial_b + delta, slide_label)
                 }
             };
             // What this joint changed, in force: the sweep's convergence test.
@@ -147,6 +254,112 @@ pub fn map_cable(
         }
     }
     worst
+}
+
+/// Material distribution of one cable for a *given* slip state of its
+/// joints: the smooth problem an active-set Newton solves.
+///
+/// Segments joined by sliding joints form clusters. A cluster keeps the
+/// material it started the increment with (its end joints are stuck or are
+/// the cable's ends), and its tensions keep the ratios the sliding joints
+/// impose, `T_i = w_i·T` (`T_{j−1} = b·T_j` sliding towards the motor,
+/// `T_j = b·T_{j−1}` towards the end, `b` the kinetic bound). `T` solves
+/// `Σ_i EA·L_i/(EA + w_i·T) = S`, which is monotone, by safeguarded Newton.
+/// A cluster whose material exceeds its length is slack and keeps its start
+/// distribution.
+///
+/// Whether the slip state was the right one, [`map_cable`] at the same
+/// geometry says.
+#[allow(clippy::too_many_arguments)]
+pub fn map_cable_with_slip(
+    ea_n: f64,
+    lengths_m: &[f64],
+    dirs: &[Vector3<f64>],
+    rest_m: &mut [f64],
+    slip: &[JointSlip],
+    start: IncrementStart<'_>,
+    friction: &JointFriction,
+) {
+    let n = rest_m.len();
+    let mut first = 0;
+    while first < n {
+        let mut last = first;
+        while last + 1 < n && slip[last + 1] != JointSlip::Stuck {
+            last += 1;
+        }
+        // Tension ratios along the cluster.
+        let mut w = [1.0f64; 64];
+        let m = last - first + 1;
+        let mut weights = Vec::new();
+        let w: &mut [f64] = if m <= w.len() {
+            &mut w[..m]
+        } else {
+            weights.resize(m, 1.0);
+            &mut weights
+        };
+        for j in first + 1..=last {
+            let theta = interior_angle(&dirs[j - 1], &dirs[j]);
+            let b = friction.ratio_bound(theta, true);
+            let i = j - first;
+            w[i] = match slip[j] {
+                JointSlip::TowardsMotor => w[i - 1] / b,
+                _ => w[i - 1] * b,
+            };
+        }
+        if first == last {
+            // A stuck segment keeps its material exactly.
+            rest_m[first] = start.rest_m[first];
+            first = last + 1;
+            continue;
+        }
+        let material: f64 = start.rest_m[first..=last].iter().sum();
+        let length: f64 = lengths_m[first..=last].iter().sum();
+        if length <= material {
+            rest_m[first..=last].copy_from_slice(&start.rest_m[first..=last]);
+        } else {
+            let lens = &lengths_m[first..=last];
+            let excess = |t: f64| -> (f64, f64) {
+                let mut f = -material;
+                let mut df = 0.0;
+                for (l, wi) in lens.iter().zip(w.iter()) {
+                    let denom = ea_n + wi * t;
+                    f += ea_n * l / denom;
+                    df -= ea_n * l * wi / (denom * denom);
+                }
+                (f, df)
+            };
+            // Bracket: f(0) > 0; grow until f < 0.
+            let (mut lo, mut hi) = (0.0, ea_n * (length - material) / material);
+            while excess(hi).0 > 0.0 {
+                lo = hi;
+                hi *= 2.0;
+            }
+            let mut t = 0.5 * (lo + hi);
+            for _ in 0..100 {
+                let (f, df) = excess(t);
+                if f > 0.0 {
+                    lo = t;
+                } else {
+                    hi = t;
+                }
+                let next = t - f / df;
+                let next = if next > lo && next < hi {
+                    next
+                } else {
+                    0.5 * (lo + hi)
+                };
+                if (next - t).abs() <= 1e-14 * t.max(1.0) {
+                    t = next;
+                    break;
+                }
+                t = next;
+            }
+            for (i, r) in rest_m[first..=last].iter_mut().enumerate() {
+                *r = ea_n * lens[i] / (ea_n + w[i] * t);
+            }
+        }
+        first = last + 1;
+    }
 }
 
 /// Material Δ ≥ 0 to move from the low-tension segment into the
@@ -357,5 +570,93 @@ mod tests {
         let bound = (0.2 * std::f64::consts::FRAC_PI_2).exp();
         assert!((t_a / t_b - bound).abs() < 1e-9, "ratio {}", t_a / t_b);
         assert_eq!(slip[1], JointSlip::TowardsMotor);
+    }
+}
+
+#[cfg(test)]
+mod slip_state_tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The active-set mapping and the sweeping one solve the same
+        /// problem; where both converge they must agree.
+        #[test]
+        fn active_sets_and_sweeps_agree(
+            t in proptest::collection::vec(100.0f64..1500.0, 5),
+            bend in proptest::collection::vec(-0.6f64..0.6, 5),
+            mu in 0.0f64..0.4,
+        ) {
+            let dirs: Vec<Vector3<f64>> = bend
+                .iter()
+                .enumerate()
+                .map(|(i, b)| Vector3::new(1.0, *b, 0.3 * (i as f64 - 2.0) * b).normalize())
+                .collect();
+            let lengths = [0.6, 0.7, 0.65, 0.5, 0.55];
+            let ea = 7e5;
+            let start: Vec<f64> = lengths.iter().zip(&t).map(|(l, n)| l / (1.0 + n / ea)).collect();
+            let f = JointFriction::constant(mu).unwrap();
+            let stuck = [JointSlip::Stuck; 5];
+            let begin = IncrementStart { rest_m: &start, slip: &stuck };
+            let mut active = start.clone();
+            let mut slip_a = stuck;
+            map_cable(ea, &lengths, &dirs, &mut active, &mut slip_a, begin, &f, 1e-9);
+            let mut swept = start.clone();
+            let mut slip_s = stuck;
+            let left = map_cable_by_sweeps(ea, &lengths, &dirs, &mut swept, &mut slip_s, begin, &f, 1e-9);
+            prop_assume!(left <= 1e-9);
+            for i in 0..5 {
+                let (a, b) = (segment_tension(ea, lengths[i], active[i]), segment_tension(ea, lengths[i], swept[i]));
+                prop_assert!((a - b).abs() < 1e-6, "segment {}: {} vs {} ({:?} vs {:?})", i, a, b, slip_a, slip_s);
+            }
+        }
+    }
+
+    #[test]
+    fn mapping_with_the_mappings_own_slip_states_reproduces_it() {
+        let dirs: Vec<Vector3<f64>> = [
+            Vector3::new(1.0, 0.2, 0.0),
+            Vector3::new(1.0, -0.3, 0.1),
+            Vector3::new(0.8, 0.4, -0.2),
+            Vector3::new(1.0, 0.0, 0.3),
+        ]
+        .iter()
+        .map(|d| d.normalize())
+        .collect();
+        let lengths = [0.6, 0.7, 0.65, 0.5];
+        let ea = 7e5;
+        let t = |l: f64, n: f64| l / (1.0 + n / ea);
+        for tensions in [
+            [900.0, 500.0, 480.0, 300.0],
+            [300.0, 520.0, 800.0, 790.0],
+            [550.0, 550.0, 560.0, 900.0],
+        ] {
+            let start: Vec<f64> = lengths
+                .iter()
+                .zip(tensions)
+                .map(|(l, n)| t(*l, n))
+                .collect();
+            let f = JointFriction::constant(0.2).unwrap();
+            let stuck = [JointSlip::Stuck; 4];
+            let begin = IncrementStart {
+                rest_m: &start,
+                slip: &stuck,
+            };
+            let mut mapped = start.clone();
+            let mut slip = [JointSlip::Stuck; 4];
+            map_cable(ea, &lengths, &dirs, &mut mapped, &mut slip, begin, &f, 1e-9);
+            let mut again = start.clone();
+            map_cable_with_slip(ea, &lengths, &dirs, &mut again, &slip, begin, &f);
+            for i in 0..4 {
+                let (a, b) = (
+                    segment_tension(ea, lengths[i], mapped[i]),
+                    segment_tension(ea, lengths[i], again[i]),
+                );
+                assert!(
+                    (a - b).abs() < 1e-6,
+                    "{tensions:?} {slip:?}: segment {i}: {a} vs {b}"
+                );
+            }
+        }
     }
 }

@@ -17,17 +17,20 @@
 //!   cable), so all segments share one tension `T = EA·(ΣL − S)/S`, and the
 //!   material term couples them: `(EA/S)·g·gᵀ` with `g = Σ ∂L_i/∂x`, the
 //!   gradient of the cable's total length; the geometric terms stay per
-//!   segment.
+//!   segment;
+//! - [`JointMode::AsMapped`]: joints as the friction mapping left them,
+//!   between the two.
 //!
 //! The matrix is dense over the free degrees of freedom, which is what a
-//! structure of a few hundred of them needs. It is symmetric, and positive
-//! definite exactly when the equilibrium is stable.
+//! structure of a few hundred of them needs. Stuck and sliding matrices are
+//! symmetric, and positive definite exactly when the equilibrium is stable.
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
+use super::friction::JointFriction;
 use super::relax::ForwardModel;
-use super::sliding::segment_tension;
-use super::state::DeploymentState;
+use super::sliding::{interior_angle, segment_tension};
+use super::state::{DeploymentState, JointSlip};
 
 /// How continuous cables behave at their joints in a linearisation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -36,6 +39,10 @@ pub enum JointMode {
     Stuck,
     /// All joints slide without friction: one tension per cable (μ = 0).
     Sliding,
+    /// Each joint as the state's [`JointSlip`] says: stuck joints hold,
+    /// sliding ones exchange material at their current tension ratio (the
+    /// consistent tangent of the friction return mapping; non-symmetric).
+    AsMapped,
 }
 
 /// Numbering of the free degrees of freedom: `index[node][axis]` is the
@@ -123,49 +130,199 @@ pub fn tangent_stiffness(
         add_element(&mut k, &dofs, a, b, &element_block(k_axial, t, &d));
     }
     for (c, cable) in model.structure.continuous_cables.iter().enumerate() {
+        let o = state.segment_offsets[c];
         let rest = state.cable_rest_lengths(c);
-        match joints {
-            JointMode::Stuck => {
-                for (w, s) in cable.path.windows(2).zip(rest) {
-                    let d = x[w[1]] - x[w[0]];
-                    let t = segment_tension(cable.ea_n, d.norm(), *s);
-                    if t > 0.0 {
-                        let block = element_block(cable.ea_n / s, t, &d);
-                        add_element(&mut k, &dofs, w[0], w[1], &block);
-                    }
+        let n_seg = rest.len();
+        let d: Vec<Vector3<f64>> = cable.path.windows(2).map(|w| x[w[1]] - x[w[0]]).collect();
+        let t: Vec<f64> = d
+            .iter()
+            .zip(rest)
+            .map(|(d, s)| segment_tension(cable.ea_n, d.norm(), *s))
+            .collect();
+        // σ_j·∂ln b/∂θ per joint (index 0 unused), for sliding joints.
+        let slope: Vec<f64> = (0..n_seg)
+            .map(|j| {
+                if j == 0 {
+                    return 0.0;
                 }
+                let sigma = match (joints, state.joint_slip[o + j]) {
+                    (JointMode::AsMapped, JointSlip::TowardsMotor) => -1.0,
+                    (JointMode::AsMapped, JointSlip::TowardsEnd) => 1.0,
+                    _ => return 0.0,
+                };
+                let theta = interior_angle(&d[j - 1].normalize(), &d[j].normalize());
+                sigma * log_bound_slope(&model.friction, theta)
+            })
+            .collect();
+        // Clusters: runs of taut segments joined by sliding joints.
+        let mut first = 0;
+        while first < n_seg {
+            let mut last = first;
+            while last + 1 < n_seg
+                && t[last] > 0.0
+                && t[last + 1] > 0.0
+                && match joints {
+                    JointMode::Stuck => false,
+                    JointMode::Sliding => true,
+                    JointMode::AsMapped => state.joint_slip[o + last + 1] != JointSlip::Stuck,
+                }
+            {
+                last += 1;
             }
-            JointMode::Sliding => {
-                let total_rest: f64 = rest.iter().sum();
-                let total_len: f64 = cable
-                    .path
-                    .windows(2)
-                    .map(|w| (x[w[1]] - x[w[0]]).norm())
-                    .sum();
-                let t = segment_tension(cable.ea_n, total_len, total_rest);
-                if t <= 0.0 {
-                    continue;
-                }
-                // Geometric part per segment; material part on the total length.
-                let mut grad = vec![Vector3::zeros(); cable.path.len()];
-                for (i, w) in cable.path.windows(2).enumerate() {
-                    let d = x[w[1]] - x[w[0]];
-                    add_element(&mut k, &dofs, w[0], w[1], &element_block(0.0, t, &d));
-                    let e = d / d.norm();
-                    grad[i] -= e;
-                    grad[i + 1] += e;
-                }
-                let k_axial = cable.ea_n / total_rest;
-                for (i, gi) in grad.iter().enumerate() {
-                    for (j, gj) in grad.iter().enumerate() {
-                        let block = k_axial * gi * gj.transpose();
-                        add_block(&mut k, &dofs, cable.path[i], cable.path[j], &block);
-                    }
-                }
-            }
+            add_cluster(
+                &mut k,
+                &dofs,
+                &Cluster {
+                    ea_n: cable.ea_n,
+                    path: &cable.path[first..=last + 1],
+                    d: &d[first..=last],
+                    rest_m: &rest[first..=last],
+                    tension_n: &t[first..=last],
+                    log_bound_slope: &slope[first..=last],
+                },
+            );
+            first = last + 1;
         }
     }
     (k, dofs)
+}
+
+/// A run of consecutive taut segments of one cable that exchange material
+/// over sliding joints (a single segment is a cluster of one).
+struct Cluster<'a> {
+    ea_n: f64,
+    /// Path nodes, one more than segments.
+    path: &'a [usize],
+    /// Segment vectors `x[path[i+1]] − x[path[i]]`, m.
+    d: &'a [Vector3<f64>],
+    rest_m: &'a [f64],
+    tension_n: &'a [f64],
+    /// Per interior joint `j = 1..` (index 0 unused): `σ_j·∂ln b/∂θ`, with
+    /// `σ = −1` sliding towards the motor (`T_{j−1} = b·T_j`) and `+1`
+    /// towards the end (`T_j = b·T_{j−1}`).
+    log_bound_slope: &'a [f64],
+}
+
+/// How the capstan bound of one sliding joint moves a cluster's forces.
+struct JointTerm {
+    joint: usize,
+    angle_gradient: [Vector3<f64>; 3],
+    force_per_rad: Vec<Vector3<f64>>,
+}
+
+/// Adds a cluster's consistent tangent.
+///
+/// Tensions keep the ratios the sliding joints impose, `T_i = w_i·T`, where
+/// `ln w_i = Σ_{j≤i} σ_j·ln b(θ_j)` changes with the joint angles, and the
+/// total material `S = Σ s_i` is fixed. With `s_i = EA·L_i/(EA + T_i)`,
+/// `dS = 0` gives
+///
+/// ```text
+///     dT = [Σ_i (s_i/L_i)·dL_i − T·Σ_j σ_j β_j C_j·dθ_j] / D,
+///     D  = Σ_i s_i w_i/(EA + T_i),   C_j = Σ_{i≥j} s_i w_i/(EA + T_i),
+/// ```
+/// (`β_j = ∂ln b/∂θ` at joint `j`), and the nodal force `Σ_i T_i·b_i`
+/// (`b_i = ∂L_i/∂x`) changes by `Σ_i b_i·(w_i·dT + T·dw_i)`. For one segment
+/// this is `EA/s·b·bᵀ`; without friction `EA/S·g·gᵀ`. With friction it is
+/// not symmetric. Geometric terms `(T_i/L_i)(I − e·eᵀ)` stay per segment.
+fn add_cluster(k: &mut DMatrix<f64>, dofs: &FreeDofs, c: &Cluster<'_>) {
+    let t_ref = c.tension_n[0];
+    if t_ref <= 0.0 {
+        return;
+    }
+    let m = c.d.len();
+    let n_nodes = m + 1;
+    let len: Vec<f64> = c.d.iter().map(|d| d.norm()).collect();
+    let e: Vec<Vector3<f64>> = c.d.iter().zip(&len).map(|(d, l)| d / *l).collect();
+    let w: Vec<f64> = c.tension_n.iter().map(|t| t / t_ref).collect();
+    let compliance: Vec<f64> = (0..m)
+        .map(|i| c.rest_m[i] * w[i] / (c.ea_n + c.tension_n[i]))
+        .collect();
+    let denominator: f64 = compliance.iter().sum();
+    for i in 0..m {
+        add_element(
+            k,
+            dofs,
+            c.path[i],
+            c.path[i + 1],
+            &element_block(0.0, c.tension_n[i], &c.d[i]),
+        );
+    }
+    // Row vectors over the cluster's nodes (3 entries per node).
+    // force_side: Σ_i w_i b_i;  dt_row: ∂T/∂x;  and per joint the
+    // gradient of θ_j with its coefficient on the force.
+    let mut force_side = vec![Vector3::zeros(); n_nodes];
+    let mut dt_row = vec![Vector3::zeros(); n_nodes];
+    for i in 0..m {
+        force_side[i] -= w[i] * e[i];
+        force_side[i + 1] += w[i] * e[i];
+        let f = c.rest_m[i] / len[i] / denominator;
+        dt_row[i] -= f * e[i];
+        dt_row[i + 1] += f * e[i];
+    }
+    // Joint terms: dθ_j = a_j·dx over nodes j−1, j, j+1 (local indices).
+    // Per joint: its index, the gradient of θ_j over nodes j−1..=j+1, and
+    // the force it moves per radian over the cluster's nodes.
+    let mut joint_terms: Vec<JointTerm> = Vec::new();
+    for j in 1..m {
+        let slope = c.log_bound_slope[j];
+        if slope == 0.0 {
+            continue;
+        }
+        let (ea, eb) = (e[j - 1], e[j]);
+        let cos = -ea.dot(&eb);
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        if sin < 1e-9 {
+            // Straight cable: the angle is not differentiable; no term.
+            continue;
+        }
+        let u_a = (eb - ea * ea.dot(&eb)) / len[j - 1];
+        let u_b = (ea - eb * eb.dot(&ea)) / len[j];
+        // θ = acos(−e_a·e_b): dθ = (u_a·(dx_j − dx_{j−1}) + u_b·(dx_{j+1} − dx_j)) / sin θ.
+        let grad = [-u_a / sin, (u_a - u_b) / sin, u_b / sin];
+        // Σ_{i≥j} w_i b_i over nodes, and C_j.
+        let mut tail_force = vec![Vector3::zeros(); n_nodes];
+        let mut tail_compliance = 0.0;
+        for i in j..m {
+            tail_force[i] -= w[i] * e[i];
+            tail_force[i + 1] += w[i] * e[i];
+            tail_compliance += compliance[i];
+        }
+        // dT gains −T·σβ·C_j/D · dθ_j.
+        let dt_coef = -t_ref * slope * tail_compliance / denominator;
+        for (q, g) in grad.iter().enumerate() {
+            dt_row[j - 1 + q] += dt_coef * g;
+        }
+        // Force gains T·σβ·(Σ_{i≥j} w_i b_i)·dθ_j.
+        let scaled: Vec<Vector3<f64>> = tail_force.iter().map(|v| t_ref * slope * v).collect();
+        joint_terms.push(JointTerm {
+            joint: j,
+            angle_gradient: grad,
+            force_per_rad: scaled,
+        });
+    }
+    for (p, fp) in force_side.iter().enumerate() {
+        for (q, tq) in dt_row.iter().enumerate() {
+            add_block(k, dofs, c.path[p], c.path[q], &(fp * tq.transpose()));
+        }
+    }
+    for term in &joint_terms {
+        for (p, fp) in term.force_per_rad.iter().enumerate() {
+            for (q, g) in term.angle_gradient.iter().enumerate() {
+                let node = c.path[term.joint - 1 + q];
+                add_block(k, dofs, c.path[p], node, &(fp * g.transpose()));
+            }
+        }
+    }
+}
+
+/// `∂ln b/∂θ` of the kinetic capstan bound at interior angle `theta`, by a
+/// central difference (exact for constant μ; the mean slope across a kink
+/// of a μ table).
+fn log_bound_slope(friction: &JointFriction, theta: f64) -> f64 {
+    const H: f64 = 1e-6;
+    let (lo, hi) = ((theta - H).max(0.0), (theta + H).min(std::f64::consts::PI));
+    (friction.ratio_bound(hi, true).ln() - friction.ratio_bound(lo, true).ln()) / (hi - lo)
 }
 
 /// Smallest eigenvalue of the tangent stiffness, N/m: positive for a stable

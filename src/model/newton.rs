@@ -1,0 +1,481 @@
+//! Newton–Raphson solution of a relaxation, ahead of DR.
+//!
+//! DR converges at a rate set by the ratio of the stiffest to the softest
+//! mode, and a deployable tensegrity has both (steel struts, soft springs,
+//! prestress-stabilised mechanisms): a 1 cm command takes thousands of DR
+//! iterations. Newton's method on the same residual, with the tangent of
+//! [`super::stiffness`] in [`JointMode::AsMapped`] (the consistent tangent of
+//! the friction return mapping), takes a handful. Whatever Newton leaves, DR
+//! continues from, and convergence is judged by the same residual test.
+//!
+//! Each Newton step solves `K·Δx = R` on the free DOFs and is shortened to
+//! `newton_max_step_rel` of the structure size. The full step is taken
+//! unless it multiplies the residual norm by more than [`WATCHDOG`]: a
+//! correct step along a soft mode stretches the stiff struts to second order
+//! and raises the residual for one iteration, so a monotone line search would
+//! stall. Newton gives up when a step is not a descent direction (`Δx·R ≤ 0`:
+//! an unstable tangent), when the factorisation fails, or at
+//! `newton_max_iter`.
+//!
+//! Friction makes the residual non-smooth where joints change between
+//! sticking and sliding, and Newton iterates far from the answer (struts
+//! stretched to second order) would flip those states at every step. So
+//! Newton works on active sets: the joints' slip states are held fixed and
+//! the material is distributed for them ([`super::sliding::map_cable_with_slip`]),
+//! a smooth problem whose consistent tangent is exactly
+//! [`JointMode::AsMapped`]; when it has converged, the return mapping at
+//! that geometry either agrees (the answer) or supplies the next slip
+//! states (at most [`MAX_ACTIVE_SET_ROUNDS`] times).
+//!
+//! A payout increment is solved by continuation in its size
+//! ([`ForwardModel::newton_increment`]): the problem "apply λ of the increment
+//! from the start state" is solved for growing λ, each solution with a
+//! linear predictor from the last, whose probe also gives the slip states
+//! to start from. A failed step is halved, down to
+//! [`MIN_CONTINUATION_STEP`]; then DR solves the increment from the farthest
+//! partial solution. Every partial problem starts from the same start state
+//! with stuck joints, so the continuation only supplies initial guesses:
+//! the answer is that of the full increment (backward Euler), as with DR.
+
+use nalgebra::{DMatrix, DVector, Dyn, Vector3, LU};
+
+use super::relax::{ForwardModel, Workspace};
+use super::state::{DeploymentState, JointSlip};
+use super::stiffness::{tangent_stiffness, FreeDofs, JointMode};
+
+/// A Newton step is rejected when it multiplies the residual norm by more.
+const WATCHDOG: f64 = 100.0;
+/// Halvings of a rejected step before Newton gives up.
+const MAX_HALVINGS: usize = 6;
+/// Payout fraction of the probe that finds the predictor's load.
+const PROBE: f64 = 1e-6;
+/// Active-set revisions of the joints' slip states per Newton solve.
+const MAX_ACTIVE_SET_ROUNDS: usize = 4;
+/// Smallest continuation step, as a fraction of the increment.
+const MIN_CONTINUATION_STEP: f64 = 1.0 / 64.0;
+
+/// How a Newton solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(super) struct NewtonOutcome {
+    /// Residual and friction within the force tolerance.
+    pub converged: bool,
+    /// Newton iterations taken (factorisations, predictors included).
+    pub iterations: usize,
+}
+
+impl ForwardModel {
+    fn newton_enabled(&self) -> bool {
+        let s = &self.settings;
+        let free = self.free_dof_count();
+        s.newton_max_iter > 0 && free > 0 && free <= s.newton_max_dofs
+    }
+
+    /// Solves one payout increment from the equilibrium `state` by Newton
+    /// with continuation, and leaves `state` with the increment applied
+    /// (payout added to the first segments, joints stuck): on success, with
+    /// the increment's solution; on failure, at the farthest partial
+    /// solution reached (the best start for DR, which solves the same
+    /// increment from there).
+    pub(super) fn newton_increment(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        delta_payout_m: &[f64],
+    ) -> NewtonOutcome {
+        let mut outcome = NewtonOutcome::default();
+        let start = state.clone();
+        let partial = |lambda: f64, positions: &DeploymentState| {
+            let mut s = start.clone();
+            s.positions_m.copy_from_slice(&positions.positions_m);
+            for (c, d) in delta_payout_m.iter().enumerate() {
+                s.segment_rest_lengths_m[s.segment_offsets[c]] += lambda * d;
+                s.payout_m[c] += lambda * d;
+            }
+            s.stick_all_joints();
+            s
+        };
+        if !self.newton_enabled() {
+            *state = partial(1.0, &start);
+            return outcome;
+        }
+        let mut solved = start.clone();
+        // Start from the step size that worked last time: successive
+        // increments of a command behave alike.
+        let (mut done, mut step) = (0.0, ws.continuation_step.clamp(MIN_CONTINUATION_STEP, 1.0));
+        while done < 1.0 {
+            let lambda = f64::min(done + step, 1.0);
+            let mut trial = partial(lambda, &solved);
+            let (dx, labels) = self.linear_prediction(&partial(done, &solved), &trial, ws);
+            if let Some(dx) = dx {
+                outcome.iterations += 1;
+                let dofs = FreeDofs::of(self);
+                add_free(&mut trial.positions_m, &dofs, &dx, 1.0);
+            }
+            ws.start_increment(&trial);
+            // The joints that slide as this step begins: the active set to
+            // solve with; the step is halved if the answer contradicts it.
+            trial.joint_slip = labels;
+            let (mut max_t, mut friction_left) = (0.0, 0.0);
+            let inner = self.newton(&mut trial, ws, &mut max_t, &mut friction_left);
+            outcome.iterations += inner.iterations;
+            if inner.converged {
+                solved = trial;
+                done = lambda;
+                ws.continuation_step = step;
+                step = f64::min(2.0 * step, 1.0);
+            } else {
+                step *= 0.5;
+                if step < MIN_CONTINUATION_STEP {
+                    *state = partial(1.0, &solved);
+                    return outcome;
+                }
+            }
+        }
+        *state = solved;
+        outcome.converged = true;
+        outcome
+    }
+
+    /// Displacement from the solution `from` (of its own increment) to the
+    /// solution of `to`, which differs only in its start rest lengths:
+    /// `K⁻¹·(∂R/∂start)·Δstart`, the load by a forward difference of the
+    /// mapped residual over [`PROBE`] of the change. `None` where the tangent
+    /// is singular or predicts motion against the load (unstable).
+    fn linear_prediction(
+        &self,
+        from: &DeploymentState,
+        to: &DeploymentState,
+        ws: &mut Workspace,
+    ) -> (Option<DVector<f64>>, Vec<JointSlip>) {
+        let mut base = from.clone();
+        ws.start_increment(&base);
+        self.residual(&mut base, ws);
+        let base_force = ws.force.clone();
+        let mut probe = from.clone();
+        for (r, (a, b)) in probe.segment_rest_lengths_m.iter_mut().zip(
+            from.segment_rest_lengths_m
+                .iter()
+                .zip(&to.segment_rest_lengths_m),
+        ) {
+            *r = a + PROBE * (b - a);
+        }
+        ws.start_increment(&probe);
+        self.residual(&mut probe, ws);
+        let (k, dofs) = tangent_stiffness(self, &probe, JointMode::AsMapped);
+        let mut load = DVector::zeros(dofs.count);
+        for (i, rows) in dofs.index.iter().enumerate() {
+            for (a, row) in rows.iter().enumerate() {
+                if let Some(r) = row {
+                    load[*r] = (ws.force[i][a] - base_force[i][a]) / PROBE;
+                }
+            }
+        }
+        let labels = probe.joint_slip;
+        let Some(lu) = BlockLu::new(&k) else {
+            return (None, labels);
+        };
+        let mut step = lu.solve(&load);
+        if !(step.dot(&load) > 0.0) {
+            return (None, labels);
+        }
+        let longest = step.amax();
+        let max_step = self.settings.newton_max_step_rel * self.size_m();
+        if longest > max_step {
+            step *= max_step / longest;
+        }
+        (Some(step), labels)
+    }
+
+    /// Newton on the increment whose start `ws` holds, from `state` (whose
+    /// mapped residual is in `ws.force`), by active sets: Newton on the
+    /// smooth problem of the current joint slip states; once that converges
+    /// the states are revised against the result ([`super::sliding::revise_slip`])
+    /// and Newton goes on, until a revision changes nothing (at most
+    /// [`MAX_ACTIVE_SET_ROUNDS`] revisions). The answer is confirmed with the
+    /// return mapping itself. On failure `state` is restored. Updates
+    /// `max_t` and `friction_left`.
+    ///
+    /// A factorisation is reused while each step at least halves the
+    /// residual norm (a chord step costs a back substitution, not a
+    /// factorisation), and refreshed otherwise or when slip states change.
+    pub(super) fn newton(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        max_t: &mut f64,
+        friction_left: &mut f64,
+    ) -> NewtonOutcome {
+        let mut outcome = NewtonOutcome::default();
+        if !self.newton_enabled() {
+            return outcome;
+        }
+        let entry = state.clone();
+        let max_step = self.settings.newton_max_step_rel * self.size_m();
+        ws.slip_fixed = true;
+        (*max_t, *friction_left) = self.residual(state, ws);
+        let mut norm = self.free_residual_norm(ws);
+        let mut factor: Option<(BlockLu, FreeDofs)> = None;
+        let mut fresh = false;
+        let mut revisions = 0;
+        let failed = loop {
+            let tol = self.tolerance(*max_t);
+            if self.max_free_residual(ws) <= tol {
+                // The return mapping at this geometry says which joints
+                // slide; if it agrees, this is the answer.
+                ws.slip_fixed = false;
+                (*max_t, *friction_left) = self.residual(state, ws);
+                let tol = self.tolerance(*max_t);
+                if self.max_free_residual(ws) <= tol && *friction_left <= tol {
+                    outcome.converged = true;
+                    break false;
+                }
+                // The mapping disagrees with the slip states solved for:
+                // adopt its states (an active-set step) and solve again.
+                revisions += 1;
+                if revisions > MAX_ACTIVE_SET_ROUNDS {
+                    break true;
+                }
+                ws.slip_fixed = true;
+                (*max_t, *friction_left) = self.residual(state, ws);
+                norm = self.free_residual_norm(ws);
+                factor = None;
+                continue;
+            }
+            if outcome.iterations >= self.settings.newton_max_iter {
+                break true;
+            }
+            if factor.is_none() {
+                let (k, dofs) = tangent_stiffness(self, state, JointMode::AsMapped);
+                let Some(lu) = BlockLu::new(&k) else {
+                    break true;
+                };
+                factor = Some((lu, dofs));
+                fresh = true;
+            }
+            let (lu, dofs) = factor.as_ref().expect("factorised above");
+            let rhs = free_vector(&ws.force, dofs);
+            let step = lu.solve(&rhs);
+            if !(step.dot(&rhs) > 0.0) {
+                if fresh {
+                    break true;
+                }
+                factor = None;
+                continue;
+            }
+            let mut step = step;
+            let longest = step.amax();
+            if longest > max_step {
+                step *= max_step / longest;
+            }
+            outcome.iterations += 1;
+            let before = state.positions_m.clone();
+            let mut accepted = None;
+            let mut alpha = 1.0;
+            for _ in 0..=MAX_HALVINGS {
+                state.positions_m.copy_from_slice(&before);
+                add_free(&mut state.positions_m, dofs, &step, alpha);
+                (*max_t, *friction_left) = self.residual(state, ws);
+                let trial = self.free_residual_norm(ws);
+                if trial < WATCHDOG * norm {
+                    accepted = Some(trial);
+                    break;
+                }
+                alpha *= 0.5;
+            }
+            let Some(trial) = accepted else {
+                if fresh {
+                    break true;
+                }
+                state.positions_m.copy_from_slice(&before);
+                (*max_t, *friction_left) = self.residual(state, ws);
+                factor = None;
+                continue;
+            };
+            if trial > 0.5 * norm || !ws.slip_fixed {
+                factor = None;
+            }
+            fresh = false;
+            norm = trial;
+        };
+        ws.slip_fixed = false;
+        if failed {
+            *state = entry;
+            (*max_t, *friction_left) = self.residual(state, ws);
+        }
+        outcome
+    }
+
+    /// Euclidean norm of the out-of-balance force over the free DOFs, N.
+    fn free_residual_norm(&self, ws: &Workspace) -> f64 {
+        ws.force
+            .iter()
+            .zip(&self.structure.nodes)
+            .map(|(r, n)| {
+                (0..3)
+                    .filter(|&a| !n.fixed[a])
+                    .map(|a| r[a] * r[a])
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+            .sqrt()
+    }
+}
+
+/// LU factors of a matrix that is block diagonal after a permutation (the
+/// two halves of the bridge share no free node): each connected block of
+/// its sparsity graph is factorised on its own, which for two equal halves
+/// quarters the work.
+struct BlockLu {
+    blocks: Vec<(Vec<usize>, LU<f64, Dyn, Dyn>)>,
+    size: usize,
+}
+
+impl BlockLu {
+    /// Factorises `k`; `None` if a block is singular.
+    fn new(k: &DMatrix<f64>) -> Option<Self> {
+        let n = k.nrows();
+        let mut block_of = vec![usize::MAX; n];
+        let mut blocks = Vec::new();
+        for seed in 0..n {
+            if block_of[seed] != usize::MAX {
+                continue;
+            }
+            let id = blocks.len();
+            let mut members = vec![seed];
+            block_of[seed] = id;
+            let mut next = 0;
+            while next < members.len() {
+                let r = members[next];
+                next += 1;
+                for c in 0..n {
+                    if block_of[c] == usize::MAX && (k[(r, c)] != 0.0 || k[(c, r)] != 0.0) {
+                        block_of[c] = id;
+                        members.push(c);
+                    }
+                }
+            }
+            members.sort_unstable();
+            let sub = DMatrix::from_fn(members.len(), members.len(), |i, j| {
+                k[(members[i], members[j])]
+            });
+            let lu = sub.lu();
+            if !lu.is_invertible() {
+                return None;
+            }
+            blocks.push((members, lu));
+        }
+        Some(BlockLu { blocks, size: n })
+    }
+
+    /// Solves `K·x = rhs`.
+    fn solve(&self, rhs: &DVector<f64>) -> DVector<f64> {
+        let mut x = DVector::zeros(self.size);
+        for (members, lu) in &self.blocks {
+            let b = DVector::from_iterator(members.len(), members.iter().map(|&i| rhs[i]));
+            if let Some(y) = lu.solve(&b) {
+                for (i, v) in members.iter().zip(y.iter()) {
+                    x[*i] = *v;
+                }
+            }
+        }
+        x
+    }
+}
+
+/// The free-DOF entries of per-node vectors.
+fn free_vector(per_node: &[Vector3<f64>], dofs: &FreeDofs) -> DVector<f64> {
+    let mut v = DVector::zeros(dofs.count);
+    for (i, rows) in dofs.index.iter().enumerate() {
+        for (a, row) in rows.iter().enumerate() {
+            if let Some(r) = row {
+                v[*r] = per_node[i][a];
+            }
+        }
+    }
+    v
+}
+
+/// `positions += scale·step` on the free DOFs.
+fn add_free(positions: &mut [Vector3<f64>], dofs: &FreeDofs, step: &DVector<f64>, scale: f64) {
+    for (i, rows) in dofs.index.iter().enumerate() {
+        for (a, row) in rows.iter().enumerate() {
+            if let Some(r) = row {
+                positions[i][a] += scale * step[*r];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::friction::JointFriction;
+    use crate::model::reference_bridge::{reference_bridge, BridgeParameters};
+    use crate::model::relax::RelaxSettings;
+    use nalgebra::DMatrix;
+
+    /// K = −∂R/∂x of the mapped residual, by central differences.
+    fn finite_difference(model: &ForwardModel, state: &DeploymentState, h: f64) -> DMatrix<f64> {
+        let mut ws = Workspace::default();
+        // Prime the workspace: start of increment = `state`'s material.
+        let mut probe = state.clone();
+        model.prime(&mut probe, &mut ws);
+        let dofs = crate::model::stiffness::FreeDofs::of(model);
+        let mut k = DMatrix::zeros(dofs.count, dofs.count);
+        for (node, rows) in dofs.index.iter().enumerate() {
+            for a in 0..3 {
+                let Some(col) = rows[a] else { continue };
+                let mut f = [Vec::new(), Vec::new()];
+                for (side, sign) in [1.0, -1.0].iter().enumerate() {
+                    let mut s = probe.clone();
+                    s.positions_m[node][a] += sign * h;
+                    model.residual(&mut s, &mut ws);
+                    f[side] = ws.force.clone();
+                }
+                for (i, r) in dofs.index.iter().enumerate() {
+                    for b in 0..3 {
+                        if let Some(row) = r[b] {
+                            k[(row, col)] = -(f[0][i][b] - f[1][i][b]) / (2.0 * h);
+                        }
+                    }
+                }
+            }
+        }
+        k
+    }
+
+    #[test]
+    fn consistent_tangent_matches_finite_differences_of_the_mapped_residual() {
+        let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+        for mu in [0.0, 0.2] {
+            let model = ForwardModel::new(
+                structure.clone(),
+                JointFriction::constant(mu).unwrap(),
+                RelaxSettings::default(),
+            );
+            // Reel cable 0 in by 5 mm with joints stuck: its first joint must slide.
+            let mut state = model.reference_state();
+            let first = state.segment_offsets[0];
+            state.segment_rest_lengths_m[first] -= 0.005;
+            let mut ws = Workspace::default();
+            let mut mapped = state.clone();
+            model.prime(&mut mapped, &mut ws);
+            assert!(mapped
+                .joint_slip
+                .iter()
+                .any(|s| *s != crate::model::JointSlip::Stuck));
+            let (k, _) = tangent_stiffness(&model, &mapped, JointMode::AsMapped);
+            let fd = finite_difference(&model, &state, 1e-6);
+            // Entry-wise: 1e-3 relative (truncation error of the central
+            // difference over h = 1e-6 m on members whose stiffness changes
+            // over millimetres), plus the noise of the friction mapping,
+            // which stops within 1e-2 of the force tolerance (~1e-5 N):
+            // 1e-5 N / 2e-6 m = 5 N/m; 20 N/m with margin.
+            let mut worst = 0.0f64;
+            for (a, b) in k.iter().zip(fd.iter()) {
+                worst = worst.max((a - b).abs() / (1e-3 * b.abs() + 20.0));
+            }
+            assert!(worst <= 1.0, "μ = {mu}: error {worst} of the allowance");
+        }
+    }
+}
