@@ -128,6 +128,9 @@ impl ForwardModel {
             max_friction_residual_n: 0.0,
         };
         let increment: Vec<f64> = delta_payout_m.iter().map(|d| d / count as f64).collect();
+        // Continuation steps carry over between the increments of one
+        // command, not between commands.
+        ws.continuation_step = 0.0;
         for k in 0..count {
             let newton = self.newton_increment(state, ws, &increment);
             out.newton_iterations += newton.iterations;

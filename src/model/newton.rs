@@ -51,6 +51,12 @@ const MAX_HALVINGS: usize = 6;
 const PROBE: f64 = 1e-6;
 /// Active-set revisions of the joints' slip states per Newton solve.
 const MAX_ACTIVE_SET_ROUNDS: usize = 4;
+/// First continuation step of a command with friction, as a fraction of its
+/// increment: joints start sliding early in an increment from rest, and a
+/// step that fails costs a whole Newton solve (without friction the first
+/// step is the whole increment). Later increments of the same command
+/// start from the step that last succeeded.
+const FIRST_CONTINUATION_STEP: f64 = 1.0 / 16.0;
 /// Smallest continuation step, as a fraction of the increment.
 const MIN_CONTINUATION_STEP: f64 = 1.0 / 64.0;
 
@@ -101,6 +107,16 @@ impl ForwardModel {
         let mut solved = start.clone();
         // Start from the step size that worked last time: successive
         // increments of a command behave alike.
+        if ws.continuation_step == 0.0 {
+            // Without friction no joint changes state within an increment.
+            let frictionless =
+                self.friction.static_mu.is_zero() && self.friction.kinetic_mu.is_zero();
+            ws.continuation_step = if frictionless {
+                1.0
+            } else {
+                FIRST_CONTINUATION_STEP
+            };
+        }
         let (mut done, mut step) = (0.0, ws.continuation_step.clamp(MIN_CONTINUATION_STEP, 1.0));
         while done < 1.0 {
             let lambda = f64::min(done + step, 1.0);
