@@ -28,8 +28,10 @@
 //! ## Layout
 //! - [`model`]: structure, friction, DR solver, reference bridge. Pure.
 //! - [`qp`]: quadratic programs and the only Clarabel adapter.
+//! - [`analysis`]: studies that compare model runs (friction effect).
 //! - [`io`]: file formats; the only module that touches files.
 
+pub mod analysis;
 pub mod io;
 pub mod model;
 pub mod qp;

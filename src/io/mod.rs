@@ -6,6 +6,8 @@
 //! failed run never leaves a half-written file in place of a good one.
 
 pub mod commands;
+pub mod drawing;
+pub mod friction_table;
 pub mod results;
 pub mod structure_file;
 

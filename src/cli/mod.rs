@@ -1,0 +1,131 @@
+//! Command-line interface: argument parsing, files and printing. The
+//! numerics it calls never print.
+//!
+//! - `structure`: generate the reference bridge ([`structure_cmd`]);
+//! - `simulate`: apply a command sequence ([`simulate`]);
+//! - `experiment`: run an experiment file ([`experiment`]).
+
+mod experiment;
+mod simulate;
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+
+use tensegrity_deploy::io::friction_table::read_friction_table;
+use tensegrity_deploy::io::structure_file::write_structure;
+use tensegrity_deploy::model::{
+    reference_bridge, AngleConvention, BridgeParameters, FrictionCoefficient, JointFriction,
+};
+
+/// The `tdeploy` command with its subcommands.
+pub fn command() -> Command {
+    let friction_args = [
+        Arg::new("mu")
+            .long("mu")
+            .value_parser(value_parser!(f64))
+            .default_value("0")
+            .conflicts_with("mu-table")
+            .help("Joint friction coefficient μ (constant). 0: frictionless clustered cables"),
+        Arg::new("mu-table")
+            .long("mu-table")
+            .value_parser(value_parser!(PathBuf))
+            .help("CSV `interior_angle_deg,mu`: μ interpolated over the joint's interior angle"),
+        Arg::new("angle")
+            .long("angle")
+            .value_parser(["wrap", "interior"])
+            .default_value("wrap")
+            .help("Angle in the capstan exponent: wrap angle π−θ (physical) or interior angle θ (the seed's Eq. 6)"),
+    ];
+    Command::new("tdeploy")
+        .about("Plan and learn the deployment of a tensegrity footbridge")
+        .version(env!("CARGO_PKG_VERSION"))
+        .subcommand_required(true)
+        .subcommand(
+            Command::new("structure")
+                .about("Generate the reference hollow-rope footbridge and write its structure file")
+                .arg(Arg::new("out").long("out").short('o').default_value("reference-bridge.json").value_parser(value_parser!(PathBuf)))
+                .arg(Arg::new("params").long("params").value_parser(value_parser!(PathBuf)).help("TOML file overriding bridge parameters (field names as in BridgeParameters)")),
+        )
+        .subcommand(
+            Command::new("simulate")
+                .about("Apply a command sequence to a structure and write positions, forces and sliding per step")
+                .arg(Arg::new("structure").long("structure").short('s').value_parser(value_parser!(PathBuf)).help("Structure file (default: the built-in reference bridge)"))
+                .arg(Arg::new("commands").long("commands").short('c').value_parser(value_parser!(PathBuf)).help("Command CSV (default: a 5 cm fold-deploy cycle: every cable paid out 1 cm per step for 5 steps, then reeled in 1 cm per step for 5 steps)"))
+                .args(friction_args.clone())
+                .arg(Arg::new("increment").long("increment").value_parser(value_parser!(f64)).default_value("0.001").help("Largest payout increment per relaxation, m"))
+                .arg(Arg::new("tol").long("tol").value_parser(value_parser!(f64)).default_value("1e-6").help("Force tolerance relative to the largest member force"))
+                .arg(Arg::new("out").long("out").short('o').default_value("out/simulate").value_parser(value_parser!(PathBuf)))
+                .arg(Arg::new("quiet").long("quiet").short('q').action(ArgAction::SetTrue).help("No progress bar")),
+        )
+        .subcommand(
+            Command::new("experiment")
+                .about("Run an experiment file from experiments/")
+                .arg(Arg::new("file").required(true).value_parser(value_parser!(PathBuf))),
+        )
+}
+
+/// Runs the parsed command line.
+pub fn run(m: &ArgMatches) -> Result<()> {
+    match m.subcommand() {
+        Some(("structure", a)) => structure_cmd(a),
+        Some(("simulate", a)) => simulate::simulate(a),
+        Some(("experiment", a)) => experiment::experiment(a),
+        _ => unreachable!("clap requires a subcommand"),
+    }
+}
+
+fn bridge_parameters(path: Option<&PathBuf>) -> Result<BridgeParameters> {
+    match path {
+        None => Ok(BridgeParameters::default()),
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("{}: cannot read", p.display()))?;
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
+        }
+    }
+}
+
+fn structure_cmd(a: &ArgMatches) -> Result<()> {
+    let params = bridge_parameters(a.get_one::<PathBuf>("params"))?;
+    let s = reference_bridge(&params)?;
+    let out = a.get_one::<PathBuf>("out").unwrap();
+    write_structure(out, &s)?;
+    let n_struts = s
+        .members
+        .iter()
+        .filter(|m| m.kind.name() == "strut")
+        .count();
+    let n_cables = s
+        .members
+        .iter()
+        .filter(|m| m.kind.name() == "cable")
+        .count();
+    let n_springs = s
+        .members
+        .iter()
+        .filter(|m| m.kind.name() == "spring")
+        .count();
+    println!(
+        "wrote {}: {} nodes, {n_struts} struts, {n_cables} cables, {n_springs} springs, {} continuous cables ({} segments)",
+        out.display(),
+        s.nodes.len(),
+        s.continuous_cables.len(),
+        s.segment_count()
+    );
+    Ok(())
+}
+
+/// Joint friction from `--mu` or `--mu-table` and `--angle`.
+fn friction_from(a: &ArgMatches) -> Result<JointFriction> {
+    let convention = match a.get_one::<String>("angle").map(String::as_str) {
+        Some("interior") => AngleConvention::Interior,
+        _ => AngleConvention::Wrap,
+    };
+    let mu = match a.get_one::<PathBuf>("mu-table") {
+        Some(path) => read_friction_table(path)?,
+        None => FrictionCoefficient::Constant(*a.get_one::<f64>("mu").unwrap()),
+    };
+    Ok(JointFriction::new(mu, convention)?)
+}
