@@ -108,7 +108,10 @@ fn cable_net_solve(c: &mut Criterion) {
     let mut ws = Workspace::default();
     let mut probe = model.reference_state();
     let r = model.relax(&mut probe, &mut ws);
-    eprintln!("cable net: {:?}, {} iterations", r.status, r.iterations);
+    eprintln!(
+        "cable net: {:?}, {} Newton + {} DR iterations",
+        r.status, r.newton_iterations, r.iterations
+    );
     c.bench_function("cable_net_7x7_from_flat", |b| {
         b.iter_batched(
             || model.reference_state(),

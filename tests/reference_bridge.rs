@@ -154,6 +154,7 @@ fn halving_the_increment_changes_midspan_by_less_than_a_tenth_of_a_millimetre() 
         .flatten()
         .map(|&i| (coarse.positions_m[i] - fine.positions_m[i]).norm())
         .fold(0.0, f64::max);
+    eprintln!("increment refinement: midspan nodes differ by {worst:.3e} m");
     assert!(worst < 1e-4, "midspan nodes differ by {} mm", 1e3 * worst);
 }
 
@@ -190,6 +191,7 @@ fn reel_in_and_out(m: &ForwardModel, amount_m: f64) -> f64 {
 #[test]
 fn friction_makes_reel_in_and_out_path_dependent() {
     let off = reel_in_and_out(&model(0.2, 1e-8), 0.05);
+    eprintln!("μ = 0.2: 5 cm in and out ends {off:.3e} m from the start");
     assert!(
         off > 1e-4,
         "with μ = 0.2 the cycle should not close; off by {off} m"
@@ -204,6 +206,7 @@ fn friction_makes_reel_in_and_out_path_dependent() {
 #[test]
 fn frictionless_reel_in_and_out_returns_to_start() {
     let off = reel_in_and_out(&model(0.0, 1e-8), 0.05);
+    eprintln!("μ = 0: 5 cm in and out ends {off:.3e} m from the start");
     assert!(off < 1e-6, "off by {off} m");
 }
 
@@ -235,6 +238,7 @@ fn newton_and_dynamic_relaxation_agree() {
         // least ~300 N/m (the softest mode): 5e-9 m apart at most; 1e-7 m
         // leaves margin for the friction mapping's own tolerance.
         let apart = newton.max_position_difference_m(&dr);
+        eprintln!("μ = {mu}: Newton and DR {apart:.3e} m apart");
         assert!(apart < 1e-7, "μ = {mu}: Newton and DR differ by {apart} m");
     }
 }

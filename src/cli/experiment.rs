@@ -64,13 +64,20 @@ fn friction_rig_experiment(e: &RigExperiment, path: &Path) -> Result<()> {
     }
     let friction = JointFriction::new(FrictionCoefficient::Constant(e.mu), e.convention)?;
     let mut csv = String::from("interior_angle_deg,tension_kn,slip_ratio_model,slip_ratio_formula,slip_load_n,mu_backcalc_interior,mu_backcalc_wrap\n");
-    println!(
+    say!(
         "friction rig, true μ = {} ({:?} convention)",
-        e.mu, e.convention
+        e.mu,
+        e.convention
     );
-    println!(
+    say!(
         "{:>6} {:>6} {:>12} {:>12} {:>12} {:>10} {:>10}",
-        "θ deg", "T kN", "ratio model", "ratio e^μα", "slip load N", "μ(θ)", "μ(π−θ)"
+        "θ deg",
+        "T kN",
+        "ratio model",
+        "ratio e^μα",
+        "slip load N",
+        "μ(θ)",
+        "μ(π−θ)"
     );
     for (theta_deg, tensions) in e.interior_angles_deg.iter().zip(&e.tensions_kn) {
         let theta = theta_deg.to_radians();
@@ -81,7 +88,7 @@ fn friction_rig_experiment(e: &RigExperiment, path: &Path) -> Result<()> {
             let mu_interior = ratio.ln() / theta;
             let mu_wrap = ratio.ln() / (std::f64::consts::PI - theta);
             let load = t * (ratio - 1.0);
-            println!("{theta_deg:>6.0} {t_kn:>6.1} {ratio:>12.6} {formula:>12.6} {load:>12.1} {mu_interior:>10.4} {mu_wrap:>10.4}");
+            say!("{theta_deg:>6.0} {t_kn:>6.1} {ratio:>12.6} {formula:>12.6} {load:>12.1} {mu_interior:>10.4} {mu_wrap:>10.4}");
             csv +=
                 &format!("{theta_deg},{t_kn},{ratio},{formula},{load},{mu_interior},{mu_wrap}\n");
         }
@@ -90,8 +97,8 @@ fn friction_rig_experiment(e: &RigExperiment, path: &Path) -> Result<()> {
         .with_context(|| format!("{}: cannot create", e.out.display()))?;
     let file = e.out.join("friction-rig.csv");
     tensegrity_deploy::io::write_atomically(&file, csv.as_bytes())?;
-    println!("The seed back-calculates μ with the interior angle θ; with the wrap angle π−θ the same slips give the μ(π−θ) column.");
-    println!("results in {}", file.display());
+    say!("The seed back-calculates μ with the interior angle θ; with the wrap angle π−θ the same slips give the μ(π−θ) column.");
+    say!("results in {}", file.display());
     Ok(())
 }
 
@@ -146,20 +153,24 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
             }
         }
     }
-    println!(
+    say!(
         "friction effect: every cable paid out {} cm then reeled in {} cm in {} cm increments; μ = {} ({:?} angle) vs μ = 0",
         100.0 * e.fold_m, 100.0 * e.deploy_m, 100.0 * e.increment_m, e.mu, e.convention
     );
-    println!("midspan node shift, half A (the seed reports one half):");
-    println!(
+    say!("midspan node shift, half A (the seed reports one half):");
+    say!(
         "{:>6} {:>10} {:>10} {:>12} {:>12}",
-        "node", "ΔL mm", "% of 30", "seed ΔL mm", "seed %"
+        "node",
+        "ΔL mm",
+        "% of 30",
+        "seed ΔL mm",
+        "seed %"
     );
     let mut csv = String::from("node,shift_m,percent_of_30mm\n");
     let half_a: Vec<_> = r.midspan_shift_m.iter().step_by(2).collect();
     for (k, (node, shift)) in half_a.iter().enumerate() {
         let seed = SEED_TABLE_2_MM.get(k).copied().unwrap_or(f64::NAN);
-        println!(
+        say!(
             "{:>6} {:>10.2} {:>10.1} {:>12.1} {:>12.1}",
             structure.nodes[*node].id,
             1e3 * shift,
@@ -175,17 +186,20 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
             100.0 * shift / 0.03
         );
     }
-    println!(
+    say!(
         "relative member-force change (members above {} N without friction):",
         e.force_floor_n
     );
-    println!(
+    say!(
         "{:>18} {:>8} {:>10} {:>10}",
-        "type", "members", "mean %", "max %"
+        "type",
+        "members",
+        "mean %",
+        "max %"
     );
     let mut kinds = String::from("kind,members,mean_relative_change,max_relative_change\n");
     for c in &r.force_change {
-        println!(
+        say!(
             "{:>18} {:>8} {:>10.2} {:>10.2}",
             c.kind,
             c.counted,
@@ -197,7 +211,7 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
             c.kind, c.counted, c.mean_relative, c.max_relative
         );
     }
-    println!("seed (Fig. 12): continuous cables change least, discontinuous cables moderately, struts most.");
+    say!("seed (Fig. 12): continuous cables change least, discontinuous cables moderately, struts most.");
     let mut members = String::from("member,relative_change\n");
     let n_members = structure.members.len();
     for (i, rel) in &r.member_change {
@@ -230,6 +244,6 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
         "Friction effect after a fold-deploy cycle",
     )?;
     write_atomically(&e.out.join("overlay.svg"), svg.as_bytes())?;
-    println!("results in {}", e.out.display());
+    say!("results in {}", e.out.display());
     Ok(())
 }

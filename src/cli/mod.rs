@@ -5,6 +5,19 @@
 //! - `simulate`: apply a command sequence ([`simulate`]);
 //! - `experiment`: run an experiment file ([`experiment`]).
 
+/// `println!` that ends the program quietly when stdout is closed early
+/// (`tdeploy … | head`), where `println!` would panic.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+        }
+    }};
+}
+
 mod experiment;
 mod simulate;
 
@@ -107,7 +120,7 @@ fn structure_cmd(a: &ArgMatches) -> Result<()> {
         .iter()
         .filter(|m| m.kind.name() == "spring")
         .count();
-    println!(
+    say!(
         "wrote {}: {} nodes, {n_struts} struts, {n_cables} cables, {n_springs} springs, {} continuous cables ({} segments)",
         out.display(),
         s.nodes.len(),

@@ -130,9 +130,15 @@ pub fn simulate(a: &ArgMatches) -> Result<()> {
 }
 
 fn print_summary(model: &ForwardModel, records: &[StepRecord], out: &Path) {
-    println!(
+    say!(
         "{:>5} {:>10} {:>6} {:>8} {:>8} {:>12} {:>14}",
-        "step", "status", "incr", "Newton", "DR", "residual N", "max gap mm"
+        "step",
+        "status",
+        "incr",
+        "Newton",
+        "DR",
+        "residual N",
+        "max gap mm"
     );
     for r in records {
         let gap = r
@@ -140,7 +146,7 @@ fn print_summary(model: &ForwardModel, records: &[StepRecord], out: &Path) {
             .max_midspan_gap_m(&model.structure)
             .map(|g| format!("{:.3}", 1e3 * g))
             .unwrap_or_else(|| "-".into());
-        println!(
+        say!(
             "{:>5} {:>10} {:>6} {:>8} {:>8} {:>12.2e} {:>14}",
             r.step,
             r.report.status.as_str(),
@@ -151,7 +157,7 @@ fn print_summary(model: &ForwardModel, records: &[StepRecord], out: &Path) {
             gap
         );
     }
-    println!(
+    say!(
         "results in {} (steps.csv, positions.csv, member_forces.csv, segments.csv, state.svg)",
         out.display()
     );
