@@ -51,6 +51,67 @@ pub struct IncrementStart<'a> {
     pub slip: &'a [JointSlip],
 }
 
+/// Joints a cable may have before [`JointCones`] spills to the heap.
+const INLINE_JOINTS: usize = 32;
+
+/// The capstan bounds of a cable's joints for one geometry (index 0
+/// unused), computed once per mapping: the angle (an `acos`) and the bound
+/// (an `exp`) are most of a mapping's cost.
+struct JointCones {
+    inline: [[f64; 2]; INLINE_JOINTS],
+    heap: Vec<[f64; 2]>,
+    n: usize,
+}
+
+impl JointCones {
+    fn new(dirs: &[Vector3<f64>], friction: &JointFriction) -> Self {
+        let n = dirs.len();
+        let mut cones = JointCones {
+            inline: [[1.0; 2]; INLINE_JOINTS],
+            heap: Vec::new(),
+            n,
+        };
+        if n > INLINE_JOINTS {
+            cones.heap = vec![[1.0; 2]; n];
+        }
+        let same = friction.static_mu == friction.kinetic_mu;
+        for j in 1..n {
+            let theta = interior_angle(&dirs[j - 1], &dirs[j]);
+            let kinetic = friction.ratio_bound(theta, true);
+            let stat = if same {
+                kinetic
+            } else {
+                friction.ratio_bound(theta, false)
+            };
+            cones.slot(j)[0] = kinetic;
+            cones.slot(j)[1] = stat;
+        }
+        cones
+    }
+
+    fn slot(&mut self, j: usize) -> &mut [f64; 2] {
+        if self.n > INLINE_JOINTS {
+            &mut self.heap[j]
+        } else {
+            &mut self.inline[j]
+        }
+    }
+
+    /// The bound at joint `j`: kinetic while sliding, else static.
+    fn bound(&self, j: usize, sliding: bool) -> f64 {
+        let b = if self.n > INLINE_JOINTS {
+            self.heap[j]
+        } else {
+            self.inline[j]
+        };
+        if sliding {
+            b[0]
+        } else {
+            b[1]
+        }
+    }
+}
+
 /// Applies the friction return mapping to one continuous cable.
 ///
 /// `lengths_m`, `dirs`: geometric length and unit direction (from `path[i]`
@@ -93,9 +154,10 @@ pub fn map_cable(
     friction: &JointFriction,
     tol_n: f64,
 ) -> f64 {
+    let cones = JointCones::new(dirs, friction);
     for _ in 0..MAX_ACTIVE_SET_ROUNDS {
-        map_cable_with_slip(ea_n, lengths_m, dirs, rest_m, slip, start, friction);
-        if !revise_slip(ea_n, lengths_m, dirs, rest_m, slip, start, friction, tol_n) {
+        distribute(ea_n, lengths_m, rest_m, slip, start, &cones);
+        if !revise_slip(ea_n, lengths_m, rest_m, slip, start, &cones, tol_n) {
             return 0.0;
         }
     }
@@ -111,18 +173,16 @@ pub fn map_cable(
 fn revise_slip(
     ea_n: f64,
     lengths_m: &[f64],
-    dirs: &[Vector3<f64>],
     rest_m: &[f64],
     slip: &mut [JointSlip],
     start: IncrementStart<'_>,
-    friction: &JointFriction,
+    cones: &JointCones,
     tol_n: f64,
 ) -> bool {
     let mut changed = false;
     let mut moved = 0.0;
     for j in 1..rest_m.len() {
         moved += rest_m[j - 1] - start.rest_m[j - 1];
-        let theta = interior_angle(&dirs[j - 1], &dirs[j]);
         let revised = match slip[j] {
             JointSlip::Stuck => {
                 let t_a = segment_tension(ea_n, lengths_m[j - 1], rest_m[j - 1]);
@@ -132,7 +192,7 @@ fn revise_slip(
                     (start.slip[j], towards_motor),
                     (JointSlip::TowardsMotor, true) | (JointSlip::TowardsEnd, false)
                 );
-                let b = friction.ratio_bound(theta, sliding_this_way);
+                let b = cones.bound(j, sliding_this_way);
                 let (hi, lo) = if towards_motor {
                     (t_a, t_b)
                 } else {
@@ -149,7 +209,7 @@ fn revise_slip(
                 }
             }
             // Without friction at this angle either direction is right.
-            s if friction.ratio_bound(theta, true) == 1.0 => s,
+            s if cones.bound(j, true) == 1.0 => s,
             JointSlip::TowardsMotor if -moved * ea_n / rest_m[j - 1] > tol_n => JointSlip::Stuck,
             JointSlip::TowardsEnd if moved * ea_n / rest_m[j] > tol_n => JointSlip::Stuck,
             s => s,
@@ -280,6 +340,25 @@ pub fn map_cable_with_slip(
     start: IncrementStart<'_>,
     friction: &JointFriction,
 ) {
+    distribute(
+        ea_n,
+        lengths_m,
+        rest_m,
+        slip,
+        start,
+        &JointCones::new(dirs, friction),
+    );
+}
+
+/// [`map_cable_with_slip`] with the cones computed.
+fn distribute(
+    ea_n: f64,
+    lengths_m: &[f64],
+    rest_m: &mut [f64],
+    slip: &[JointSlip],
+    start: IncrementStart<'_>,
+    cones: &JointCones,
+) {
     let n = rest_m.len();
     let mut first = 0;
     while first < n {
@@ -298,8 +377,7 @@ pub fn map_cable_with_slip(
             &mut weights
         };
         for j in first + 1..=last {
-            let theta = interior_angle(&dirs[j - 1], &dirs[j]);
-            let b = friction.ratio_bound(theta, true);
+            let b = cones.bound(j, true);
             let i = j - first;
             w[i] = match slip[j] {
                 JointSlip::TowardsMotor => w[i - 1] / b,
