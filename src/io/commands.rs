@@ -48,24 +48,7 @@ pub fn parse_commands(
         field: field.to_string(),
         message,
     };
-    let mut reader = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let header = reader
-        .headers()
-        .map_err(|e| field_error(1, "header", e.to_string()))?
-        .clone();
-    if header.iter().collect::<Vec<_>>() != COMMAND_HEADER {
-        return Err(field_error(
-            1,
-            "header",
-            format!(
-                "expected columns `{}`, found `{}`",
-                COMMAND_HEADER.join(","),
-                header.iter().collect::<Vec<_>>().join(",")
-            ),
-        ));
-    }
+    let mut reader = super::csv_with_header(text, path, &COMMAND_HEADER)?;
     let n_cables = structure.continuous_cables.len();
     let mut out = CommandSequence {
         step_labels: vec![],

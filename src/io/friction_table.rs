@@ -32,24 +32,7 @@ pub fn parse_friction_table(text: &str, path: &Path) -> Result<FrictionCoefficie
         field: field.to_string(),
         message,
     };
-    let mut reader = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let header = reader
-        .headers()
-        .map_err(|e| field_error(1, "header", e.to_string()))?
-        .clone();
-    if header.iter().collect::<Vec<_>>() != FRICTION_TABLE_HEADER {
-        return Err(field_error(
-            1,
-            "header",
-            format!(
-                "expected columns `{}`, found `{}`",
-                FRICTION_TABLE_HEADER.join(","),
-                header.iter().collect::<Vec<_>>().join(",")
-            ),
-        ));
-    }
+    let mut reader = super::csv_with_header(text, path, &FRICTION_TABLE_HEADER)?;
     let (mut angles, mut mus) = (Vec::new(), Vec::new());
     for record in reader.records() {
         let record = record.map_err(|e| {

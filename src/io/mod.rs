@@ -96,6 +96,36 @@ impl FileError {
     }
 }
 
+/// A CSV reader over `text` (fields trimmed) whose header has been checked
+/// to be exactly `expected`; the error names `path`, line 1 and `header`.
+pub(crate) fn csv_with_header<'a>(
+    text: &'a str,
+    path: &Path,
+    expected: &[&str],
+) -> Result<csv::Reader<&'a [u8]>, FileError> {
+    let header_error = |message: String| FileError::Field {
+        path: path.to_path_buf(),
+        line: 1,
+        field: "header".to_string(),
+        message,
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let header = reader
+        .headers()
+        .map_err(|e| header_error(e.to_string()))?
+        .clone();
+    if header.iter().collect::<Vec<_>>() != expected {
+        return Err(header_error(format!(
+            "expected columns `{}`, found `{}`",
+            expected.join(","),
+            header.iter().collect::<Vec<_>>().join(",")
+        )));
+    }
+    Ok(reader)
+}
+
 /// Writes `bytes` to `path` atomically: a temporary sibling, flushed, then
 /// renamed over the target.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), FileError> {

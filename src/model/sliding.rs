@@ -51,6 +51,23 @@ pub struct IncrementStart<'a> {
     pub slip: &'a [JointSlip],
 }
 
+/// Which way a joint between tensions `t_a` (upstream) and `t_b` would
+/// slide (towards the higher tension): `(towards_motor, T_high, T_low,
+/// already sliding that way at the increment's start)`. The last decides
+/// whether the static or the kinetic bound applies.
+fn would_slide(t_a: f64, t_b: f64, start_slip: JointSlip) -> (bool, f64, f64, bool) {
+    let towards_motor = t_a >= t_b;
+    let sliding_this_way = matches!(
+        (start_slip, towards_motor),
+        (JointSlip::TowardsMotor, true) | (JointSlip::TowardsEnd, false)
+    );
+    if towards_motor {
+        (true, t_a, t_b, sliding_this_way)
+    } else {
+        (false, t_b, t_a, sliding_this_way)
+    }
+}
+
 /// Joints a cable may have before [`JointCones`] spills to the heap.
 const INLINE_JOINTS: usize = 32;
 
@@ -187,17 +204,9 @@ fn revise_slip(
             JointSlip::Stuck => {
                 let t_a = segment_tension(ea_n, lengths_m[j - 1], rest_m[j - 1]);
                 let t_b = segment_tension(ea_n, lengths_m[j], rest_m[j]);
-                let towards_motor = t_a >= t_b;
-                let sliding_this_way = matches!(
-                    (start.slip[j], towards_motor),
-                    (JointSlip::TowardsMotor, true) | (JointSlip::TowardsEnd, false)
-                );
+                let (towards_motor, hi, lo, sliding_this_way) =
+                    would_slide(t_a, t_b, start.slip[j]);
                 let b = cones.bound(j, sliding_this_way);
-                let (hi, lo) = if towards_motor {
-                    (t_a, t_b)
-                } else {
-                    (t_b, t_a)
-                };
                 if hi - b * lo >= -tol_n && hi > 0.0 {
                     if towards_motor {
                         JointSlip::TowardsMotor
@@ -252,18 +261,9 @@ fn map_cable_by_sweeps(
             let theta = interior_angle(&dirs[a], &dirs[b]);
             let t_a = segment_tension(ea_n, lengths_m[a], trial_a);
             let t_b = segment_tension(ea_n, lengths_m[b], trial_b);
-            // Direction of the would-be slide: towards the higher tension.
-            let towards_motor = t_a >= t_b;
-            let sliding_this_way = matches!(
-                (start.slip[j], towards_motor),
-                (JointSlip::TowardsMotor, true) | (JointSlip::TowardsEnd, false)
-            );
+            let (towards_motor, t_hi, t_lo, sliding_this_way) =
+                would_slide(t_a, t_b, start.slip[j]);
             let start_bound = friction.ratio_bound(theta, sliding_this_way);
-            let (t_hi, t_lo) = if towards_motor {
-                (t_a, t_b)
-            } else {
-                (t_b, t_a)
-            };
             let violation = t_hi - start_bound * t_lo;
             let slide_label = if towards_motor {
                 JointSlip::TowardsMotor
