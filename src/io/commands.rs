@@ -42,12 +42,8 @@ pub fn parse_commands(
     path: &Path,
     structure: &Structure,
 ) -> Result<CommandSequence, FileError> {
-    let field_error = |line: usize, field: &str, message: String| FileError::Field {
-        path: path.to_path_buf(),
-        line,
-        field: field.to_string(),
-        message,
-    };
+    let field_error =
+        |line: usize, field: &str, message: String| FileError::field(path, line, field, message);
     let mut reader = super::csv_with_header(text, path, &COMMAND_HEADER)?;
     let n_cables = structure.continuous_cables.len();
     let mut out = CommandSequence {
@@ -55,12 +51,8 @@ pub fn parse_commands(
         payout_change_m: vec![],
     };
     let mut seen_in_step = vec![false; n_cables];
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map(|p| p.line() as usize).unwrap_or(0);
-            field_error(line, "row", e.to_string())
-        })?;
-        let line = record.position().map(|p| p.line() as usize).unwrap_or(0);
+    for record in super::csv_records(&mut reader, path) {
+        let (line, record) = record?;
         let step: u64 = record[0].parse().map_err(|_| {
             field_error(
                 line,

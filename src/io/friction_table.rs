@@ -26,20 +26,12 @@ pub fn read_friction_table(path: &Path) -> Result<FrictionCoefficient, FileError
 
 /// Parses a friction table; `path` names the source in errors.
 pub fn parse_friction_table(text: &str, path: &Path) -> Result<FrictionCoefficient, FileError> {
-    let field_error = |line: usize, field: &str, message: String| FileError::Field {
-        path: path.to_path_buf(),
-        line,
-        field: field.to_string(),
-        message,
-    };
+    let field_error =
+        |line: usize, field: &str, message: String| FileError::field(path, line, field, message);
     let mut reader = super::csv_with_header(text, path, &FRICTION_TABLE_HEADER)?;
     let (mut angles, mut mus) = (Vec::new(), Vec::new());
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map(|p| p.line() as usize).unwrap_or(0);
-            field_error(line, "row", e.to_string())
-        })?;
-        let line = record.position().map(|p| p.line() as usize).unwrap_or(0);
+    for record in super::csv_records(&mut reader, path) {
+        let (line, record) = record?;
         let number = |i: usize, field: &str| {
             record[i]
                 .parse::<f64>()

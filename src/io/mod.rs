@@ -81,6 +81,16 @@ pub enum FileError {
 }
 
 impl FileError {
+    /// A [`FileError::Field`].
+    pub(crate) fn field(path: &Path, line: usize, field: &str, message: String) -> Self {
+        FileError::Field {
+            path: path.to_path_buf(),
+            line,
+            field: field.to_string(),
+            message,
+        }
+    }
+
     fn read(path: &Path, source: std::io::Error) -> Self {
         FileError::Read {
             path: path.to_path_buf(),
@@ -124,6 +134,21 @@ pub(crate) fn csv_with_header<'a>(
         )));
     }
     Ok(reader)
+}
+
+/// The records of a CSV reader with their 1-based line numbers; a row the
+/// CSV parser rejects becomes a `row` field error on its line.
+pub(crate) fn csv_records<'a>(
+    reader: &'a mut csv::Reader<&'a [u8]>,
+    path: &'a Path,
+) -> impl Iterator<Item = Result<(usize, csv::StringRecord), FileError>> + 'a {
+    reader.records().map(move |record| match record {
+        Ok(r) => Ok((r.position().map(|p| p.line() as usize).unwrap_or(0), r)),
+        Err(e) => {
+            let line = e.position().map(|p| p.line() as usize).unwrap_or(0);
+            Err(FileError::field(path, line, "row", e.to_string()))
+        }
+    })
 }
 
 /// Writes `bytes` to `path` atomically: a temporary sibling, flushed, then
