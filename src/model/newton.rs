@@ -187,7 +187,7 @@ impl ForwardModel {
             }
         }
         let labels = probe.joint_slip;
-        let Some(lu) = BlockLu::new(&k) else {
+        let Some(lu) = BlockLu::new(&k, self.dof_blocks()) else {
             return (None, labels);
         };
         let mut step = lu.solve(&load);
@@ -262,7 +262,7 @@ impl ForwardModel {
             }
             if factor.is_none() {
                 let (k, dofs) = tangent_stiffness(self, state, JointMode::AsMapped);
-                let Some(lu) = BlockLu::new(&k) else {
+                let Some(lu) = BlockLu::new(&k, self.dof_blocks()) else {
                     break true;
                 };
                 factor = Some((lu, dofs));
@@ -337,40 +337,20 @@ impl ForwardModel {
     }
 }
 
-/// LU factors of a matrix that is block diagonal after a permutation (the
-/// two halves of the bridge share no free node): each connected block of
-/// its sparsity graph is factorised on its own, which for two equal halves
-/// quarters the work.
+/// LU factors of a tangent stiffness block by block: free DOFs that no
+/// chain of members joins (the two halves of the bridge, parted by their
+/// supports) never couple, so each block is factorised on its own, which
+/// for two equal halves quarters the work.
 struct BlockLu {
     blocks: Vec<(Vec<usize>, LU<f64, Dyn, Dyn>)>,
     size: usize,
 }
 
 impl BlockLu {
-    /// Factorises `k`; `None` if a block is singular.
-    fn new(k: &DMatrix<f64>) -> Option<Self> {
-        let n = k.nrows();
-        let mut block_of = vec![usize::MAX; n];
-        let mut blocks = Vec::new();
-        for seed in 0..n {
-            if block_of[seed] != usize::MAX {
-                continue;
-            }
-            let id = blocks.len();
-            let mut members = vec![seed];
-            block_of[seed] = id;
-            let mut next = 0;
-            while next < members.len() {
-                let r = members[next];
-                next += 1;
-                for c in 0..n {
-                    if block_of[c] == usize::MAX && (k[(r, c)] != 0.0 || k[(c, r)] != 0.0) {
-                        block_of[c] = id;
-                        members.push(c);
-                    }
-                }
-            }
-            members.sort_unstable();
+    /// Factorises `k` block by block; `None` if a block is singular.
+    fn new(k: &DMatrix<f64>, blocks: &[Vec<usize>]) -> Option<Self> {
+        let mut factors = Vec::with_capacity(blocks.len());
+        for members in blocks {
             let sub = DMatrix::from_fn(members.len(), members.len(), |i, j| {
                 k[(members[i], members[j])]
             });
@@ -378,9 +358,12 @@ impl BlockLu {
             if !lu.is_invertible() {
                 return None;
             }
-            blocks.push((members, lu));
+            factors.push((members.clone(), lu));
         }
-        Some(BlockLu { blocks, size: n })
+        Some(BlockLu {
+            blocks: factors,
+            size: k.nrows(),
+        })
     }
 
     /// Solves `K·x = rhs`.
@@ -396,6 +379,49 @@ impl BlockLu {
         }
         x
     }
+}
+
+/// Free DOFs grouped into blocks that no member couples: connected
+/// components of the free nodes, joined by members and segments (a
+/// supported node joins nothing), each block its nodes' free DOFs in order.
+pub(super) fn dof_blocks(model_dofs: &FreeDofs, structure: &super::Structure) -> Vec<Vec<usize>> {
+    let n = structure.nodes.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let free = |i: usize| structure.nodes[i].is_free();
+    let mut join = |a: usize, b: usize| {
+        if free(a) && free(b) {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            parent[ra] = rb;
+        }
+    };
+    for m in &structure.members {
+        join(m.nodes[0], m.nodes[1]);
+    }
+    for c in &structure.continuous_cables {
+        for w in c.path.windows(2) {
+            join(w[0], w[1]);
+        }
+    }
+    let mut block_of_root = vec![usize::MAX; n];
+    let mut blocks: Vec<Vec<usize>> = Vec::new();
+    for (i, rows) in model_dofs.index.iter().enumerate() {
+        for row in rows.iter().flatten() {
+            let r = root(&mut parent, i);
+            if block_of_root[r] == usize::MAX {
+                block_of_root[r] = blocks.len();
+                blocks.push(Vec::new());
+            }
+            blocks[block_of_root[r]].push(*row);
+        }
+    }
+    blocks
 }
 
 /// The free-DOF entries of per-node vectors.

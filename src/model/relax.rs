@@ -19,6 +19,7 @@ use nalgebra::Vector3;
 use super::friction::JointFriction;
 use super::sliding::{map_cable, map_cable_with_slip, segment_tension, IncrementStart};
 use super::state::{DeploymentState, JointSlip};
+use super::stiffness::FreeDofs;
 use super::structure::Structure;
 
 /// Settings of the DR solver. Defaults are what the reference bridge needs
@@ -171,6 +172,7 @@ pub struct ForwardModel {
     external_n: Vec<Vector3<f64>>,
     free_mask: Vec<Vector3<f64>>,
     size_m: f64,
+    dof_blocks: Vec<Vec<usize>>,
 }
 
 /// A two-node force element: a member or a continuous-cable segment.
@@ -295,6 +297,7 @@ impl ForwardModel {
             hi = hi.sup(&n.position_m);
         }
         let size_m = (hi - lo).norm().max(1e-3);
+        let dof_blocks = super::newton::dof_blocks(&FreeDofs::of_structure(&structure), &structure);
         ForwardModel {
             structure,
             friction,
@@ -303,6 +306,7 @@ impl ForwardModel {
             external_n,
             free_mask,
             size_m,
+            dof_blocks,
         }
     }
 
@@ -444,6 +448,11 @@ impl ForwardModel {
             .iter()
             .map(|n| n.fixed.iter().filter(|f| !**f).count())
             .sum()
+    }
+
+    /// Free DOFs in blocks that no member couples (see [`super::newton`]).
+    pub(super) fn dof_blocks(&self) -> &[Vec<usize>] {
+        &self.dof_blocks
     }
 
     /// Bounding-box diagonal of the as-built structure, m.

@@ -56,11 +56,15 @@ pub struct FreeDofs {
 }
 
 impl FreeDofs {
-    /// Numbers the free DOFs of a structure node by node, x, y, z.
+    /// Numbers the free DOFs of a model's structure node by node, x, y, z.
     pub fn of(model: &ForwardModel) -> Self {
+        Self::of_structure(&model.structure)
+    }
+
+    /// Numbers the free DOFs of a structure node by node, x, y, z.
+    pub fn of_structure(structure: &super::Structure) -> Self {
         let mut count = 0;
-        let index = model
-            .structure
+        let index = structure
             .nodes
             .iter()
             .map(|n| {
