@@ -8,6 +8,7 @@
 pub mod commands;
 pub mod drawing;
 pub mod friction_table;
+pub mod model_file;
 pub mod results;
 pub mod structure_file;
 

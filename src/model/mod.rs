@@ -3,6 +3,7 @@
 //! Pure numerics: no files, no printing, no globals.
 
 pub mod command;
+pub mod effects;
 pub mod friction;
 mod newton;
 pub mod relax;
@@ -12,6 +13,7 @@ pub mod stiffness;
 pub mod structure;
 
 pub use command::{CommandError, CommandReport, IncrementObserver};
+pub use effects::{EffectKind, Effects, MotorModel};
 pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFriction};
 pub use relax::{ForwardModel, MemberForces, RelaxReport, RelaxSettings, RelaxStatus, Workspace};
 pub use state::{DeploymentState, JointSlip};

@@ -1,0 +1,260 @@
+//! Model files (TOML): which structure, and which physical effects are
+//! switched on with which parameters.
+//!
+//! ```toml
+//! format = "tensegrity-deploy/model/1"
+//! # "reference" for the built-in bridge, or a structure JSON file,
+//! # relative to this file.
+//! structure = "reference"
+//!
+//! [effects.joint_friction]
+//! mu = 0.12
+//! convention = "wrap"        # or "interior"
+//!
+//! [effects.motor]
+//! slip_fraction = 0.01       # fraction of each command lost
+//! backlash_m = 0.002         # play taken up on each reversal
+//!
+//! [effects.stiffness_error]
+//! strut_scale = 1.0
+//! cable_scale = 0.9
+//! spring_scale = 1.0
+//!
+//! [effects.thermal]
+//! expansion_per_k = 1.2e-5
+//! reference_temperature_c = 20
+//!
+//! [effects.joint_mass_error]
+//! scale = 1.1
+//!
+//! [effects.load_cell_bias]
+//! bias_n = 12
+//! ```
+//! A missing `[effects.*]` table is an effect switched off. Every effect,
+//! its physics, parameters, units and plausible ranges are documented in
+//! [`crate::model::effects`]. Unknown keys are errors, not ignored.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::structure_file::read_structure;
+use super::{write_atomically, FileError};
+use crate::model::{reference_bridge, BridgeParameters, Effects, Structure};
+
+/// The `format` a model file must declare.
+pub const MODEL_FORMAT: &str = "tensegrity-deploy/model/1";
+
+/// Where a model's structure comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StructureSource {
+    /// The built-in reference bridge with default parameters.
+    Reference,
+    /// A structure file (absolute, or resolved against the model file).
+    File(PathBuf),
+}
+
+/// A model: a structure and the effects on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelFile {
+    /// The structure.
+    pub structure: StructureSource,
+    /// The effects switched on.
+    pub effects: Effects,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelDoc {
+    format: String,
+    structure: String,
+    #[serde(default)]
+    effects: Effects,
+}
+
+/// Reads and validates a model file.
+pub fn read_model(path: &Path) -> Result<ModelFile, FileError> {
+    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    parse_model(&text, path)
+}
+
+/// Parses a model file; `path` names it in errors and anchors a relative
+/// structure path.
+pub fn parse_model(text: &str, path: &Path) -> Result<ModelFile, FileError> {
+    let doc: ModelDoc = toml::from_str(text).map_err(|e| {
+        let (line, column) = e
+            .span()
+            .map(|span| line_column(text, span.start))
+            .unwrap_or((0, 0));
+        FileError::Syntax {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message: e.message().to_string(),
+        }
+    })?;
+    let invalid = |entry: &str, message: String| FileError::Invalid {
+        path: path.to_path_buf(),
+        entry: entry.to_string(),
+        message,
+    };
+    if doc.format != MODEL_FORMAT {
+        return Err(invalid(
+            "format",
+            format!("expected \"{MODEL_FORMAT}\", found \"{}\"", doc.format),
+        ));
+    }
+    doc.effects.validate().map_err(|e| {
+        invalid(
+            &format!("effects.{}.{}", e.effect, e.parameter),
+            e.reason.clone(),
+        )
+    })?;
+    let structure = if doc.structure == "reference" {
+        StructureSource::Reference
+    } else {
+        let p = PathBuf::from(&doc.structure);
+        StructureSource::File(if p.is_absolute() {
+            p
+        } else {
+            path.parent().unwrap_or(Path::new(".")).join(p)
+        })
+    };
+    Ok(ModelFile {
+        structure,
+        effects: doc.effects,
+    })
+}
+
+/// 1-based line and column of byte `offset` in `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1;
+    (line, column)
+}
+
+impl ModelFile {
+    /// Loads the structure the model names (effects not yet applied).
+    pub fn load_structure(&self) -> Result<Structure, FileError> {
+        match &self.structure {
+            StructureSource::Reference => {
+                reference_bridge(&BridgeParameters::default()).map_err(|e| FileError::Invalid {
+                    path: PathBuf::from("reference"),
+                    entry: "structure".into(),
+                    message: e.to_string(),
+                })
+            }
+            StructureSource::File(p) => read_structure(p),
+        }
+    }
+
+    /// The model file's text. A structure file is written relative to
+    /// `dir` when it lies inside it.
+    pub fn to_toml(&self, dir: &Path) -> String {
+        let structure = match &self.structure {
+            StructureSource::Reference => "reference".to_string(),
+            StructureSource::File(p) => p
+                .strip_prefix(dir)
+                .unwrap_or(p)
+                .to_string_lossy()
+                .into_owned(),
+        };
+        let doc = ModelDoc {
+            format: MODEL_FORMAT.into(),
+            structure,
+            effects: self.effects,
+        };
+        toml::to_string(&doc).expect("a model serialises to TOML")
+    }
+}
+
+/// Writes a model file atomically, refusing to replace an existing file:
+/// a calibration never overwrites the model it started from.
+pub fn write_new_model(path: &Path, model: &ModelFile) -> Result<(), FileError> {
+    if path.exists() {
+        return Err(FileError::Invalid {
+            path: path.to_path_buf(),
+            entry: "file".into(),
+            message: "already exists; model files are never overwritten, choose another name"
+                .into(),
+        });
+    }
+    let dir = path.parent().unwrap_or(Path::new("."));
+    write_atomically(path, model.to_toml(dir).as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::EffectKind;
+
+    const GOOD: &str = r#"
+format = "tensegrity-deploy/model/1"
+structure = "reference"
+
+[effects.joint_friction]
+mu = 0.12
+
+[effects.motor]
+slip_fraction = 0.01
+backlash_m = 0.002
+"#;
+
+    #[test]
+    fn reads_effects_and_leaves_the_rest_off() {
+        let m = parse_model(GOOD, Path::new("m.toml")).unwrap();
+        assert_eq!(m.structure, StructureSource::Reference);
+        assert_eq!(
+            m.effects.enabled(),
+            vec![EffectKind::JointFriction, EffectKind::Motor]
+        );
+        assert_eq!(
+            m.effects.parameters(EffectKind::Motor),
+            Some(vec![0.01, 0.002])
+        );
+    }
+
+    #[test]
+    fn round_trips_through_its_text() {
+        let m = parse_model(GOOD, Path::new("m.toml")).unwrap();
+        let again = parse_model(&m.to_toml(Path::new(".")), Path::new("m.toml")).unwrap();
+        assert_eq!(m, again);
+    }
+
+    #[test]
+    fn errors_name_file_line_and_field() {
+        let typo = GOOD.replace("backlash_m", "backlash");
+        let e = parse_model(&typo, Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("m.toml:10:"), "{e}");
+        assert!(e.contains("backlash"), "{e}");
+        let negative = GOOD.replace("mu = 0.12", "mu = -0.1");
+        let e = parse_model(&negative, Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "m.toml: effects.joint_friction.mu: must be ≥ 0");
+        let text = GOOD.replace("mu = 0.12", "mu = \"high\"");
+        let e = parse_model(&text, Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("m.toml:6:"), "{e}");
+        let wrong = GOOD.replace("model/1", "model/9");
+        let e = parse_model(&wrong, Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("format"), "{e}");
+    }
+
+    #[test]
+    fn never_overwrites_an_existing_model() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.toml");
+        let m = parse_model(GOOD, &path).unwrap();
+        write_new_model(&path, &m).unwrap();
+        let e = write_new_model(&path, &m).unwrap_err().to_string();
+        assert!(e.contains("never overwritten"), "{e}");
+        assert_eq!(read_model(&path).unwrap(), m);
+    }
+}
