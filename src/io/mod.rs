@@ -8,6 +8,7 @@
 pub mod commands;
 pub mod drawing;
 pub mod friction_table;
+pub mod log;
 pub mod model_file;
 pub mod results;
 pub mod structure_file;
@@ -92,14 +93,14 @@ impl FileError {
         }
     }
 
-    fn read(path: &Path, source: std::io::Error) -> Self {
+    pub(crate) fn read(path: &Path, source: std::io::Error) -> Self {
         FileError::Read {
             path: path.to_path_buf(),
             source,
         }
     }
 
-    fn write(path: &Path, source: std::io::Error) -> Self {
+    pub(crate) fn write(path: &Path, source: std::io::Error) -> Self {
         FileError::Write {
             path: path.to_path_buf(),
             source,

@@ -1,0 +1,519 @@
+//! Measurement logs: what was commanded and what the sensors read, cycle by
+//! cycle and step by step.
+//!
+//! A log is a folder of four files:
+//!
+//! - `log.toml`: `format = "tensegrity-deploy/log/1"` and `structure`, the
+//!   name of the structure the log was made on (checked against the model's
+//!   structure, so that a log is never replayed on another bridge).
+//! - `commands.csv`: `cycle,step,cable,payout_change_m`: the payout change
+//!   sent to each motor, one row per cycle, step and cable (cables a step
+//!   does not list are not moved). Cycles and steps are non-negative
+//!   integers, in increasing order.
+//! - `sensors.csv`: `sensor,kind,target,noise_sd`: the sensor layout.
+//!   `kind` is `tension` (target: a continuous-cable segment
+//!   `CABLE_ID:SEGMENT`, or a member id; N), `position_x`, `position_y`,
+//!   `position_z` (target: a node id; m) or `temperature` (target `-`; °C).
+//!   `noise_sd` is the sensor's noise standard deviation in its unit.
+//! - `measurements.csv`: `cycle,step,sensor,value`: one row per cycle, step
+//!   and sensor, in SI units (°C for temperature); step 0 of a cycle is the
+//!   state before its first command. An empty `value`, or a missing row, is
+//!   a missing reading.
+//!
+//! Loading validates every file against the structure and names the file,
+//! line and field of the first problem.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use super::{csv_records, csv_with_header, write_atomically, FileError};
+use crate::model::Structure;
+
+/// The `format` a log must declare.
+pub const LOG_FORMAT: &str = "tensegrity-deploy/log/1";
+/// Header of `commands.csv`.
+pub const LOG_COMMANDS_HEADER: [&str; 4] = ["cycle", "step", "cable", "payout_change_m"];
+/// Header of `sensors.csv`.
+pub const SENSORS_HEADER: [&str; 4] = ["sensor", "kind", "target", "noise_sd"];
+/// Header of `measurements.csv`.
+pub const MEASUREMENTS_HEADER: [&str; 4] = ["cycle", "step", "sensor", "value"];
+
+/// What a sensor measures, resolved against the structure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorTarget {
+    /// Tension of segment `segment` of continuous cable `cable`, N.
+    SegmentTension {
+        /// Cable index.
+        cable: usize,
+        /// Segment index along the cable.
+        segment: usize,
+    },
+    /// Axial force of member `member`, N.
+    MemberForce {
+        /// Member index.
+        member: usize,
+    },
+    /// Coordinate `axis` (0 x, 1 y, 2 z) of node `node`, m.
+    Position {
+        /// Node index.
+        node: usize,
+        /// Axis.
+        axis: usize,
+    },
+    /// Air temperature, °C.
+    Temperature,
+}
+
+/// One sensor of the layout.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensor {
+    /// Unique id.
+    pub id: String,
+    /// What it measures.
+    pub target: SensorTarget,
+    /// Noise standard deviation, in the sensor's unit.
+    pub noise_sd: f64,
+}
+
+impl Sensor {
+    /// `kind` and `target` as written in `sensors.csv`.
+    pub fn kind_and_target(&self, structure: &Structure) -> (String, String) {
+        match self.target {
+            SensorTarget::SegmentTension { cable, segment } => (
+                "tension".into(),
+                format!("{}:{segment}", structure.continuous_cables[cable].id),
+            ),
+            SensorTarget::MemberForce { member } => {
+                ("tension".into(), structure.members[member].id.clone())
+            }
+            SensorTarget::Position { node, axis } => (
+                format!("position_{}", ["x", "y", "z"][axis]),
+                structure.nodes[node].id.clone(),
+            ),
+            SensorTarget::Temperature => ("temperature".into(), "-".into()),
+        }
+    }
+}
+
+/// The commands of one step: a payout change per continuous cable, m.
+pub type StepCommand = Vec<f64>;
+
+/// One deployment-fold cycle: its steps' commands and readings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cycle {
+    /// Cycle number as logged.
+    pub label: u64,
+    /// Step numbers as logged (step 0, the state before any command, has no
+    /// command and is not listed).
+    pub step_labels: Vec<u64>,
+    /// Commands per step (same order as `step_labels`).
+    pub commands: Vec<StepCommand>,
+    /// Readings per step, step 0 first then `step_labels` order; one
+    /// `Option` per sensor (layout order).
+    pub readings: Vec<Vec<Option<f64>>>,
+}
+
+/// A whole log.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasurementLog {
+    /// Name of the structure it was made on.
+    pub structure: String,
+    /// Sensor layout.
+    pub sensors: Vec<Sensor>,
+    /// Cycles in order.
+    pub cycles: Vec<Cycle>,
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LogMeta {
+    format: String,
+    structure: String,
+}
+
+fn parse_u64(text: &str, path: &Path, line: usize, field: &str) -> Result<u64, FileError> {
+    text.parse().map_err(|_| {
+        FileError::field(
+            path,
+            line,
+            field,
+            format!("\"{text}\" is not a non-negative integer"),
+        )
+    })
+}
+
+fn parse_finite(text: &str, path: &Path, line: usize, field: &str) -> Result<f64, FileError> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| {
+            FileError::field(
+                path,
+                line,
+                field,
+                format!("\"{text}\" is not a finite number"),
+            )
+        })
+}
+
+fn read_text(path: &Path) -> Result<String, FileError> {
+    std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))
+}
+
+/// Reads and validates the log in folder `dir` against `structure`.
+pub fn read_log(dir: &Path, structure: &Structure) -> Result<MeasurementLog, FileError> {
+    let meta_path = dir.join("log.toml");
+    let meta: LogMeta =
+        toml::from_str(&read_text(&meta_path)?).map_err(|e| FileError::Invalid {
+            path: meta_path.clone(),
+            entry: "log.toml".into(),
+            message: e.message().to_string(),
+        })?;
+    let invalid = |entry: &str, message: String| FileError::Invalid {
+        path: meta_path.clone(),
+        entry: entry.into(),
+        message,
+    };
+    if meta.format != LOG_FORMAT {
+        return Err(invalid(
+            "format",
+            format!("expected \"{LOG_FORMAT}\", found \"{}\"", meta.format),
+        ));
+    }
+    if meta.structure != structure.name {
+        return Err(invalid(
+            "structure",
+            format!(
+                "the log was made on \"{}\", the model's structure is \"{}\"",
+                meta.structure, structure.name
+            ),
+        ));
+    }
+    let sensors = read_sensors(&dir.join("sensors.csv"), structure)?;
+    let mut cycles = read_commands(&dir.join("commands.csv"), structure)?;
+    read_measurements(&dir.join("measurements.csv"), &sensors, &mut cycles)?;
+    Ok(MeasurementLog {
+        structure: meta.structure,
+        sensors,
+        cycles,
+    })
+}
+
+fn read_sensors(path: &Path, structure: &Structure) -> Result<Vec<Sensor>, FileError> {
+    let text = read_text(path)?;
+    let mut reader = csv_with_header(&text, path, &SENSORS_HEADER)?;
+    let mut sensors: Vec<Sensor> = Vec::new();
+    for record in csv_records(&mut reader, path) {
+        let (line, r) = record?;
+        let err = |field: &str, message: String| FileError::field(path, line, field, message);
+        let id = r[0].to_string();
+        if id.is_empty() || sensors.iter().any(|s| s.id == id) {
+            return Err(err("sensor", format!("\"{id}\" is empty or repeated")));
+        }
+        let target_text = &r[2];
+        let target = match &r[1] {
+            "tension" => {
+                if let Some((cable_id, segment)) = target_text.split_once(':') {
+                    let cable = structure
+                        .continuous_cables
+                        .iter()
+                        .position(|c| c.id == cable_id)
+                        .ok_or_else(|| err("target", format!("no continuous cable \"{cable_id}\"")))?;
+                    let segment: usize = segment
+                        .parse()
+                        .ok()
+                        .filter(|s| *s < structure.continuous_cables[cable].segment_count())
+                        .ok_or_else(|| err("target", format!("\"{target_text}\": no such segment")))?;
+                    SensorTarget::SegmentTension { cable, segment }
+                } else {
+                    let member = structure
+                        .members
+                        .iter()
+                        .position(|m| m.id == target_text)
+                        .ok_or_else(|| err("target", format!("no member \"{target_text}\"")))?;
+                    SensorTarget::MemberForce { member }
+                }
+            }
+            kind @ ("position_x" | "position_y" | "position_z") => {
+                let node = structure
+                    .node_index(target_text)
+                    .ok_or_else(|| err("target", format!("no node \"{target_text}\"")))?;
+                let axis = match kind {
+                    "position_x" => 0,
+                    "position_y" => 1,
+                    _ => 2,
+                };
+                SensorTarget::Position { node, axis }
+            }
+            "temperature" => SensorTarget::Temperature,
+            other => {
+                return Err(err(
+                    "kind",
+                    format!("unknown kind \"{other}\" (tension, position_x, position_y, position_z, temperature)"),
+                ))
+            }
+        };
+        let noise_sd = parse_finite(&r[3], path, line, "noise_sd")?;
+        if noise_sd < 0.0 {
+            return Err(err("noise_sd", format!("{noise_sd} is negative")));
+        }
+        sensors.push(Sensor {
+            id,
+            target,
+            noise_sd,
+        });
+    }
+    if sensors.is_empty() {
+        return Err(FileError::field(path, 1, "row", "no sensors".into()));
+    }
+    Ok(sensors)
+}
+
+fn read_commands(path: &Path, structure: &Structure) -> Result<Vec<Cycle>, FileError> {
+    let text = read_text(path)?;
+    let mut reader = csv_with_header(&text, path, &LOG_COMMANDS_HEADER)?;
+    let n = structure.continuous_cables.len();
+    let mut cycles: Vec<Cycle> = Vec::new();
+    for record in csv_records(&mut reader, path) {
+        let (line, r) = record?;
+        let err = |field: &str, message: String| FileError::field(path, line, field, message);
+        let cycle = parse_u64(&r[0], path, line, "cycle")?;
+        let step = parse_u64(&r[1], path, line, "step")?;
+        if step == 0 {
+            return Err(err(
+                "step",
+                "step 0 is the state before the first command; commands start at step 1".into(),
+            ));
+        }
+        let cable = structure
+            .continuous_cables
+            .iter()
+            .position(|c| c.id == r[2])
+            .ok_or_else(|| err("cable", format!("no continuous cable \"{}\"", &r[2])))?;
+        let change = parse_finite(&r[3], path, line, "payout_change_m")?;
+        match cycles.last() {
+            Some(c) if c.label == cycle => {}
+            Some(c) if c.label > cycle => {
+                return Err(err(
+                    "cycle",
+                    format!("cycle {cycle} comes after cycle {}", c.label),
+                ))
+            }
+            _ => cycles.push(Cycle {
+                label: cycle,
+                step_labels: vec![],
+                commands: vec![],
+                readings: vec![],
+            }),
+        }
+        let c = cycles.last_mut().expect("pushed above");
+        match c.step_labels.last() {
+            Some(&s) if s == step => {}
+            Some(&s) if s > step => {
+                return Err(err("step", format!("step {step} comes after step {s}")))
+            }
+            _ => {
+                c.step_labels.push(step);
+                c.commands.push(vec![0.0; n]);
+            }
+        }
+        let row = c.commands.last_mut().expect("pushed above");
+        if row[cable] != 0.0 {
+            return Err(err("cable", format!("\"{}\" twice in one step", &r[2])));
+        }
+        row[cable] = change;
+    }
+    if cycles.is_empty() {
+        return Err(FileError::field(path, 1, "row", "no commands".into()));
+    }
+    Ok(cycles)
+}
+
+fn read_measurements(
+    path: &Path,
+    sensors: &[Sensor],
+    cycles: &mut [Cycle],
+) -> Result<(), FileError> {
+    let text = read_text(path)?;
+    let mut reader = csv_with_header(&text, path, &MEASUREMENTS_HEADER)?;
+    let sensor_index: HashMap<&str, usize> = sensors
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.id.as_str(), i))
+        .collect();
+    for c in cycles.iter_mut() {
+        c.readings = vec![vec![None; sensors.len()]; c.step_labels.len() + 1];
+    }
+    for record in csv_records(&mut reader, path) {
+        let (line, r) = record?;
+        let err = |field: &str, message: String| FileError::field(path, line, field, message);
+        let cycle = parse_u64(&r[0], path, line, "cycle")?;
+        let step = parse_u64(&r[1], path, line, "step")?;
+        let c = cycles
+            .iter_mut()
+            .find(|c| c.label == cycle)
+            .ok_or_else(|| err("cycle", format!("cycle {cycle} has no commands")))?;
+        let k = if step == 0 {
+            0
+        } else {
+            1 + c
+                .step_labels
+                .iter()
+                .position(|&s| s == step)
+                .ok_or_else(|| err("step", format!("cycle {cycle} has no step {step}")))?
+        };
+        let s = *sensor_index
+            .get(&r[2])
+            .ok_or_else(|| err("sensor", format!("no sensor \"{}\" in sensors.csv", &r[2])))?;
+        if c.readings[k][s].is_some() {
+            return Err(err(
+                "sensor",
+                format!("\"{}\" read twice in one step", &r[2]),
+            ));
+        }
+        if !r[3].is_empty() {
+            c.readings[k][s] = Some(parse_finite(&r[3], path, line, "value")?);
+        }
+    }
+    Ok(())
+}
+
+/// Writes `log` into folder `dir` (created if missing), every file
+/// atomically.
+pub fn write_log(dir: &Path, log: &MeasurementLog, structure: &Structure) -> Result<(), FileError> {
+    std::fs::create_dir_all(dir).map_err(|e| FileError::write(dir, e))?;
+    let meta = toml::to_string(&LogMeta {
+        format: LOG_FORMAT.into(),
+        structure: log.structure.clone(),
+    })
+    .expect("log metadata serialises");
+    write_atomically(&dir.join("log.toml"), meta.as_bytes())?;
+    let mut sensors = SENSORS_HEADER.join(",") + "\n";
+    for s in &log.sensors {
+        let (kind, target) = s.kind_and_target(structure);
+        sensors += &format!("{},{kind},{target},{}\n", s.id, s.noise_sd);
+    }
+    write_atomically(&dir.join("sensors.csv"), sensors.as_bytes())?;
+    let mut commands = LOG_COMMANDS_HEADER.join(",") + "\n";
+    let mut measurements = MEASUREMENTS_HEADER.join(",") + "\n";
+    for c in &log.cycles {
+        for (step, row) in c.step_labels.iter().zip(&c.commands) {
+            for (cable, v) in row.iter().enumerate() {
+                if *v != 0.0 {
+                    commands += &format!(
+                        "{},{step},{},{v}\n",
+                        c.label, structure.continuous_cables[cable].id
+                    );
+                }
+            }
+        }
+        let steps = std::iter::once(0).chain(c.step_labels.iter().copied());
+        for (step, readings) in steps.zip(&c.readings) {
+            for (s, v) in log.sensors.iter().zip(readings) {
+                let value = v.map(|v| v.to_string()).unwrap_or_default();
+                measurements += &format!("{},{step},{},{value}\n", c.label, s.id);
+            }
+        }
+    }
+    write_atomically(&dir.join("commands.csv"), commands.as_bytes())?;
+    write_atomically(&dir.join("measurements.csv"), measurements.as_bytes())?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{reference_bridge, BridgeParameters};
+
+    fn sample(structure: &Structure) -> MeasurementLog {
+        let n = structure.continuous_cables.len();
+        let mut cmd = vec![0.0; n];
+        cmd[0] = 0.01;
+        cmd[1] = -0.01;
+        MeasurementLog {
+            structure: structure.name.clone(),
+            sensors: vec![
+                Sensor {
+                    id: "lc0".into(),
+                    target: SensorTarget::SegmentTension {
+                        cable: 0,
+                        segment: 3,
+                    },
+                    noise_sd: 7.0,
+                },
+                Sensor {
+                    id: "z4".into(),
+                    target: SensorTarget::Position { node: 24, axis: 2 },
+                    noise_sd: 0.001,
+                },
+                Sensor {
+                    id: "temp".into(),
+                    target: SensorTarget::Temperature,
+                    noise_sd: 0.1,
+                },
+            ],
+            cycles: vec![Cycle {
+                label: 1,
+                step_labels: vec![1, 2],
+                commands: vec![cmd.clone(), cmd],
+                readings: vec![
+                    vec![Some(550.0), Some(0.1), Some(20.0)],
+                    vec![Some(540.5), None, Some(20.1)],
+                    vec![Some(530.25), Some(0.12), None],
+                ],
+            }],
+        }
+    }
+
+    #[test]
+    fn a_log_round_trips_through_its_folder() {
+        let s = reference_bridge(&BridgeParameters::default()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let log = sample(&s);
+        write_log(dir.path(), &log, &s).unwrap();
+        assert_eq!(read_log(dir.path(), &s).unwrap(), log);
+    }
+
+    #[test]
+    fn bad_logs_are_rejected_naming_file_line_and_field() {
+        let s = reference_bridge(&BridgeParameters::default()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        write_log(dir.path(), &sample(&s), &s).unwrap();
+        let edit = |file: &str, from: &str, to: &str| {
+            let p = dir.path().join(file);
+            let text = std::fs::read_to_string(&p).unwrap();
+            std::fs::write(&p, text.replacen(from, to, 1)).unwrap();
+            let e = read_log(dir.path(), &s).unwrap_err().to_string();
+            std::fs::write(&p, text).unwrap();
+            e
+        };
+        let e = edit(
+            "measurements.csv",
+            "cycle,step,sensor,value",
+            "cycle,step,sensor,val",
+        );
+        assert!(
+            e.contains("measurements.csv: line 1, field `header`"),
+            "{e}"
+        );
+        let e = edit("measurements.csv", "1,1,lc0,540.5", "1,1,lc9,540.5");
+        assert!(
+            e.contains("measurements.csv: line 5, field `sensor`: no sensor \"lc9\""),
+            "{e}"
+        );
+        let e = edit("measurements.csv", "540.5", "abc");
+        assert!(
+            e.contains("line 5, field `value`: \"abc\" is not a finite number"),
+            "{e}"
+        );
+        let e = edit("sensors.csv", "A_cc0:3", "A_cc0:9");
+        assert!(e.contains("sensors.csv: line 2, field `target`"), "{e}");
+        let e = edit("commands.csv", "A_cc1", "A_cc7");
+        assert!(e.contains("commands.csv: line 3, field `cable`"), "{e}");
+        let e = edit("log.toml", "hollow-rope", "another");
+        assert!(
+            e.contains("log.toml: structure: the log was made on"),
+            "{e}"
+        );
+    }
+}
