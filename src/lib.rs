@@ -29,9 +29,12 @@
 //! - [`model`]: structure, friction, DR solver, reference bridge. Pure.
 //! - [`qp`]: quadratic programs and the only Clarabel adapter.
 //! - [`analysis`]: studies that compare model runs (friction effect).
+//! - [`measure`]: models with effects run through logged cycles; the
+//!   synthetic lab.
 //! - [`io`]: file formats; the only module that touches files.
 
 pub mod analysis;
 pub mod io;
+pub mod measure;
 pub mod model;
 pub mod qp;

@@ -3,7 +3,8 @@
 //!
 //! - `structure`: generate the reference bridge ([`structure_cmd`]);
 //! - `simulate`: apply a command sequence ([`simulate`]);
-//! - `experiment`: run an experiment file ([`experiment`]).
+//! - `experiment`: run an experiment file ([`experiment`]);
+//! - `lab`: a synthetic measurement log from a truth model ([`lab`]).
 
 /// `println!` that ends the program quietly when stdout is closed early
 /// (`tdeploy … | head`), where `println!` would panic.
@@ -19,6 +20,7 @@ macro_rules! say {
 }
 
 mod experiment;
+mod lab;
 mod simulate;
 
 use std::path::PathBuf;
@@ -73,6 +75,15 @@ pub fn command() -> Command {
                 .arg(Arg::new("quiet").long("quiet").short('q').action(ArgAction::SetTrue).help("No progress bar")),
         )
         .subcommand(
+            Command::new("lab")
+                .about("Run deployment-fold cycles on a truth model file and write a measurement log with sensor noise")
+                .arg(Arg::new("truth").required(true).value_parser(value_parser!(PathBuf)).help("Truth model file (TOML: structure and effects)"))
+                .arg(Arg::new("out").long("out").short('o').default_value("out/lab-log").value_parser(value_parser!(PathBuf)).help("Log folder to write; the truth is recorded beside it as <out>.truth.toml"))
+                .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
+                .arg(Arg::new("amplitudes").long("amplitudes").value_delimiter(',').default_value("0.01,0.05,0.1,0.4").value_parser(value_parser!(f64)).help("Cable actuation of each cycle, m (paid out, then reeled back in)"))
+                .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle")),
+        )
+        .subcommand(
             Command::new("experiment")
                 .about("Run an experiment file from experiments/")
                 .arg(Arg::new("file").required(true).value_parser(value_parser!(PathBuf))),
@@ -85,6 +96,7 @@ pub fn run(m: &ArgMatches) -> Result<()> {
         Some(("structure", a)) => structure_cmd(a),
         Some(("simulate", a)) => simulate::simulate(a),
         Some(("experiment", a)) => experiment::experiment(a),
+        Some(("lab", a)) => lab::lab(a),
         _ => unreachable!("clap requires a subcommand"),
     }
 }
