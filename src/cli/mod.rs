@@ -4,7 +4,8 @@
 //! - `structure`: generate the reference bridge ([`structure_cmd`]);
 //! - `simulate`: apply a command sequence ([`simulate`]);
 //! - `experiment`: run an experiment file ([`experiment`]);
-//! - `lab`: a synthetic measurement log from a truth model ([`lab`]).
+//! - `lab`: a synthetic measurement log from a truth model ([`lab`]);
+//! - `compare`: a model against a log ([`compare`]).
 
 /// `println!` that ends the program quietly when stdout is closed early
 /// (`tdeploy … | head`), where `println!` would panic.
@@ -19,6 +20,7 @@ macro_rules! say {
     }};
 }
 
+mod compare;
 mod experiment;
 mod lab;
 mod simulate;
@@ -84,6 +86,13 @@ pub fn command() -> Command {
                 .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle")),
         )
         .subcommand(
+            Command::new("compare")
+                .about("Replay a measurement log through a model and report the residuals per sensor, step and direction")
+                .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
+                .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
+                .arg(Arg::new("out").long("out").short('o').default_value("out/compare").value_parser(value_parser!(PathBuf)).help("Report folder (CSV and SVG)")),
+        )
+        .subcommand(
             Command::new("experiment")
                 .about("Run an experiment file from experiments/")
                 .arg(Arg::new("file").required(true).value_parser(value_parser!(PathBuf))),
@@ -97,6 +106,7 @@ pub fn run(m: &ArgMatches) -> Result<()> {
         Some(("simulate", a)) => simulate::simulate(a),
         Some(("experiment", a)) => experiment::experiment(a),
         Some(("lab", a)) => lab::lab(a),
+        Some(("compare", a)) => compare::compare(a),
         _ => unreachable!("clap requires a subcommand"),
     }
 }

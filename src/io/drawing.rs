@@ -29,6 +29,12 @@ pub struct DrawnState<'a> {
 #[error("drawing failed: {0}")]
 pub struct DrawingError(String);
 
+impl DrawingError {
+    pub(crate) fn new(message: String) -> Self {
+        DrawingError(message)
+    }
+}
+
 fn err<E: std::fmt::Debug>(e: E) -> DrawingError {
     DrawingError(format!("{e:?}"))
 }

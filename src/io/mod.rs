@@ -7,6 +7,7 @@
 
 pub mod commands;
 pub mod drawing;
+pub mod figures;
 pub mod friction_table;
 pub mod log;
 pub mod model_file;

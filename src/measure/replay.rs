@@ -10,6 +10,7 @@
 use thiserror::Error;
 
 use crate::io::log::{Sensor, SensorTarget};
+use crate::model::sliding::interior_angle;
 use crate::model::{
     CommandError, DeploymentState, Effects, ForwardModel, RelaxSettings, RelaxStatus, Structure,
     Workspace,
@@ -42,6 +43,30 @@ pub struct CycleSchedule {
 /// The sensor values of one run: per cycle, per step (step 0 first), per
 /// sensor; `None` where the model gives no value (temperature unknown).
 pub type Readings = Vec<Vec<Vec<Option<f64>>>>;
+
+/// What the model state was at a step: the candidate explanatory features
+/// a comparison plots residuals against.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepFeatures {
+    /// Mean motor payout over the cables since the as-built state, m.
+    pub payout_m: f64,
+    /// Sum of the step's commanded payout changes, m: positive folding,
+    /// negative deploying, zero for step 0.
+    pub command_m: f64,
+    /// Mean interior angle of the continuous cables' joints, rad.
+    pub joint_angle_rad: f64,
+    /// Temperature, °C, where known.
+    pub temperature_c: Option<f64>,
+}
+
+/// A run: sensor values and state features per cycle and step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Run {
+    /// Sensor values.
+    pub readings: Readings,
+    /// Features, same indexing by cycle and step.
+    pub features: Vec<Vec<StepFeatures>>,
+}
 
 /// Why a run stopped.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -76,6 +101,15 @@ impl EffectModel {
         cycles: &[CycleSchedule],
         sensors: &[Sensor],
     ) -> Result<Readings, ReplayError> {
+        Ok(self.run_with_features(cycles, sensors)?.readings)
+    }
+
+    /// [`Self::run`], with the state features of every step.
+    pub fn run_with_features(
+        &self,
+        cycles: &[CycleSchedule],
+        sensors: &[Sensor],
+    ) -> Result<Run, ReplayError> {
         let base = self.effects.apply_to_structure(&self.structure);
         let friction = self.effects.joint_friction();
         let mut strain = 0.0;
@@ -84,8 +118,10 @@ impl EffectModel {
         let mut ws = Workspace::default();
         let mut motor = self.effects.motor_model(base.continuous_cables.len());
         let mut out = Vec::with_capacity(cycles.len());
+        let mut features = Vec::with_capacity(cycles.len());
         for (ci, cycle) in cycles.iter().enumerate() {
             let mut per_step = Vec::with_capacity(cycle.commands.len() + 1);
+            let mut step_features = Vec::with_capacity(cycle.commands.len() + 1);
             for step in 0..=cycle.commands.len() {
                 let temperature = cycle.temperature_c.get(step).copied().flatten();
                 let new_strain = self.effects.thermal_strain(temperature);
@@ -124,10 +160,26 @@ impl EffectModel {
                     }
                 }
                 per_step.push(self.read(&model, &state, sensors, temperature));
+                let command_m = if step == 0 {
+                    0.0
+                } else {
+                    cycle.commands[step - 1].iter().sum()
+                };
+                step_features.push(StepFeatures {
+                    payout_m: state.payout_m.iter().sum::<f64>()
+                        / state.payout_m.len().max(1) as f64,
+                    command_m,
+                    joint_angle_rad: mean_joint_angle(&model.structure, &state),
+                    temperature_c: temperature,
+                });
             }
             out.push(per_step);
+            features.push(step_features);
         }
-        Ok(out)
+        Ok(Run {
+            readings: out,
+            features,
+        })
     }
 
     /// What `sensors` read on `state` (noise-free).
@@ -153,6 +205,25 @@ impl EffectModel {
                 SensorTarget::Temperature => temperature_c,
             })
             .collect()
+    }
+}
+
+/// Mean interior angle over all joints of all continuous cables, rad.
+fn mean_joint_angle(structure: &Structure, state: &DeploymentState) -> f64 {
+    let x = &state.positions_m;
+    let (mut sum, mut n) = (0.0, 0usize);
+    for c in &structure.continuous_cables {
+        for w in c.path.windows(3) {
+            let a = (x[w[1]] - x[w[0]]).normalize();
+            let b = (x[w[2]] - x[w[1]]).normalize();
+            sum += interior_angle(&a, &b);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        sum / n as f64
     }
 }
 
