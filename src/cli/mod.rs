@@ -5,7 +5,10 @@
 //! - `simulate`: apply a command sequence ([`simulate`]);
 //! - `experiment`: run an experiment file ([`experiment`]);
 //! - `lab`: a synthetic measurement log from a truth model ([`lab`]);
-//! - `compare`: a model against a log ([`compare`]).
+//! - `compare`: a model against a log ([`compare`]);
+//! - `diagnose`: which effect the model lacks ([`diagnose`]);
+//! - `calibrate`: a new model file with one effect added and fitted
+//!   ([`calibrate`]).
 
 /// `println!` that ends the program quietly when stdout is closed early
 /// (`tdeploy … | head`), where `println!` would panic.
@@ -20,7 +23,9 @@ macro_rules! say {
     }};
 }
 
+mod calibrate;
 mod compare;
+mod diagnose;
 mod experiment;
 mod lab;
 mod simulate;
@@ -93,6 +98,21 @@ pub fn command() -> Command {
                 .arg(Arg::new("out").long("out").short('o').default_value("out/compare").value_parser(value_parser!(PathBuf)).help("Report folder (CSV and SVG)")),
         )
         .subcommand(
+            Command::new("diagnose")
+                .about("Fit every effect the model lacks to a log, score each on held-out cycles, and say which is missing")
+                .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
+                .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
+                .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects to look for at most, one per round")),
+        )
+        .subcommand(
+            Command::new("calibrate")
+                .about("Fit one effect to a log and write a new model file with it (never overwriting the input)")
+                .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
+                .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
+                .arg(Arg::new("add").long("add").required(true).help("Effect to add: joint_friction, motor, stiffness_error, thermal, joint_mass_error, load_cell_bias"))
+                .arg(Arg::new("out").long("out").short('o').required(true).value_parser(value_parser!(PathBuf)).help("New model file (must not exist)")),
+        )
+        .subcommand(
             Command::new("experiment")
                 .about("Run an experiment file from experiments/")
                 .arg(Arg::new("file").required(true).value_parser(value_parser!(PathBuf))),
@@ -107,6 +127,8 @@ pub fn run(m: &ArgMatches) -> Result<()> {
         Some(("experiment", a)) => experiment::experiment(a),
         Some(("lab", a)) => lab::lab(a),
         Some(("compare", a)) => compare::compare(a),
+        Some(("diagnose", a)) => diagnose::diagnose(a),
+        Some(("calibrate", a)) => calibrate::calibrate(a),
         _ => unreachable!("clap requires a subcommand"),
     }
 }

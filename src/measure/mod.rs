@@ -5,6 +5,7 @@
 //! [`crate::io`].
 
 pub mod compare;
+pub mod diagnose;
 pub mod lab;
 pub mod replay;
 

@@ -55,6 +55,8 @@ pub struct ParameterSpec {
     /// Plausible range for the real structure (a fit outside it is
     /// suspect; a synthetic truth draws from it).
     pub plausible: (f64, f64),
+    /// Physically admissible range (what [`Effects::validate`] accepts).
+    pub admissible: (f64, f64),
 }
 
 const FRICTION_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
@@ -62,6 +64,7 @@ const FRICTION_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
     unit: "1",
     neutral: 0.0,
     plausible: (0.02, 0.3),
+    admissible: (0.0, f64::INFINITY),
 }];
 const MOTOR_PARAMETERS: [ParameterSpec; 2] = [
     ParameterSpec {
@@ -69,12 +72,14 @@ const MOTOR_PARAMETERS: [ParameterSpec; 2] = [
         unit: "1",
         neutral: 0.0,
         plausible: (-0.05, 0.05),
+        admissible: (-1.0, 0.999),
     },
     ParameterSpec {
         name: "backlash_m",
         unit: "m",
         neutral: 0.0,
         plausible: (0.0, 0.005),
+        admissible: (0.0, f64::INFINITY),
     },
 ];
 const STIFFNESS_PARAMETERS: [ParameterSpec; 3] = [
@@ -83,18 +88,21 @@ const STIFFNESS_PARAMETERS: [ParameterSpec; 3] = [
         unit: "1",
         neutral: 1.0,
         plausible: (0.8, 1.2),
+        admissible: (1e-3, f64::INFINITY),
     },
     ParameterSpec {
         name: "cable_scale",
         unit: "1",
         neutral: 1.0,
         plausible: (0.6, 1.2),
+        admissible: (1e-3, f64::INFINITY),
     },
     ParameterSpec {
         name: "spring_scale",
         unit: "1",
         neutral: 1.0,
         plausible: (0.8, 1.2),
+        admissible: (1e-3, f64::INFINITY),
     },
 ];
 const THERMAL_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
@@ -102,18 +110,21 @@ const THERMAL_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
     unit: "1/K",
     neutral: 0.0,
     plausible: (1.0e-5, 1.4e-5),
+    admissible: (f64::NEG_INFINITY, f64::INFINITY),
 }];
 const MASS_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
     name: "scale",
     unit: "1",
     neutral: 1.0,
     plausible: (0.7, 1.5),
+    admissible: (1e-3, f64::INFINITY),
 }];
 const BIAS_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
     name: "bias_n",
     unit: "N",
     neutral: 0.0,
     plausible: (-50.0, 50.0),
+    admissible: (f64::NEG_INFINITY, f64::INFINITY),
 }];
 
 impl EffectKind {

@@ -1,0 +1,114 @@
+//! `tdeploy diagnose MODEL LOG`: which effect the model lacks, found by
+//! fitting every candidate and scoring it on held-out cycles.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::ArgMatches;
+
+use tensegrity_deploy::io::log::read_log;
+use tensegrity_deploy::io::model_file::read_model;
+use tensegrity_deploy::measure::diagnose::{diagnose as run, Candidate, DiagnoseSettings, Verdict};
+use tensegrity_deploy::measure::EffectModel;
+use tensegrity_deploy::model::RelaxSettings;
+
+fn params(c: &Candidate) -> String {
+    c.kind
+        .parameters()
+        .iter()
+        .zip(c.values.iter().zip(&c.std_errors))
+        .map(|(p, (v, se))| format!("{} = {v:.4} ± {se:.2e} {}", p.name, p.unit))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Runs `tdeploy diagnose`.
+pub fn diagnose(a: &ArgMatches) -> Result<()> {
+    let model_path = a.get_one::<PathBuf>("model").unwrap();
+    let log_dir = a.get_one::<PathBuf>("log").unwrap();
+    let model_file = read_model(model_path)?;
+    let model = EffectModel {
+        structure: model_file.load_structure()?,
+        effects: model_file.effects,
+        settings: RelaxSettings::default(),
+        increment_m: 0.01,
+    };
+    let log = read_log(log_dir, &model.structure)?;
+    let settings = DiagnoseSettings {
+        max_rounds: *a.get_one::<usize>("rounds").unwrap(),
+    };
+    let start = std::time::Instant::now();
+    let d = run(&model, &log, &settings)
+        .with_context(|| format!("diagnosing {}", log_dir.display()))?;
+    for (i, round) in d.rounds.iter().enumerate() {
+        say!(
+            "round {}: model held-out RMS {:.2} σ, BIC {:.1}",
+            i + 1,
+            round.base_held_out_rms,
+            round.base_bic
+        );
+        say!(
+            "  {:<18} {:>10} {:>10} {:>10} {:>10}  parameters",
+            "candidate",
+            "held-out σ",
+            "explained",
+            "BIC",
+            "cond"
+        );
+        for c in &round.ranking {
+            say!(
+                "  {:<18} {:>10.2} {:>9.0}% {:>10.1} {:>10.1e}  {}{}",
+                c.kind.name(),
+                c.held_out_rms,
+                100.0 * c.explained,
+                c.bic,
+                c.condition,
+                params(c),
+                if c.converged { "" } else { " (not converged)" }
+            );
+        }
+    }
+    match &d.verdict {
+        Verdict::NothingMissing => {
+            say!("verdict: residuals are consistent with sensor noise: nothing is missing")
+        }
+        Verdict::Missing(found) => {
+            for c in found {
+                say!(
+                    "verdict: effect {} is missing ({}; explains {:.0}% of the held-out residual above noise)",
+                    c.kind.name(),
+                    params(c),
+                    100.0 * c.explained
+                );
+            }
+        }
+        Verdict::Unexplained {
+            found,
+            held_out_rms,
+        } => {
+            let c = &d.final_comparison;
+            let worst = c
+                .worst_sensor()
+                .map(|s| log.sensors[s].id.clone())
+                .unwrap_or_default();
+            let dir = c
+                .per_direction
+                .iter()
+                .filter(|(_, s)| s.count > 0)
+                .max_by(|a, b| a.1.rms.total_cmp(&b.1.rms))
+                .map(|(d, s)| format!("{} (RMS {:.1} σ)", d.as_str(), s.rms))
+                .unwrap_or_default();
+            let names: Vec<_> = found.iter().map(|c| c.kind.name()).collect();
+            say!(
+                "verdict: a structured residual remains that no candidate explains: held-out RMS {held_out_rms:.2} σ after adding [{}]; worst at {worst}, most in the {dir} direction",
+                names.join(", ")
+            );
+        }
+    }
+    say!(
+        "({:.1} s on {} threads)",
+        start.elapsed().as_secs_f64(),
+        rayon::current_num_threads()
+    );
+    Ok(())
+}
