@@ -10,8 +10,7 @@ use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::{read_model, write_new_model, ModelFile};
 use tensegrity_deploy::measure::compare::compare;
 use tensegrity_deploy::measure::diagnose::{fit_candidate, part};
-use tensegrity_deploy::measure::EffectModel;
-use tensegrity_deploy::model::{EffectKind, RelaxSettings};
+use tensegrity_deploy::model::EffectKind;
 
 /// Runs `tdeploy calibrate`.
 pub fn calibrate(a: &ArgMatches) -> Result<()> {
@@ -30,12 +29,7 @@ pub fn calibrate(a: &ArgMatches) -> Result<()> {
         bail!("--out must differ from the input model: calibration never overwrites it");
     }
     let model_file = read_model(model_path)?;
-    let model = EffectModel {
-        structure: model_file.load_structure()?,
-        effects: model_file.effects,
-        settings: RelaxSettings::default(),
-        increment_m: 0.01,
-    };
+    let model = super::effect_model(&model_file)?;
     let log = read_log(log_dir, &model.structure)?;
     let before = part(&compare(&model, &log)?, log.cycles.len(), true);
     let c = fit_candidate(&model, model.effects, kind, &log, before.overall.rms)
@@ -50,7 +44,12 @@ pub fn calibrate(a: &ArgMatches) -> Result<()> {
         .iter()
         .zip(c.values.iter().zip(&c.std_errors))
     {
-        say!("{name}.{} = {v:.6} ± {se:.2e} {}", p.name, p.unit);
+        say!(
+            "{name}.{} = {} {}",
+            p.name,
+            super::value_with_error(*v, *se),
+            p.unit
+        );
     }
     say!(
         "held-out RMS residual: {:.2} σ before, {:.2} σ after ({} readings)",

@@ -14,8 +14,6 @@ use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::measure::compare::{compare as compare_runs, Comparison, FEATURES};
-use tensegrity_deploy::measure::EffectModel;
-use tensegrity_deploy::model::RelaxSettings;
 
 /// Runs `tdeploy compare`.
 pub fn compare(a: &ArgMatches) -> Result<()> {
@@ -23,12 +21,7 @@ pub fn compare(a: &ArgMatches) -> Result<()> {
     let log_dir = a.get_one::<PathBuf>("log").unwrap();
     let out = a.get_one::<PathBuf>("out").unwrap();
     let model_file = read_model(model_path)?;
-    let model = EffectModel {
-        structure: model_file.load_structure()?,
-        effects: model_file.effects,
-        settings: RelaxSettings::default(),
-        increment_m: 0.01,
-    };
+    let model = super::effect_model(&model_file)?;
     let log = read_log(log_dir, &model.structure)?;
     let c = compare_runs(&model, &log).with_context(|| {
         format!(

@@ -9,15 +9,20 @@ use clap::ArgMatches;
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::measure::diagnose::{diagnose as run, Candidate, DiagnoseSettings, Verdict};
-use tensegrity_deploy::measure::EffectModel;
-use tensegrity_deploy::model::RelaxSettings;
 
 fn params(c: &Candidate) -> String {
     c.kind
         .parameters()
         .iter()
         .zip(c.values.iter().zip(&c.std_errors))
-        .map(|(p, (v, se))| format!("{} = {v:.4} ± {se:.2e} {}", p.name, p.unit))
+        .map(|(p, (v, se))| {
+            format!(
+                "{} = {} {}",
+                p.name,
+                super::value_with_error(*v, *se),
+                p.unit
+            )
+        })
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -27,12 +32,7 @@ pub fn diagnose(a: &ArgMatches) -> Result<()> {
     let model_path = a.get_one::<PathBuf>("model").unwrap();
     let log_dir = a.get_one::<PathBuf>("log").unwrap();
     let model_file = read_model(model_path)?;
-    let model = EffectModel {
-        structure: model_file.load_structure()?,
-        effects: model_file.effects,
-        settings: RelaxSettings::default(),
-        increment_m: 0.01,
-    };
+    let model = super::effect_model(&model_file)?;
     let log = read_log(log_dir, &model.structure)?;
     let settings = DiagnoseSettings {
         max_rounds: *a.get_one::<usize>("rounds").unwrap(),

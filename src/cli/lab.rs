@@ -9,8 +9,6 @@ use tensegrity_deploy::io::log::write_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, standard_sensors};
-use tensegrity_deploy::measure::EffectModel;
-use tensegrity_deploy::model::RelaxSettings;
 
 /// Runs `tdeploy lab`.
 pub fn lab(a: &ArgMatches) -> Result<()> {
@@ -26,12 +24,7 @@ pub fn lab(a: &ArgMatches) -> Result<()> {
         bail!("--amplitudes: {bad} is not a positive length in metres");
     }
     let truth = read_model(truth_path)?;
-    let model = EffectModel {
-        structure: truth.load_structure()?,
-        effects: truth.effects,
-        settings: RelaxSettings::default(),
-        increment_m: 0.01,
-    };
+    let model = super::effect_model(&truth)?;
     let sensors = standard_sensors(&model.structure);
     let cycles = standard_cycles(model.structure.continuous_cables.len(), &amplitudes, steps);
     let log = run_lab(&model, &sensors, &cycles, seed)

@@ -186,3 +186,29 @@ fn friction_from(a: &ArgMatches) -> Result<JointFriction> {
     };
     Ok(JointFriction::new(mu, convention)?)
 }
+
+/// The model a model file describes, run as every measurement command runs
+/// it: default solver settings, commands applied in 1 cm increments (the
+/// seed's actuation step).
+fn effect_model(
+    file: &tensegrity_deploy::io::model_file::ModelFile,
+) -> Result<tensegrity_deploy::measure::EffectModel> {
+    Ok(tensegrity_deploy::measure::EffectModel {
+        structure: file.load_structure()?,
+        effects: file.effects,
+        settings: tensegrity_deploy::model::RelaxSettings::default(),
+        increment_m: 0.01,
+    })
+}
+
+/// A fitted value with its standard error, to four significant figures
+/// whatever the unit's scale (a compliance of 3e-5 m/N must not print as
+/// 0.0000).
+fn value_with_error(value: f64, std_error: f64) -> String {
+    let magnitude = value.abs().max(std_error.abs());
+    if magnitude == 0.0 || (1e-2..1e4).contains(&magnitude) {
+        format!("{value:.4} ± {std_error:.2e}")
+    } else {
+        format!("{value:.4e} ± {std_error:.2e}")
+    }
+}

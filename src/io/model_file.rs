@@ -29,6 +29,12 @@
 //!
 //! [effects.load_cell_bias]
 //! bias_n = 12
+//!
+//! [effects.joint_eccentricity]
+//! seat_radius_m = 0.015      # cable arc radius on each joint's seat
+//!
+//! [effects.support_flexibility]
+//! compliance_m_per_n = 2e-5  # 50 kN/m in every supported direction
 //! ```
 //! A missing `[effects.*]` table is an effect switched off. Every effect,
 //! its physics, parameters, units and plausible ranges are documented in
@@ -234,7 +240,10 @@ backlash_m = 0.002
         let e = parse_model(&negative, Path::new("m.toml"))
             .unwrap_err()
             .to_string();
-        assert_eq!(e, "m.toml: effects.joint_friction.mu: must be ≥ 0");
+        assert_eq!(
+            e,
+            "m.toml: effects.joint_friction.mu: must be ≥ 0, got -0.1"
+        );
         let text = GOOD.replace("mu = 0.12", "mu = \"high\"");
         let e = parse_model(&text, Path::new("m.toml"))
             .unwrap_err()

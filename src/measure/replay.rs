@@ -6,6 +6,10 @@
 //! one ended, as on the real bridge. Before each step the temperature of
 //! that step (if the schedule has one) sets the thermal strain; commands go
 //! through the motor model (slip, backlash) and are applied in increments.
+//! With joint eccentricity on, after each step the material the cable seats
+//! took up or gave back ([`crate::model::cable_seats`]) is moved out of or
+//! into the segments and the state solved again, until the arcs change by
+//! less than [`SEAT_TOLERANCE_M`].
 
 use thiserror::Error;
 
@@ -13,8 +17,15 @@ use crate::io::log::{Sensor, SensorTarget};
 use crate::model::sliding::interior_angle;
 use crate::model::{
     CommandError, DeploymentState, Effects, ForwardModel, RelaxSettings, RelaxStatus, Structure,
-    Workspace,
+    StructureError, Workspace,
 };
+
+/// The seat arcs are followed until they change by less than this between
+/// two solves, m: a thousandth of the 1 mm position noise.
+pub const SEAT_TOLERANCE_M: f64 = 1e-6;
+/// Most re-solves per step for the seat arcs (each a warm, zero-payout
+/// increment; two or three are typical).
+const MAX_SEAT_SOLVES: usize = 20;
 
 /// A model with effects: what `compare`, `diagnose` and `lab` run.
 #[derive(Debug, Clone)]
@@ -71,6 +82,19 @@ pub struct Run {
 /// Why a run stopped.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ReplayError {
+    /// The effects cannot be applied to the structure.
+    #[error("applying the effects: {0}")]
+    Structure(#[from] StructureError),
+    /// The cable-seat arcs did not settle within the re-solves allowed.
+    #[error("cycle {cycle}, step {step}: the cable-seat arcs did not settle ({change_m:.2e} m still changing)")]
+    SeatsUnsettled {
+        /// Cycle index.
+        cycle: usize,
+        /// Step index.
+        step: usize,
+        /// Largest arc change at the last re-solve, m.
+        change_m: f64,
+    },
     /// A command the model cannot apply.
     #[error("cycle {cycle}, step {step}: {source}")]
     Command {
@@ -110,13 +134,15 @@ impl EffectModel {
         cycles: &[CycleSchedule],
         sensors: &[Sensor],
     ) -> Result<Run, ReplayError> {
-        let base = self.effects.apply_to_structure(&self.structure);
+        let base = self.effects.apply_to_structure(&self.structure)?;
         let friction = self.effects.joint_friction();
         let mut strain = 0.0;
         let mut model = ForwardModel::new(base.clone(), friction.clone(), self.settings.clone());
         let mut state = model.reference_state();
         let mut ws = Workspace::default();
         let mut motor = self.effects.motor_model(base.continuous_cables.len());
+        // The as-built state has its arcs wrapped already.
+        let mut seats = self.effects.seat_material_m(&base, &state.positions_m);
         let mut out = Vec::with_capacity(cycles.len());
         let mut features = Vec::with_capacity(cycles.len());
         for (ci, cycle) in cycles.iter().enumerate() {
@@ -159,6 +185,10 @@ impl EffectModel {
                         });
                     }
                 }
+                if let Some(seats) = seats.as_mut() {
+                    self.follow_seats(&model, &mut state, &mut ws, seats)
+                        .map_err(|e| e.at(ci, step))?;
+                }
                 per_step.push(self.read(&model, &state, sensors, temperature));
                 let command_m = if step == 0 {
                     0.0
@@ -179,6 +209,60 @@ impl EffectModel {
         Ok(Run {
             readings: out,
             features,
+        })
+    }
+
+    /// Moves the material the seats took up since `seats` (per segment) out
+    /// of the segments and re-solves, until the arcs settle; `seats` ends as
+    /// the arcs of the final state.
+    fn follow_seats(
+        &self,
+        model: &ForwardModel,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        seats: &mut [f64],
+    ) -> Result<(), ReplayError> {
+        let no_payout = vec![0.0; model.structure.continuous_cables.len()];
+        let mut change_m = f64::INFINITY;
+        for _ in 0..MAX_SEAT_SOLVES {
+            let now = self
+                .effects
+                .seat_material_m(&model.structure, &state.positions_m)
+                .expect("seats are followed only with the effect on");
+            change_m = 0.0;
+            for ((rest, before), after) in state
+                .segment_rest_lengths_m
+                .iter_mut()
+                .zip(seats.iter_mut())
+                .zip(&now)
+            {
+                *rest -= after - *before;
+                change_m = change_m.max((after - *before).abs());
+                *before = *after;
+            }
+            if change_m < SEAT_TOLERANCE_M {
+                return Ok(());
+            }
+            // A zero payout is one friction-aware increment from here.
+            let r = model
+                .apply_payout(state, ws, &no_payout, self.increment_m, &mut ())
+                .map_err(|source| ReplayError::Command {
+                    cycle: 0,
+                    step: 0,
+                    source,
+                })?;
+            if !r.status.is_converged() {
+                return Err(ReplayError::Solver {
+                    cycle: 0,
+                    step: 0,
+                    status: r.status,
+                });
+            }
+        }
+        Err(ReplayError::SeatsUnsettled {
+            cycle: 0,
+            step: 0,
+            change_m,
         })
     }
 
@@ -205,6 +289,30 @@ impl EffectModel {
                 SensorTarget::Temperature => temperature_c,
             })
             .collect()
+    }
+}
+
+impl ReplayError {
+    /// The same error, placed at `cycle` and `step`.
+    fn at(self, cycle: usize, step: usize) -> ReplayError {
+        match self {
+            ReplayError::Command { source, .. } => ReplayError::Command {
+                cycle,
+                step,
+                source,
+            },
+            ReplayError::Solver { status, .. } => ReplayError::Solver {
+                cycle,
+                step,
+                status,
+            },
+            ReplayError::SeatsUnsettled { change_m, .. } => ReplayError::SeatsUnsettled {
+                cycle,
+                step,
+                change_m,
+            },
+            e @ ReplayError::Structure(_) => e,
+        }
     }
 }
 

@@ -2,9 +2,12 @@
 //! parameterised and switchable, so that the same code can make "measured"
 //! data with an effect on and be diagnosed with it off.
 //!
-//! An effect acts at one of four places:
-//! - **the structure** (member stiffness error, joint mass error): a
-//!   transformed [`Structure`] ([`Effects::apply_to_structure`]);
+//! An effect acts at one of five places:
+//! - **the structure** (member stiffness error, joint mass error, support
+//!   flexibility): a transformed [`Structure`]
+//!   ([`Effects::apply_to_structure`]);
+//! - **the cable path** (joint eccentricity): material held on the cable
+//!   seats as the wrap angles change ([`Effects::seat_material_m`]);
 //! - **the joints** (friction): the [`JointFriction`] of the model
 //!   ([`Effects::joint_friction`]);
 //! - **the motors** (drum slip, backlash): commanded payouts become actual
@@ -22,8 +25,10 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use super::cable_seats::seat_material_m;
+use super::flexible_supports::with_flexible_supports;
 use super::friction::{AngleConvention, FrictionCoefficient, JointFriction};
-use super::structure::{MemberKind, Structure};
+use super::structure::{MemberKind, Structure, StructureError};
 
 /// The effects of the library, in a fixed order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -41,6 +46,10 @@ pub enum EffectKind {
     JointMassError,
     /// A constant offset in every load cell.
     LoadCellBias,
+    /// Cable seats of finite size: the cable wraps an arc at each joint.
+    JointEccentricity,
+    /// Supports that give elastically under changing reactions.
+    SupportFlexibility,
 }
 
 /// One parameter of an effect.
@@ -126,16 +135,35 @@ const BIAS_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
     plausible: (-50.0, 50.0),
     admissible: (f64::NEG_INFINITY, f64::INFINITY),
 }];
+const ECCENTRICITY_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
+    name: "seat_radius_m",
+    unit: "m",
+    neutral: 0.0,
+    // The seed's seats sit on joints of 28 mm tubes: a seat a little wider
+    // than the tube, radius 5 to 30 mm.
+    plausible: (0.005, 0.03),
+    admissible: (0.0, f64::INFINITY),
+}];
+const SUPPORT_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
+    name: "compliance_m_per_n",
+    unit: "m/N",
+    neutral: 0.0,
+    // A bolted steel abutment frame of the 1/4-scale rig: 20 to 100 kN/m.
+    plausible: (1.0e-5, 5.0e-5),
+    admissible: (0.0, 1.0e-2),
+}];
 
 impl EffectKind {
     /// All effects, in order.
-    pub const ALL: [EffectKind; 6] = [
+    pub const ALL: [EffectKind; 8] = [
         EffectKind::JointFriction,
         EffectKind::Motor,
         EffectKind::StiffnessError,
         EffectKind::Thermal,
         EffectKind::JointMassError,
         EffectKind::LoadCellBias,
+        EffectKind::JointEccentricity,
+        EffectKind::SupportFlexibility,
     ];
 
     /// Name, as in model files (`[effects.<name>]`).
@@ -147,6 +175,8 @@ impl EffectKind {
             EffectKind::Thermal => "thermal",
             EffectKind::JointMassError => "joint_mass_error",
             EffectKind::LoadCellBias => "load_cell_bias",
+            EffectKind::JointEccentricity => "joint_eccentricity",
+            EffectKind::SupportFlexibility => "support_flexibility",
         }
     }
 
@@ -159,6 +189,8 @@ impl EffectKind {
             EffectKind::Thermal => &THERMAL_PARAMETERS,
             EffectKind::JointMassError => &MASS_PARAMETERS,
             EffectKind::LoadCellBias => &BIAS_PARAMETERS,
+            EffectKind::JointEccentricity => &ECCENTRICITY_PARAMETERS,
+            EffectKind::SupportFlexibility => &SUPPORT_PARAMETERS,
         }
     }
 }
@@ -252,6 +284,26 @@ pub struct LoadCellBiasEffect {
     pub bias_n: f64,
 }
 
+/// The continuous cables run over cable seats of radius `seat_radius_m`
+/// around the joint centres and wrap an arc of `seat_radius_m·φ` on each
+/// (see [`super::cable_seats`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointEccentricityEffect {
+    /// Radius of the cable's arc on a seat, m, ≥ 0.
+    pub seat_radius_m: f64,
+}
+
+/// Every supported degree of freedom gives like a spring of compliance
+/// `compliance_m_per_n` under changes of its reaction (see
+/// [`super::flexible_supports`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SupportFlexibilityEffect {
+    /// Support compliance, m/N, ≥ 0 (0: rigid).
+    pub compliance_m_per_n: f64,
+}
+
 /// The effects switched on, each with its parameters; `None` is off.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -268,6 +320,10 @@ pub struct Effects {
     pub joint_mass_error: Option<JointMassErrorEffect>,
     /// Load-cell bias.
     pub load_cell_bias: Option<LoadCellBiasEffect>,
+    /// Joint eccentricity (cable seats).
+    pub joint_eccentricity: Option<JointEccentricityEffect>,
+    /// Support flexibility.
+    pub support_flexibility: Option<SupportFlexibilityEffect>,
 }
 
 /// An effect parameter that makes no sense.
@@ -283,56 +339,31 @@ pub struct EffectError {
 }
 
 impl Effects {
-    /// Checks every parameter of the effects that are on.
+    /// Checks every parameter of the effects that are on against its
+    /// admissible range ([`ParameterSpec::admissible`]).
     pub fn validate(&self) -> Result<(), EffectError> {
         for kind in EffectKind::ALL {
             let Some(values) = self.parameters(kind) else {
                 continue;
             };
             for (spec, v) in kind.parameters().iter().zip(values) {
-                if !v.is_finite() {
-                    return Err(EffectError {
-                        effect: kind.name(),
-                        parameter: spec.name,
-                        reason: format!("must be a finite number, got {v}"),
-                    });
-                }
-            }
-        }
-        let bad = |effect, parameter, reason: &str| {
-            Err(EffectError {
-                effect,
-                parameter,
-                reason: reason.to_string(),
-            })
-        };
-        if let Some(f) = self.joint_friction {
-            if f.mu < 0.0 {
-                return bad("joint_friction", "mu", "must be ≥ 0");
-            }
-        }
-        if let Some(m) = self.motor {
-            if m.backlash_m < 0.0 {
-                return bad("motor", "backlash_m", "must be ≥ 0");
-            }
-            if m.slip_fraction >= 1.0 {
-                return bad("motor", "slip_fraction", "must be < 1");
-            }
-        }
-        if let Some(s) = self.stiffness_error {
-            for (name, v) in [
-                ("strut_scale", s.strut_scale),
-                ("cable_scale", s.cable_scale),
-                ("spring_scale", s.spring_scale),
-            ] {
-                if v <= 0.0 {
-                    return bad("stiffness_error", name, "must be > 0");
-                }
-            }
-        }
-        if let Some(m) = self.joint_mass_error {
-            if m.scale <= 0.0 {
-                return bad("joint_mass_error", "scale", "must be > 0");
+                let (lo, hi) = spec.admissible;
+                let reason = if !v.is_finite() {
+                    format!("must be a finite number, got {v}")
+                } else if v < lo || v > hi {
+                    match (lo.is_finite(), hi.is_finite()) {
+                        (true, true) => format!("must lie in [{lo}, {hi}], got {v}"),
+                        (true, false) => format!("must be ≥ {lo}, got {v}"),
+                        _ => format!("must be ≤ {hi}, got {v}"),
+                    }
+                } else {
+                    continue;
+                };
+                return Err(EffectError {
+                    effect: kind.name(),
+                    parameter: spec.name,
+                    reason,
+                });
             }
         }
         Ok(())
@@ -350,6 +381,10 @@ impl Effects {
             EffectKind::Thermal => self.thermal.map(|t| vec![t.expansion_per_k]),
             EffectKind::JointMassError => self.joint_mass_error.map(|m| vec![m.scale]),
             EffectKind::LoadCellBias => self.load_cell_bias.map(|b| vec![b.bias_n]),
+            EffectKind::JointEccentricity => self.joint_eccentricity.map(|e| vec![e.seat_radius_m]),
+            EffectKind::SupportFlexibility => {
+                self.support_flexibility.map(|e| vec![e.compliance_m_per_n])
+            }
         }
     }
 
@@ -400,6 +435,16 @@ impl Effects {
             EffectKind::LoadCellBias => {
                 out.load_cell_bias = Some(LoadCellBiasEffect { bias_n: values[0] })
             }
+            EffectKind::JointEccentricity => {
+                out.joint_eccentricity = Some(JointEccentricityEffect {
+                    seat_radius_m: values[0],
+                })
+            }
+            EffectKind::SupportFlexibility => {
+                out.support_flexibility = Some(SupportFlexibilityEffect {
+                    compliance_m_per_n: values[0],
+                })
+            }
         }
         out
     }
@@ -412,8 +457,10 @@ impl Effects {
             .collect()
     }
 
-    /// The structure with stiffness and mass errors applied.
-    pub fn apply_to_structure(&self, structure: &Structure) -> Structure {
+    /// The structure with stiffness and mass errors and support flexibility
+    /// applied. Errors only if `structure` itself is invalid for the
+    /// transformation (a validated structure always passes).
+    pub fn apply_to_structure(&self, structure: &Structure) -> Result<Structure, StructureError> {
         let mut s = structure.clone();
         if let Some(e) = self.stiffness_error {
             for m in &mut s.members {
@@ -439,7 +486,23 @@ impl Effects {
                 n.mass_kg *= e.scale;
             }
         }
-        s
+        match self.support_flexibility {
+            // Last, so that the support bars are neither scaled nor weighed.
+            Some(e) => with_flexible_supports(&s, e.compliance_m_per_n),
+            None => Ok(s),
+        }
+    }
+
+    /// The cable held on the joints' seats at the end of each
+    /// continuous-cable segment in `positions_m`, m ([`seat_material_m`]);
+    /// `None` when the effect is off.
+    pub fn seat_material_m(
+        &self,
+        structure: &Structure,
+        positions_m: &[nalgebra::Vector3<f64>],
+    ) -> Option<Vec<f64>> {
+        self.joint_eccentricity
+            .map(|e| seat_material_m(structure, positions_m, e.seat_radius_m))
     }
 
     /// The structure at thermal strain `strain` (from
@@ -566,7 +629,7 @@ mod tests {
         for kind in EffectKind::ALL {
             let neutral: Vec<f64> = kind.parameters().iter().map(|p| p.neutral).collect();
             let e = Effects::default().with_parameters(kind, &neutral);
-            assert_eq!(e.apply_to_structure(&s), s, "{}", kind.name());
+            assert_eq!(e.apply_to_structure(&s).unwrap(), s, "{}", kind.name());
             assert_eq!(e.thermal_strain(Some(35.0)), 0.0);
             assert_eq!(e.load_cell_reading_n(500.0), 500.0);
             assert_eq!(
@@ -574,6 +637,9 @@ mod tests {
                 vec![0.01, -0.02]
             );
             assert!(e.joint_friction().static_mu.is_zero());
+            if let Some(m) = e.seat_material_m(&s, &s.reference_positions()) {
+                assert!(m.iter().all(|v| *v == 0.0));
+            }
         }
     }
 
@@ -589,7 +655,7 @@ mod tests {
             joint_mass_error: Some(JointMassErrorEffect { scale: 1.5 }),
             ..Effects::default()
         };
-        let t = e.apply_to_structure(&s);
+        let t = e.apply_to_structure(&s).unwrap();
         for (a, b) in s.members.iter().zip(&t.members) {
             let ratio = b.kind.axial_stiffness(1.0) / a.kind.axial_stiffness(1.0);
             let want = match a.kind {
@@ -653,7 +719,10 @@ mod tests {
             ..Effects::default()
         };
         let msg = e.validate().unwrap_err().to_string();
-        assert_eq!(msg, "effect `motor`, parameter `backlash_m`: must be ≥ 0");
+        assert_eq!(
+            msg,
+            "effect `motor`, parameter `backlash_m`: must be ≥ 0, got -0.001"
+        );
         let e = Effects::default().with_parameters(EffectKind::JointFriction, &[f64::NAN]);
         assert!(e.validate().unwrap_err().to_string().contains("`mu`"));
     }

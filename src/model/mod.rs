@@ -2,8 +2,10 @@
 //!
 //! Pure numerics: no files, no printing, no globals.
 
+pub mod cable_seats;
 pub mod command;
 pub mod effects;
+pub mod flexible_supports;
 pub mod friction;
 mod newton;
 pub mod relax;
