@@ -32,7 +32,7 @@ pub fn calibrate(a: &ArgMatches) -> Result<()> {
     let model = super::effect_model(&model_file)?;
     let log = read_log(log_dir, &model.structure)?;
     let before = part(&compare(&model, &log)?, log.cycles.len(), true);
-    let c = fit_candidate(&model, model.effects, kind, &log, before.overall.rms)
+    let c = fit_candidate(&model, model.effects, kind, &log, &before)
         .with_context(|| format!("fitting {name} to {}", log_dir.display()))?;
     let new = ModelFile {
         structure: model_file.structure.clone(),

@@ -13,7 +13,9 @@ use tensegrity_deploy::io::figures::{
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_atomically;
-use tensegrity_deploy::measure::compare::{compare as compare_runs, Comparison, FEATURES};
+use tensegrity_deploy::measure::compare::{
+    compare as compare_runs, noise_rms_limit, Comparison, FEATURES,
+};
 
 /// Runs `tdeploy compare`.
 pub fn compare(a: &ArgMatches) -> Result<()> {
@@ -100,20 +102,28 @@ fn print_tables(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Comparison
     say!("{}", verdict(log, c));
 }
 
-/// Where the model fails worst, in words.
+/// The comparison's verdict in words: noise, or where the model fails.
 fn verdict(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Comparison) -> String {
-    let Some(worst) = c.worst_sensor() else {
-        return "no reading could be compared".into();
-    };
-    let z = c.per_sensor[worst].1;
-    // Four sampling SDs of the RMS of pure noise.
-    let limit = 1.0 + 4.0 / (2.0 * c.overall.count.max(1) as f64).sqrt();
-    if c.overall.rms <= limit {
+    let limit = noise_rms_limit(c.overall.count);
+    if c.worst_sensor().is_some() && c.overall.rms <= limit {
         return format!(
             "the residuals are consistent with sensor noise (overall RMS {:.2} σ ≤ {:.2} σ)",
             c.overall.rms, limit
         );
     }
+    where_it_fails(log, c)
+}
+
+/// Where the model fails worst: sensor, direction and the feature its
+/// residual correlates with most, in words.
+pub(super) fn where_it_fails(
+    log: &tensegrity_deploy::io::log::MeasurementLog,
+    c: &Comparison,
+) -> String {
+    let Some(worst) = c.worst_sensor() else {
+        return "no reading could be compared".into();
+    };
+    let z = c.per_sensor[worst].1;
     let (dir, dz) = c
         .per_direction
         .iter()

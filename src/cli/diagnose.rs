@@ -48,7 +48,7 @@ pub fn diagnose(a: &ArgMatches) -> Result<()> {
             round.base_bic
         );
         say!(
-            "  {:<18} {:>10} {:>10} {:>10} {:>10}  parameters",
+            "  {:<20} {:>10} {:>10} {:>10} {:>10}  parameters",
             "candidate",
             "held-out σ",
             "explained",
@@ -57,7 +57,7 @@ pub fn diagnose(a: &ArgMatches) -> Result<()> {
         );
         for c in &round.ranking {
             say!(
-                "  {:<18} {:>10.2} {:>9.0}% {:>10.1} {:>10.1e}  {}{}",
+                "  {:<20} {:>10.2} {:>9.0}% {:>10.1} {:>10.1e}  {}{}",
                 c.kind.name(),
                 c.held_out_rms,
                 100.0 * c.explained,
@@ -66,6 +66,22 @@ pub fn diagnose(a: &ArgMatches) -> Result<()> {
                 params(c),
                 if c.converged { "" } else { " (not converged)" }
             );
+        }
+        let unfitted: Vec<String> = round
+            .screened
+            .iter()
+            .filter(|s| !s.passed())
+            .map(|s| {
+                format!(
+                    "{} (predicted χ² gain {:.1} < {:.1})",
+                    s.kind.name(),
+                    s.predicted_gain,
+                    s.threshold
+                )
+            })
+            .collect();
+        if !unfitted.is_empty() {
+            say!("  not worth fitting: {}", unfitted.join(", "));
         }
     }
     match &d.verdict {
@@ -86,22 +102,15 @@ pub fn diagnose(a: &ArgMatches) -> Result<()> {
             found,
             held_out_rms,
         } => {
-            let c = &d.final_comparison;
-            let worst = c
-                .worst_sensor()
-                .map(|s| log.sensors[s].id.clone())
-                .unwrap_or_default();
-            let dir = c
-                .per_direction
-                .iter()
-                .filter(|(_, s)| s.count > 0)
-                .max_by(|a, b| a.1.rms.total_cmp(&b.1.rms))
-                .map(|(d, s)| format!("{} (RMS {:.1} σ)", d.as_str(), s.rms))
-                .unwrap_or_default();
             let names: Vec<_> = found.iter().map(|c| c.kind.name()).collect();
+            let after = if names.is_empty() {
+                String::new()
+            } else {
+                format!(" after adding [{}]", names.join(", "))
+            };
             say!(
-                "verdict: a structured residual remains that no candidate explains: held-out RMS {held_out_rms:.2} σ after adding [{}]; worst at {worst}, most in the {dir} direction",
-                names.join(", ")
+                "verdict: a structured residual remains that no candidate explains: held-out RMS {held_out_rms:.2} σ{after}; {}",
+                super::compare::where_it_fails(&log, &d.final_comparison)
             );
         }
     }

@@ -16,6 +16,7 @@ pub fn lab(a: &ArgMatches) -> Result<()> {
     let out = a.get_one::<PathBuf>("out").unwrap();
     let seed = *a.get_one::<u64>("seed").unwrap();
     let steps = *a.get_one::<usize>("steps").unwrap();
+    let swing_k = *a.get_one::<f64>("temperature-swing").unwrap();
     let amplitudes: Vec<f64> = a.get_many::<f64>("amplitudes").unwrap().copied().collect();
     if steps == 0 {
         bail!("--steps must be at least 1");
@@ -26,7 +27,15 @@ pub fn lab(a: &ArgMatches) -> Result<()> {
     let truth = read_model(truth_path)?;
     let model = super::effect_model(&truth)?;
     let sensors = standard_sensors(&model.structure);
-    let cycles = standard_cycles(model.structure.continuous_cables.len(), &amplitudes, steps);
+    if !(swing_k.is_finite() && swing_k >= 0.0) {
+        bail!("--temperature-swing: {swing_k} is not a non-negative number of kelvin");
+    }
+    let cycles = standard_cycles(
+        model.structure.continuous_cables.len(),
+        &amplitudes,
+        steps,
+        swing_k,
+    );
     let log = run_lab(&model, &sensors, &cycles, seed)
         .with_context(|| format!("truth model {}", truth_path.display()))?;
     write_log(out, &log, &model.structure)?;
@@ -34,7 +43,7 @@ pub fn lab(a: &ArgMatches) -> Result<()> {
     // calibrate read only the log.
     let truth_copy = truth_record_path(out);
     let record = format!(
-        "# The truth behind the log {}: seed {seed}, amplitudes {amplitudes:?} m, {steps} steps each way.\n# Nothing in compare, diagnose or calibrate reads this file.\n{}",
+        "# The truth behind the log {}: seed {seed}, amplitudes {amplitudes:?} m, {steps} steps each way, temperature 20 ± {swing_k} °C.\n# Nothing in compare, diagnose or calibrate reads this file.\n{}",
         out.display(),
         truth.to_toml(truth_copy.parent().unwrap_or(Path::new(".")))
     );

@@ -88,7 +88,8 @@ pub fn command() -> Command {
                 .arg(Arg::new("out").long("out").short('o').default_value("out/lab-log").value_parser(value_parser!(PathBuf)).help("Log folder to write; the truth is recorded beside it as <out>.truth.toml"))
                 .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
                 .arg(Arg::new("amplitudes").long("amplitudes").value_delimiter(',').default_value("0.01,0.05,0.1,0.4").value_parser(value_parser!(f64)).help("Cable actuation of each cycle, m (paid out, then reeled back in)"))
-                .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle")),
+                .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle"))
+                .arg(Arg::new("temperature-swing").long("temperature-swing").default_value("12").value_parser(value_parser!(f64)).help("Amplitude of the temperature's daily swing about 20 °C, K")),
         )
         .subcommand(
             Command::new("compare")

@@ -191,6 +191,13 @@ impl Comparison {
     }
 }
 
+/// The largest RMS of `z` that `n` readings of pure sensor noise reach
+/// but for a one-in-30 000 chance: four sampling SDs above 1 (the RMS of
+/// `n` standard normal draws has SD ≈ 1/√(2n)).
+pub fn noise_rms_limit(n: usize) -> f64 {
+    1.0 + 4.0 / (2.0 * n.max(1) as f64).sqrt()
+}
+
 /// The log's cycles as a schedule for the model: its commands, and the
 /// temperature its temperature sensor read (if it has one).
 pub fn schedule_of(log: &MeasurementLog) -> Vec<CycleSchedule> {
@@ -276,7 +283,7 @@ pub fn residuals_of(log: &MeasurementLog, run: &Run) -> Comparison {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::measure::lab::{run_lab, standard_cycles, standard_sensors};
+    use crate::measure::lab::{run_lab, standard_cycles, standard_sensors, DAILY_SWING_K};
     use crate::model::{reference_bridge, BridgeParameters, EffectKind, Effects, RelaxSettings};
 
     fn model(effects: Effects) -> EffectModel {
@@ -292,7 +299,12 @@ mod tests {
     fn the_truth_leaves_only_noise_and_a_wrong_model_does_not() {
         let truth = model(Effects::default().with_parameters(EffectKind::JointFriction, &[0.15]));
         let sensors = standard_sensors(&truth.structure);
-        let cycles = standard_cycles(truth.structure.continuous_cables.len(), &[0.05, 0.05], 5);
+        let cycles = standard_cycles(
+            truth.structure.continuous_cables.len(),
+            &[0.05, 0.05],
+            5,
+            DAILY_SWING_K,
+        );
         let log = run_lab(&truth, &sensors, &cycles, 11).unwrap();
         let right = compare(&truth, &log).unwrap();
         // z of pure noise: RMS 1 within sampling error 1/√(2n) (four SDs).

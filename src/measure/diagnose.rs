@@ -12,20 +12,32 @@
 //! each parameter's standard error, and the condition number of `JᵀJ`
 //! says how well the log identifies them.
 //!
+//! # Screening
+//! Before fitting, each candidate is screened where it is switched on at
+//! its neutral value (the model as it is): one Gauss–Newton step from there
+//! predicts how much `χ²` on the fit cycles it could remove. Only
+//! candidates whose predicted gain beats the BIC penalty `k·ln n` are
+//! fitted. Under pure noise the gain of `k` useless parameters is
+//! χ²-distributed with `k` degrees of freedom, so the screen passes such a
+//! candidate about once in a hundred logs (`k` = 1, n ≈ 600), and the
+//! held-out test below stops it.
+//!
 //! # Scoring
 //! Cycles alternate between fitting and held out (the first, third, … are
 //! fitted; the second, fourth, … held out). The whole log is replayed every
 //! time, because friction carries each cycle's history into the next; the
-//! split decides which readings each score counts. A candidate's score is how much
-//! it lowers the held-out RMS of `z`; the Bayesian information criterion
-//! `χ² + k·ln n` on the fit cycles guards against parameters that buy
-//! nothing.
+//! split decides which readings each score counts. A candidate is ranked by
+//! the held-out RMS of `z` it leaves; it is accepted only if it improves
+//! the Bayesian information criterion `χ² + k·ln n` on the fit cycles *and*
+//! lowers the held-out `χ²` by more than `k·ln n_held` (the same penalty,
+//! on readings it never saw).
 //!
 //! # Verdict
-//! - **nothing missing**: the model's held-out RMS `z` is within four
-//!   sampling SDs of 1 (pure noise);
-//! - **effect X is missing**: the best candidate lowers the held-out RMS,
-//!   improves the BIC, and leaves a held-out RMS within 1.5 noise SDs;
+//! - **nothing missing**: no candidate is accepted and the model's
+//!   held-out RMS `z` is within [`noise_rms_limit`] (pure noise);
+//! - **effect X is missing**: the effects accepted leave a held-out RMS
+//!   within [`EXPLAINED_RMS`] noise SDs, and either within the noise limit
+//!   or with at least [`EXPLAINED_SHARE`] of the excess over noise removed;
 //! - **structured residual**: otherwise, with where it is.
 
 use rayon::prelude::*;
@@ -33,13 +45,21 @@ use rayon::prelude::*;
 use crate::io::log::MeasurementLog;
 use crate::model::{EffectKind, Effects};
 
-use super::compare::{compare, Comparison};
+use super::compare::{compare, noise_rms_limit, Comparison};
 use super::replay::{EffectModel, ReplayError};
 
 /// Levenberg–Marquardt iterations per fit.
 const MAX_LM_ITERATIONS: usize = 30;
 /// Held-out RMS `z` a found effect must reach, in noise SDs.
 pub const EXPLAINED_RMS: f64 = 1.5;
+/// Share of the held-out mean square `z` above noise that the effects found
+/// must remove, unless they reach the noise limit.
+pub const EXPLAINED_SHARE: f64 = 0.9;
+/// Forward-difference step for sensitivities, as a fraction of each
+/// parameter's plausible range: large against solver noise (residuals move
+/// by ~1e-2 noise SDs, the solver's error by ~1e-6), small against the
+/// curvature of every effect's response.
+const DIFFERENCE_STEP: f64 = 1e-3;
 
 /// One candidate effect fitted to the log.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,6 +74,8 @@ pub struct Candidate {
     pub condition: f64,
     /// RMS `z` on the held-out cycles with the effect.
     pub held_out_rms: f64,
+    /// How much the effect lowers `χ²` on the held-out cycles.
+    pub held_out_gain: f64,
     /// BIC on the fit cycles with the effect.
     pub bic: f64,
     /// Share of the held-out mean square `z` above noise that the effect
@@ -72,8 +94,29 @@ pub struct Round {
     pub base_held_out_rms: f64,
     /// BIC of the model as it is on the fit cycles.
     pub base_bic: f64,
-    /// Candidates, best first.
+    /// The screen of every effect the model lacked.
+    pub screened: Vec<Screened>,
+    /// Candidates that passed the screen, fitted, best first.
     pub ranking: Vec<Candidate>,
+}
+
+/// An effect screened at its neutral value (see the module notes).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Screened {
+    /// The effect.
+    pub kind: EffectKind,
+    /// `χ²` on the fit cycles that one Gauss–Newton step predicts the
+    /// effect removes (NaN where the model could not be run).
+    pub predicted_gain: f64,
+    /// The gain it needs to be fitted: `k·ln n`.
+    pub threshold: f64,
+}
+
+impl Screened {
+    /// Whether the effect is worth fitting.
+    pub fn passed(&self) -> bool {
+        self.predicted_gain > self.threshold
+    }
 }
 
 /// What the search concluded.
@@ -177,34 +220,163 @@ fn z_vector(model: &EffectModel, effects: Effects, log: &MeasurementLog) -> Opti
     Some(fit.residuals.iter().map(|r| r.z).collect())
 }
 
+/// Where a fit may look for an effect's parameters: half a plausible range
+/// beyond the plausible range, within the admissible one; and the scale
+/// (the plausible range) the search works in.
+struct SearchBox {
+    scale: Vec<f64>,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+}
+
+impl SearchBox {
+    fn of(kind: EffectKind) -> SearchBox {
+        let specs = kind.parameters();
+        let scale: Vec<f64> = specs
+            .iter()
+            .map(|p| (p.plausible.1 - p.plausible.0).abs().max(1e-12))
+            .collect();
+        let lower = specs
+            .iter()
+            .zip(&scale)
+            .map(|(p, s)| (p.plausible.0 - 0.5 * s).max(p.admissible.0))
+            .collect();
+        let upper = specs
+            .iter()
+            .zip(&scale)
+            .map(|(p, s)| (p.plausible.1 + 0.5 * s).min(p.admissible.1))
+            .collect();
+        SearchBox {
+            scale,
+            lower,
+            upper,
+        }
+    }
+
+    fn clamp(&self, x: &mut [f64]) {
+        for (i, v) in x.iter_mut().enumerate() {
+            *v = v.clamp(self.lower[i], self.upper[i]);
+        }
+    }
+}
+
+/// Jacobian of `z` in scaled parameters at `x` by forward differences
+/// (backwards where a step forwards would leave `[lower, upper]`); `None`
+/// if a replay fails or changes which readings exist.
+fn jacobian(
+    eval: &dyn Fn(&[f64]) -> Option<Vec<f64>>,
+    x: &[f64],
+    r: &[f64],
+    scale: &[f64],
+    upper: &[f64],
+) -> Option<nalgebra::DMatrix<f64>> {
+    let mut jac = nalgebra::DMatrix::<f64>::zeros(r.len(), x.len());
+    for i in 0..x.len() {
+        let h = DIFFERENCE_STEP * scale[i];
+        let mut xp = x.to_vec();
+        xp[i] += if xp[i] + h <= upper[i] { h } else { -h };
+        let step = xp[i] - x[i];
+        let rp = eval(&xp)?;
+        if rp.len() != r.len() {
+            return None;
+        }
+        for (row, (a, b)) in rp.iter().zip(r).enumerate() {
+            jac[(row, i)] = (a - b) / step * scale[i];
+        }
+    }
+    Some(jac)
+}
+
+/// Screens effect `kind` on top of `base`: the `χ²` on the fit cycles that
+/// one Gauss–Newton step from the neutral parameters predicts it removes,
+/// with the step kept admissible. `base_z` is the model's own `z` on the
+/// fit cycles.
+pub fn screen_candidate(
+    model: &EffectModel,
+    base: Effects,
+    kind: EffectKind,
+    log: &MeasurementLog,
+    base_z: &[f64],
+) -> Screened {
+    let specs = kind.parameters();
+    let k = specs.len();
+    let threshold = k as f64 * (base_z.len().max(1) as f64).ln();
+    let neutral: Vec<f64> = specs.iter().map(|p| p.neutral).collect();
+    let scale: Vec<f64> = SearchBox::of(kind).scale;
+    let upper: Vec<f64> = specs.iter().map(|p| p.admissible.1).collect();
+    let eval = |x: &[f64]| z_vector(model, base.with_parameters(kind, x), log);
+    let gain = (|| {
+        // The neutral effect switched on is the model as it is, except that
+        // an effect may carry settings of its own (a thermal reference
+        // temperature): run it rather than assume.
+        let r0 = eval(&neutral)?;
+        if r0.len() != base_z.len() {
+            return None;
+        }
+        let jac = jacobian(&eval, &neutral, &r0, &scale, &upper)?;
+        let r = nalgebra::DVector::from_vec(r0);
+        let jtj = jac.transpose() * &jac;
+        let grad = jac.transpose() * &r;
+        // Unconstrained step, then the parameters it pushes out of their
+        // admissible range held at the bound and the rest solved again.
+        let solve = |free: &[bool]| -> nalgebra::DVector<f64> {
+            let idx: Vec<usize> = (0..k).filter(|i| free[*i]).collect();
+            let mut step = nalgebra::DVector::zeros(k);
+            if idx.is_empty() {
+                return step;
+            }
+            let a = nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |i, j| {
+                jtj[(idx[i], idx[j])]
+                    + if i == j {
+                        1e-12 * jtj[(idx[i], idx[i])].max(1e-300)
+                    } else {
+                        0.0
+                    }
+            });
+            let b = nalgebra::DVector::from_fn(idx.len(), |i, _| -grad[idx[i]]);
+            if let Some(d) = a.lu().solve(&b) {
+                for (i, &v) in idx.iter().zip(d.iter()) {
+                    step[*i] = v;
+                }
+            }
+            step
+        };
+        let mut free = vec![true; k];
+        let mut step = solve(&free);
+        for i in 0..k {
+            let lo = specs[i].admissible.0;
+            if neutral[i] + step[i] * scale[i] < lo {
+                free[i] = false;
+            }
+        }
+        if free.iter().any(|f| !f) {
+            step = solve(&free);
+        }
+        let predicted = &r + &jac * &step;
+        Some(r.norm_squared() - predicted.norm_squared())
+    })();
+    Screened {
+        kind,
+        predicted_gain: gain.unwrap_or(f64::NAN),
+        threshold,
+    }
+}
+
 /// Fits effect `kind` on top of `base` to the fitted cycles of `log`, then
-/// scores it on the held-out ones.
+/// scores it on the held-out ones. `base_held` is the model's own
+/// held-out part.
 pub fn fit_candidate(
     model: &EffectModel,
     base: Effects,
     kind: EffectKind,
     log: &MeasurementLog,
-    base_held_rms: f64,
+    base_held: &Comparison,
 ) -> Result<Candidate, ReplayError> {
-    let fit = log;
     let specs = kind.parameters();
     let k = specs.len();
-    let scale: Vec<f64> = specs
-        .iter()
-        .map(|p| (p.plausible.1 - p.plausible.0).abs().max(1e-12))
-        .collect();
-    let lower: Vec<f64> = specs
-        .iter()
-        .zip(&scale)
-        .map(|(p, s)| (p.plausible.0 - 0.5 * s).max(p.admissible.0))
-        .collect();
-    let upper: Vec<f64> = specs
-        .iter()
-        .zip(&scale)
-        .map(|(p, s)| (p.plausible.1 + 0.5 * s).min(p.admissible.1))
-        .collect();
-    // Start in the middle of the plausible range, but at the neutral value
-    // where it lies inside (a small effect is the likelier one).
+    let bounds = SearchBox::of(kind);
+    // Start in the middle of the plausible range, but near the neutral
+    // value where it lies inside (a small effect is the likelier one).
     let mut x: Vec<f64> = specs
         .iter()
         .map(|p| {
@@ -215,42 +387,22 @@ pub fn fit_candidate(
             }
         })
         .collect();
-    let clamp = |v: &mut Vec<f64>| {
-        for i in 0..k {
-            v[i] = v[i].clamp(lower[i], upper[i]);
-        }
-    };
-    let eval = |x: &[f64]| z_vector(model, base.with_parameters(kind, x), fit);
-    let mut r = match eval(&x) {
-        Some(r) => r,
-        None => {
-            return Err(
-                compare(&with_effects(model, base.with_parameters(kind, &x)), fit)
-                    .err()
-                    .expect("a failed replay"),
-            )
-        }
-    };
+    bounds.clamp(&mut x);
+    let eval = |x: &[f64]| z_vector(model, base.with_parameters(kind, x), log);
+    let start = compare(&with_effects(model, base.with_parameters(kind, &x)), log)?;
+    let mut r: Vec<f64> = part(&start, log.cycles.len(), false)
+        .residuals
+        .iter()
+        .map(|r| r.z)
+        .collect();
     let mut cost: f64 = r.iter().map(|v| v * v).sum();
     let mut lambda = 1e-2;
     let mut converged = false;
     let mut jtj = nalgebra::DMatrix::<f64>::zeros(k, k);
     for _ in 0..MAX_LM_ITERATIONS {
-        // Jacobian in scaled parameters by forward differences.
-        let mut jac = nalgebra::DMatrix::<f64>::zeros(r.len(), k);
-        for i in 0..k {
-            let h = 1e-3 * scale[i];
-            let mut xp = x.clone();
-            xp[i] += if xp[i] + h <= upper[i] { h } else { -h };
-            let step = xp[i] - x[i];
-            let Some(rp) = eval(&xp) else { continue };
-            if rp.len() != r.len() {
-                continue;
-            }
-            for (row, (a, b)) in rp.iter().zip(&r).enumerate() {
-                jac[(row, i)] = (a - b) / step * scale[i];
-            }
-        }
+        let Some(jac) = jacobian(&eval, &x, &r, &bounds.scale, &bounds.upper) else {
+            break;
+        };
         jtj = jac.transpose() * &jac;
         let grad = jac.transpose() * nalgebra::DVector::from_vec(r.clone());
         let mut improved = false;
@@ -263,8 +415,8 @@ pub fn fit_candidate(
                 lambda *= 10.0;
                 continue;
             };
-            let mut trial: Vec<f64> = (0..k).map(|i| x[i] + delta[i] * scale[i]).collect();
-            clamp(&mut trial);
+            let mut trial: Vec<f64> = (0..k).map(|i| x[i] + delta[i] * bounds.scale[i]).collect();
+            bounds.clamp(&mut trial);
             if let Some(rt) = eval(&trial) {
                 let c: f64 = rt.iter().map(|v| v * v).sum();
                 if rt.len() == r.len() && c < cost {
@@ -292,32 +444,27 @@ pub fn fit_candidate(
     let effects = base.with_parameters(kind, &x);
     let all = compare(&with_effects(model, effects), log)?;
     let fitted = part(&all, log.cycles.len(), false);
-    let held_rms = part(&all, log.cycles.len(), true).overall.rms;
+    let held = part(&all, log.cycles.len(), true);
     let (std_errors, condition) = match jtj.clone().try_inverse() {
         Some(inv) => {
             let eig = jtj.symmetric_eigen().eigenvalues;
             let (lo, hi) = (eig.min(), eig.max());
             (
                 (0..k)
-                    .map(|i| inv[(i, i)].max(0.0).sqrt() * scale[i])
+                    .map(|i| inv[(i, i)].max(0.0).sqrt() * bounds.scale[i])
                     .collect(),
                 if lo > 0.0 { hi / lo } else { f64::INFINITY },
             )
         }
         None => (vec![f64::NAN; k], f64::INFINITY),
     };
-    let excess = |rms: f64| (rms * rms - 1.0).max(0.0);
-    let explained = if excess(base_held_rms) > 0.0 {
-        ((excess(base_held_rms) - excess(held_rms)) / excess(base_held_rms)).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
     Ok(Candidate {
         kind,
         values: x,
         std_errors,
         condition,
-        held_out_rms: held_rms,
+        held_out_rms: held.overall.rms,
+        held_out_gain: chi2(base_held).0 - chi2(&held).0,
         bic: bic(
             &fitted,
             base.enabled()
@@ -326,9 +473,20 @@ pub fn fit_candidate(
                 .sum::<usize>()
                 + k,
         ),
-        explained,
+        explained: explained_share(base_held.overall.rms, held.overall.rms),
         converged,
     })
+}
+
+/// Share of the mean square `z` above noise (`rms² − 1`) at `before` that
+/// is gone at `after`, 0–1.
+fn explained_share(before: f64, after: f64) -> f64 {
+    let excess = |rms: f64| (rms * rms - 1.0).max(0.0);
+    if excess(before) > 0.0 {
+        ((excess(before) - excess(after)) / excess(before)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 /// Runs the greedy search.
@@ -341,70 +499,61 @@ pub fn diagnose(
     let mut effects = model.effects;
     let mut found: Vec<Candidate> = Vec::new();
     let mut rounds = Vec::new();
-    let noise_limit = |n: usize| 1.0 + 4.0 / (2.0 * n.max(1) as f64).sqrt();
-    let verdict = loop {
+    let first_held = part(&compare(model, log)?, cycles, true);
+    let mut held = first_held.clone();
+    while rounds.len() < settings.max_rounds {
         let base_all = compare(&with_effects(model, effects), log)?;
-        let base_held = part(&base_all, cycles, true);
+        held = part(&base_all, cycles, true);
         let base_fit = part(&base_all, cycles, false);
-        let base_rms = base_held.overall.rms;
-        if base_rms <= noise_limit(base_held.overall.count) {
-            break if found.is_empty() {
-                Verdict::NothingMissing
-            } else {
-                Verdict::Missing(found.clone())
-            };
-        }
-        if rounds.len() >= settings.max_rounds {
-            break if !found.is_empty() && base_rms <= EXPLAINED_RMS {
-                Verdict::Missing(found.clone())
-            } else {
-                Verdict::Unexplained {
-                    found: found.clone(),
-                    held_out_rms: base_rms,
-                }
-            };
-        }
+        let base_z: Vec<f64> = base_fit.residuals.iter().map(|r| r.z).collect();
         let base_k: usize = effects.enabled().iter().map(|e| e.parameters().len()).sum();
         let base_bic = bic(&base_fit, base_k);
         let missing: Vec<EffectKind> = EffectKind::ALL
             .into_iter()
             .filter(|k| effects.parameters(*k).is_none())
             .collect();
-        let mut ranking: Vec<Candidate> = missing
+        let mut screened: Vec<Screened> = missing
             .par_iter()
-            .filter_map(|&kind| fit_candidate(model, effects, kind, log, base_rms).ok())
+            .map(|&kind| screen_candidate(model, effects, kind, log, &base_z))
+            .collect();
+        screened.sort_by(|a, b| b.predicted_gain.total_cmp(&a.predicted_gain));
+        let mut ranking: Vec<Candidate> = screened
+            .par_iter()
+            .filter(|s| s.passed())
+            .filter_map(|s| fit_candidate(model, effects, s.kind, log, &held).ok())
             .collect();
         ranking.sort_by(|a, b| a.held_out_rms.total_cmp(&b.held_out_rms));
-        let best = ranking.first().cloned();
+        let held_penalty = |k: usize| k as f64 * (held.overall.count.max(1) as f64).ln();
+        let best = ranking
+            .first()
+            .filter(|b| b.bic < base_bic && b.held_out_gain > held_penalty(b.values.len()))
+            .cloned();
         rounds.push(Round {
             base: effects,
-            base_held_out_rms: base_rms,
+            base_held_out_rms: held.overall.rms,
             base_bic,
+            screened,
             ranking,
         });
-        match best {
-            Some(b) if b.bic < base_bic && b.held_out_rms < base_rms => {
-                effects = effects.with_parameters(b.kind, &b.values);
-                found.push(b);
-            }
-            _ => {
-                break Verdict::Unexplained {
-                    found: found.clone(),
-                    held_out_rms: base_rms,
-                }
-            }
+        let Some(b) = best else { break };
+        effects = effects.with_parameters(b.kind, &b.values);
+        held = part(&compare(&with_effects(model, effects), log)?, cycles, true);
+        found.push(b);
+    }
+    let noise_like = held.overall.rms <= noise_rms_limit(held.overall.count);
+    let verdict = if found.is_empty() && noise_like {
+        Verdict::NothingMissing
+    } else if !found.is_empty()
+        && held.overall.rms <= EXPLAINED_RMS
+        && (noise_like
+            || explained_share(first_held.overall.rms, held.overall.rms) >= EXPLAINED_SHARE)
+    {
+        Verdict::Missing(found)
+    } else {
+        Verdict::Unexplained {
+            found,
+            held_out_rms: held.overall.rms,
         }
-    };
-    // A found set that does not reach the noise is not an explanation.
-    let verdict = match verdict {
-        Verdict::Missing(f) if f.last().map(|c| c.held_out_rms).unwrap_or(0.0) > EXPLAINED_RMS => {
-            let rms = f.last().map(|c| c.held_out_rms).unwrap_or(f64::NAN);
-            Verdict::Unexplained {
-                found: f,
-                held_out_rms: rms,
-            }
-        }
-        v => v,
     };
     let final_comparison = compare(&with_effects(model, effects), log)?;
     Ok(Diagnosis {

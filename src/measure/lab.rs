@@ -57,11 +57,20 @@ pub fn standard_sensors(structure: &Structure) -> Vec<Sensor> {
     sensors
 }
 
+/// Temperature swing of the standard cycles, K: a day's swing outdoors.
+pub const DAILY_SWING_K: f64 = 12.0;
+
 /// Cycles of every cable paid out by each amplitude in `steps` equal steps
 /// and reeled back in as many, for `cables` cables. The temperature swings
-/// as `20 + 12·sin(2π·k/period)` °C over the global step index `k`, with
-/// `period` four cycles long: a day's swing over a day's tests.
-pub fn standard_cycles(cables: usize, amplitudes_m: &[f64], steps: usize) -> Vec<CycleSchedule> {
+/// as `20 + swing_k·sin(2π·k/period)` °C over the global step index `k`,
+/// with `period` four cycles long: a day's swing over a day's tests
+/// ([`DAILY_SWING_K`] by default).
+pub fn standard_cycles(
+    cables: usize,
+    amplitudes_m: &[f64],
+    steps: usize,
+    swing_k: f64,
+) -> Vec<CycleSchedule> {
     let per_cycle = 2 * steps + 1;
     let period = (4 * per_cycle) as f64;
     let mut k = 0usize;
@@ -74,7 +83,7 @@ pub fn standard_cycles(cables: usize, amplitudes_m: &[f64], steps: usize) -> Vec
                 .collect();
             let temperature_c = (0..per_cycle)
                 .map(|_| {
-                    let t = 20.0 + 12.0 * (2.0 * std::f64::consts::PI * k as f64 / period).sin();
+                    let t = 20.0 + swing_k * (2.0 * std::f64::consts::PI * k as f64 / period).sin();
                     k += 1;
                     Some(t)
                 })
@@ -149,7 +158,12 @@ mod tests {
     fn the_same_seed_gives_the_same_log_and_another_seed_another() {
         let t = truth();
         let sensors = standard_sensors(&t.structure);
-        let cycles = standard_cycles(t.structure.continuous_cables.len(), &[0.01], 2);
+        let cycles = standard_cycles(
+            t.structure.continuous_cables.len(),
+            &[0.01],
+            2,
+            DAILY_SWING_K,
+        );
         let a = run_lab(&t, &sensors, &cycles, 7).unwrap();
         let b = run_lab(&t, &sensors, &cycles, 7).unwrap();
         let c = run_lab(&t, &sensors, &cycles, 8).unwrap();
@@ -164,7 +178,12 @@ mod tests {
         // four of those is the tolerance.
         let t = truth();
         let sensors = standard_sensors(&t.structure);
-        let cycles = standard_cycles(t.structure.continuous_cables.len(), &[0.01, 0.01], 5);
+        let cycles = standard_cycles(
+            t.structure.continuous_cables.len(),
+            &[0.01, 0.01],
+            5,
+            DAILY_SWING_K,
+        );
         let clean = t.run(&cycles, &sensors).unwrap();
         let log = run_lab(&t, &sensors, &cycles, 3).unwrap();
         let mut sum = 0.0;

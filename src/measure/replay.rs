@@ -156,7 +156,11 @@ impl EffectModel {
                     // material in the segments grows with them.
                     let scale = (1.0 + new_strain) / (1.0 + strain);
                     model = ForwardModel::new(
-                        self.effects.structure_at_strain(&base, new_strain),
+                        self.effects.structure_at_strain(
+                            &base,
+                            new_strain,
+                            self.structure.members.len(),
+                        ),
                         friction.clone(),
                         self.settings.clone(),
                     );
@@ -393,6 +397,12 @@ mod tests {
                 target: SensorTarget::Position { node: 22, axis: 2 },
                 noise_sd: 0.001,
             },
+            // Thermal growth shows along the span.
+            Sensor {
+                id: "x".into(),
+                target: SensorTarget::Position { node: 22, axis: 0 },
+                noise_sd: 0.001,
+            },
         ]
     }
 
@@ -432,11 +442,60 @@ mod tests {
             }
             // At the top of its plausible range (and a 25 K temperature
             // swing) every effect moves some sensor by more than its noise
-            // somewhere in two cycles.
+            // somewhere in two cycles; thermal growth, the weakest, by more
+            // than half of it (0.7 mm, see the next test).
+            let least = if kind == EffectKind::Thermal {
+                0.5
+            } else {
+                1.0
+            };
             assert!(
-                biggest > 1.0,
+                biggest > least,
                 "{}: at most {biggest} noise SDs",
                 kind.name()
+            );
+        }
+    }
+
+    #[test]
+    fn warming_grows_each_half_out_from_its_abutment() {
+        // Free thermal growth of a half held at its abutment ring moves a
+        // midspan node along the span by α·ΔT·(its distance from the ring);
+        // the ring's own restraint takes a few per cent off.
+        let alpha = 1.2e-5;
+        let m = model(Effects::default().with_parameters(EffectKind::Thermal, &[alpha]));
+        let s = &m.structure;
+        let nodes: Vec<usize> = s.midspan_pairs.iter().flatten().copied().collect();
+        let sensors: Vec<Sensor> = nodes
+            .iter()
+            .map(|&node| Sensor {
+                id: s.nodes[node].id.clone(),
+                target: SensorTarget::Position { node, axis: 0 },
+                noise_sd: 0.001,
+            })
+            .collect();
+        let at = |t: f64| CycleSchedule {
+            commands: vec![],
+            temperature_c: vec![Some(t)],
+        };
+        let r = m.run(&[at(20.0), at(45.0)], &sensors).unwrap();
+        for (k, &node) in nodes.iter().enumerate() {
+            let x = s.nodes[node].position_m.x;
+            // The abutment of this node's half (ids start with the half).
+            let half = &s.nodes[node].id[..1];
+            let abutment = s
+                .nodes
+                .iter()
+                .find(|n| n.fixed[0] && n.id.starts_with(half))
+                .unwrap()
+                .position_m
+                .x;
+            let want = alpha * 25.0 * (x - abutment);
+            let got = r[1][0][k].unwrap() - r[0][0][k].unwrap();
+            assert!(
+                (got - want).abs() < 0.1 * want.abs(),
+                "{}: {got} m vs {want} m",
+                s.nodes[node].id
             );
         }
     }
