@@ -47,8 +47,13 @@ pub fn experiment(a: &ArgMatches) -> Result<()> {
                 toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
             friction_effect_experiment(&e, path)
         }
+        Some("friction-vs-measurement") => {
+            let e: FrictionVsMeasurementExperiment =
+                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            friction_vs_measurement_experiment(&e, path)
+        }
         Some(other) => bail!(
-            "{}: field `kind`: unknown experiment \"{other}\" (known: friction-rig, friction-effect)",
+            "{}: field `kind`: unknown experiment \"{other}\" (known: friction-rig, friction-effect, friction-vs-measurement)",
             path.display()
         ),
         None => bail!("{}: field `kind` is missing", path.display()),
@@ -244,6 +249,157 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
         "Friction effect after a fold-deploy cycle",
     )?;
     write_atomically(&e.out.join("overlay.svg"), svg.as_bytes())?;
+    say!("results in {}", e.out.display());
+    Ok(())
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FrictionVsMeasurementExperiment {
+    #[allow(dead_code)]
+    kind: String,
+    actuation_m: f64,
+    steps: usize,
+    model_mu: f64,
+    seed: u64,
+    increment_m: f64,
+    truth: tensegrity_deploy::model::Effects,
+    out: PathBuf,
+}
+
+/// The seed's finding: friction cut the mean difference by 50 % and the
+/// standard deviation by 40 %.
+const SEED_CUTS_PERCENT: (f64, f64) = (50.0, 40.0);
+
+fn friction_vs_measurement_experiment(
+    e: &FrictionVsMeasurementExperiment,
+    path: &Path,
+) -> Result<()> {
+    use tensegrity_deploy::io::figures::grouped_bars_svg;
+    use tensegrity_deploy::measure::friction_study::{
+        friction_study, CellComparison, FrictionStudySettings,
+    };
+    for (field, v) in [
+        ("actuation_m", e.actuation_m),
+        ("increment_m", e.increment_m),
+        ("model_mu", e.model_mu),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            bail!(
+                "{}: field `{field}`: must be a positive number, got {v}",
+                path.display()
+            );
+        }
+    }
+    if e.steps == 0 {
+        bail!("{}: field `steps`: must be at least 1", path.display());
+    }
+    e.truth
+        .validate()
+        .map_err(|err| anyhow::anyhow!("{}: truth.{err}", path.display()))?;
+    let structure = reference_bridge(&BridgeParameters::default())?;
+    let study = friction_study(
+        &structure,
+        &FrictionStudySettings {
+            truth_effects: e.truth,
+            model_mu: e.model_mu,
+            actuation_m: e.actuation_m,
+            steps: e.steps,
+            seed: e.seed,
+            increment_m: e.increment_m,
+        },
+    )?;
+    say!(
+        "friction vs measurement: {} cm deployment in {} steps, truth {:?}, simulation with μ = {}",
+        100.0 * e.actuation_m,
+        e.steps,
+        e.truth
+            .enabled()
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>(),
+        e.model_mu
+    );
+    say!(
+        "{:<14} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "load cell",
+        "meas. avg N",
+        "no-fr avg N",
+        "fric. avg N",
+        "|d| no-fr",
+        "|d| fric.",
+        "sd no-fr",
+        "sd fric."
+    );
+    let mut csv = String::from("sensor,step,measured_n,no_friction_n,friction_n\n");
+    for c in &study.cells {
+        let (a, b) = (c.no_friction(), c.friction());
+        say!(
+            "{:<14} {:>12.1} {:>12.1} {:>12.1} {:>12.1} {:>12.1} {:>12.1} {:>12.1}",
+            c.sensor,
+            CellComparison::average(&c.measured_n),
+            CellComparison::average(&c.no_friction_n),
+            CellComparison::average(&c.friction_n),
+            a.mean_abs_n,
+            b.mean_abs_n,
+            a.sd_n,
+            b.sd_n
+        );
+        for k in 0..c.measured_n.len() {
+            csv += &format!(
+                "{},{},{},{},{}\n",
+                c.sensor,
+                k + 1,
+                c.measured_n[k],
+                c.no_friction_n[k],
+                c.friction_n[k]
+            );
+        }
+    }
+    let (without, with) = study.differences();
+    let cut = |a: f64, b: f64| 100.0 * (1.0 - b / a);
+    say!(
+        "mean |difference|: {:.1} N without friction, {:.1} N with: {:.0} % less (seed: {:.0} % less)",
+        without.mean_abs_n,
+        with.mean_abs_n,
+        cut(without.mean_abs_n, with.mean_abs_n),
+        SEED_CUTS_PERCENT.0
+    );
+    say!(
+        "SD of difference: {:.1} N without friction, {:.1} N with: {:.0} % less (seed: {:.0} % less)",
+        without.sd_n,
+        with.sd_n,
+        cut(without.sd_n, with.sd_n),
+        SEED_CUTS_PERCENT.1
+    );
+    let labels: Vec<String> = study.cells.iter().map(|c| c.sensor.clone()).collect();
+    let averages = |f: fn(&CellComparison) -> &Vec<f64>| -> Vec<f64> {
+        study
+            .cells
+            .iter()
+            .map(|c| CellComparison::average(f(c)) / 1000.0)
+            .collect()
+    };
+    let svg = grouped_bars_svg(
+        &format!(
+            "Average tension over a {} cm deployment (seed Fig. 16)",
+            100.0 * e.actuation_m
+        ),
+        "tension, kN",
+        &labels,
+        &[
+            (
+                "simulation without friction",
+                averages(|c| &c.no_friction_n),
+            ),
+            ("simulation with friction", averages(|c| &c.friction_n)),
+            ("measurement", averages(|c| &c.measured_n)),
+        ],
+    )?;
+    std::fs::create_dir_all(&e.out)
+        .with_context(|| format!("{}: cannot create", e.out.display()))?;
+    write_atomically(&e.out.join("tensions.csv"), csv.as_bytes())?;
+    write_atomically(&e.out.join("average_tension.svg"), svg.as_bytes())?;
     say!("results in {}", e.out.display());
     Ok(())
 }

@@ -6,6 +6,7 @@
 
 pub mod compare;
 pub mod diagnose;
+pub mod friction_study;
 pub mod lab;
 pub mod replay;
 
