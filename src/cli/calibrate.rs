@@ -44,12 +44,7 @@ pub fn calibrate(a: &ArgMatches) -> Result<()> {
         .iter()
         .zip(c.values.iter().zip(&c.std_errors))
     {
-        say!(
-            "{name}.{} = {} {}",
-            p.name,
-            super::value_with_error(*v, *se),
-            p.unit
-        );
+        say!("{name}.{}", super::fitted_parameter(p, *v, *se));
     }
     say!(
         "held-out RMS residual: {:.2} σ before, {:.2} σ after ({} readings)",

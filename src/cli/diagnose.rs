@@ -15,14 +15,7 @@ fn params(c: &Candidate) -> String {
         .parameters()
         .iter()
         .zip(c.values.iter().zip(&c.std_errors))
-        .map(|(p, (v, se))| {
-            format!(
-                "{} = {} {}",
-                p.name,
-                super::value_with_error(*v, *se),
-                p.unit
-            )
-        })
+        .map(|(p, (v, se))| super::fitted_parameter(p, *v, *se))
         .collect::<Vec<_>>()
         .join(", ")
 }

@@ -202,6 +202,25 @@ fn effect_model(
     })
 }
 
+/// `name = value ± error unit` of one fitted parameter (no unit for
+/// dimensionless ones).
+fn fitted_parameter(
+    spec: &tensegrity_deploy::model::effects::ParameterSpec,
+    value: f64,
+    std_error: f64,
+) -> String {
+    let unit = if spec.unit == "1" {
+        String::new()
+    } else {
+        format!(" {}", spec.unit)
+    };
+    format!(
+        "{} = {}{unit}",
+        spec.name,
+        value_with_error(value, std_error)
+    )
+}
+
 /// A fitted value with its standard error, to four significant figures
 /// whatever the unit's scale (a compliance of 3e-5 m/N must not print as
 /// 0.0000).
