@@ -38,7 +38,10 @@ fn five_cycle_replay(c: &mut Criterion) {
         DAILY_SWING_K,
     );
     let log = run_lab(&truth, &sensors, &cycles, 1).unwrap();
-    for (name, effects) in [("no effects", Effects::default()), ("friction 0.1", friction)] {
+    for (name, effects) in [
+        ("no effects", Effects::default()),
+        ("friction 0.1", friction),
+    ] {
         let m = model(effects);
         group.bench_function(format!("replay, {name}"), |b| {
             b.iter(|| m.run(&cycles, &sensors).unwrap())
