@@ -122,22 +122,37 @@ struct FrictionEffectExperiment {
     out: PathBuf,
 }
 
-/// The seed's Table 2: midspan node shift with friction, mm (nodes 1–5).
-const SEED_TABLE_2_MM: [f64; 5] = [2.0, 2.3, 3.5, 3.6, 3.0];
-
-fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Result<()> {
-    for (field, v) in [
-        ("fold_m", e.fold_m),
-        ("deploy_m", e.deploy_m),
-        ("increment_m", e.increment_m),
-    ] {
-        if !(v.is_finite() && v >= 0.0) {
+/// Every `(field, value)` of an experiment file is a finite number above
+/// zero (or at least zero, with `zero_allowed`); else an error naming the
+/// file and field.
+fn check_numbers(path: &Path, fields: &[(&str, f64)], zero_allowed: bool) -> Result<()> {
+    for &(field, v) in fields {
+        let ok = v.is_finite() && (v > 0.0 || (zero_allowed && v == 0.0));
+        if !ok {
+            let want = if zero_allowed {
+                "non-negative"
+            } else {
+                "positive"
+            };
             bail!(
-                "{}: field `{field}`: must be a non-negative number, got {v}",
+                "{}: field `{field}`: must be a {want} number, got {v}",
                 path.display()
             );
         }
     }
+    Ok(())
+}
+
+/// The seed's Table 2: midspan node shift with friction, mm (nodes 1–5).
+const SEED_TABLE_2_MM: [f64; 5] = [2.0, 2.3, 3.5, 3.6, 3.0];
+
+fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Result<()> {
+    check_numbers(
+        path,
+        &[("fold_m", e.fold_m), ("deploy_m", e.deploy_m)],
+        true,
+    )?;
+    check_numbers(path, &[("increment_m", e.increment_m)], false)?;
     let structure = reference_bridge(&BridgeParameters::default())?;
     let settings = FrictionEffectSettings {
         friction: JointFriction::new(FrictionCoefficient::Constant(e.mu), e.convention)?,
@@ -279,18 +294,15 @@ fn friction_vs_measurement_experiment(
     use tensegrity_deploy::measure::friction_study::{
         friction_study, CellComparison, FrictionStudySettings,
     };
-    for (field, v) in [
-        ("actuation_m", e.actuation_m),
-        ("increment_m", e.increment_m),
-        ("model_mu", e.model_mu),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            bail!(
-                "{}: field `{field}`: must be a positive number, got {v}",
-                path.display()
-            );
-        }
-    }
+    check_numbers(
+        path,
+        &[
+            ("actuation_m", e.actuation_m),
+            ("increment_m", e.increment_m),
+            ("model_mu", e.model_mu),
+        ],
+        false,
+    )?;
     if e.steps == 0 {
         bail!("{}: field `steps`: must be at least 1", path.display());
     }

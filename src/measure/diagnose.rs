@@ -499,12 +499,12 @@ pub fn diagnose(
     let mut effects = model.effects;
     let mut found: Vec<Candidate> = Vec::new();
     let mut rounds = Vec::new();
-    let first_held = part(&compare(model, log)?, cycles, true);
+    // The model with the effects found so far, compared once per change.
+    let mut current = compare(model, log)?;
+    let first_held = part(&current, cycles, true);
     let mut held = first_held.clone();
     while rounds.len() < settings.max_rounds {
-        let base_all = compare(&with_effects(model, effects), log)?;
-        held = part(&base_all, cycles, true);
-        let base_fit = part(&base_all, cycles, false);
+        let base_fit = part(&current, cycles, false);
         let base_z: Vec<f64> = base_fit.residuals.iter().map(|r| r.z).collect();
         let base_k: usize = effects.enabled().iter().map(|e| e.parameters().len()).sum();
         let base_bic = bic(&base_fit, base_k);
@@ -537,7 +537,8 @@ pub fn diagnose(
         });
         let Some(b) = best else { break };
         effects = effects.with_parameters(b.kind, &b.values);
-        held = part(&compare(&with_effects(model, effects), log)?, cycles, true);
+        current = compare(&with_effects(model, effects), log)?;
+        held = part(&current, cycles, true);
         found.push(b);
     }
     let noise_like = held.overall.rms <= noise_rms_limit(held.overall.count);
@@ -555,11 +556,10 @@ pub fn diagnose(
             held_out_rms: held.overall.rms,
         }
     };
-    let final_comparison = compare(&with_effects(model, effects), log)?;
     Ok(Diagnosis {
         rounds,
         verdict,
-        final_comparison,
+        final_comparison: current,
     })
 }
 
