@@ -9,12 +9,12 @@
 //! `cargo run --release --example diagnose_timing`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::measure::compare::compare;
-use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, standard_sensors, DAILY_SWING_K};
-use tensegrity_deploy::measure::EffectModel;
-use tensegrity_deploy::model::{
-    reference_bridge, BridgeParameters, EffectKind, Effects, RelaxSettings,
-};
+use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
+use tensegrity_deploy::model::{EffectKind, Effects, RelaxSettings};
+use tensegrity_deploy::sim::standard_sensors;
+use tensegrity_deploy::sim::EffectModel;
 
 fn model(effects: Effects) -> EffectModel {
     EffectModel {

@@ -11,9 +11,8 @@
 //! Iterations per solve are printed once before timing.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use tensegrity_deploy::model::{
-    reference_bridge, BridgeParameters, ForwardModel, JointFriction, RelaxSettings, Workspace,
-};
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Workspace};
 
 fn bridge_model(mu: f64) -> ForwardModel {
     ForwardModel::new(

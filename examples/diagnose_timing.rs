@@ -7,12 +7,12 @@
 
 use std::time::Instant;
 
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::measure::diagnose::{diagnose, DiagnoseSettings};
-use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, standard_sensors, DAILY_SWING_K};
-use tensegrity_deploy::measure::EffectModel;
-use tensegrity_deploy::model::{
-    reference_bridge, BridgeParameters, EffectKind, Effects, RelaxSettings,
-};
+use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
+use tensegrity_deploy::model::{EffectKind, Effects, RelaxSettings};
+use tensegrity_deploy::sim::standard_sensors;
+use tensegrity_deploy::sim::EffectModel;
 
 fn main() {
     let structure = reference_bridge(&BridgeParameters::default()).expect("reference bridge");

@@ -26,15 +26,25 @@
 //!   `tol = tol_force_rel · max |T|`.
 //!
 //! ## Layout
-//! - [`model`]: structure, friction, DR solver, reference bridge. Pure.
-//! - [`qp`]: quadratic programs and the only Clarabel adapter.
-//! - [`analysis`]: studies that compare model runs (friction effect).
-//! - [`measure`]: models with effects run through logged cycles; the
-//!   synthetic lab.
-//! - [`io`]: file formats; the only module that touches files.
+//! Layers, each depending only on those above it in this list (a test,
+//! `tests/layers.rs`, fails if a `use crate::…` line points the other way):
+//! - [`numerics`]: QPs and the one Clarabel adapter, DOF numbering, block
+//!   factorisation. Knows nothing of structures.
+//! - [`model`]: structure, state, joint friction, effects, the equilibrium
+//!   solver. Pure.
+//! - [`design`]: the reference bridge, form finding, the friction rig.
+//! - [`sim`]: sensors, schedules, a model with effects replayed through
+//!   commands.
+//! - [`measure`]: logs in memory, the synthetic lab, compare, diagnose.
+//! - [`studies`]: what the experiments compute.
+//! - [`io`]: file formats; with the CLI, the only code that touches files.
+//! - [`report`]: SVG drawings and figures.
 
-pub mod analysis;
+pub mod design;
 pub mod io;
 pub mod measure;
 pub mod model;
-pub mod qp;
+pub mod numerics;
+pub mod report;
+pub mod sim;
+pub mod studies;

@@ -4,9 +4,9 @@
 use std::path::Path;
 use std::process::Command;
 
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::commands::parse_commands;
 use tensegrity_deploy::io::structure_file::{parse_structure, structure_to_json};
-use tensegrity_deploy::model::{reference_bridge, BridgeParameters};
 
 const GOOD: &str = r#"{
   "format": "tensegrity-deploy/structure/1",

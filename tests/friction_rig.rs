@@ -5,7 +5,7 @@
 //! the rig through the full DR solve.
 
 use std::f64::consts::PI;
-use tensegrity_deploy::model::friction_rig::{load_rig, modelled_slip_ratio};
+use tensegrity_deploy::design::friction_rig::{load_rig, modelled_slip_ratio};
 use tensegrity_deploy::model::{AngleConvention, FrictionCoefficient, JointFriction};
 
 const ANGLES_DEG: [f64; 3] = [117.0, 146.0, 170.0];

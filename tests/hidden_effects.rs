@@ -10,16 +10,16 @@
 
 use rand::{Rng, SeedableRng};
 
-use tensegrity_deploy::io::log::MeasurementLog;
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::measure::compare::noise_rms_limit;
 use tensegrity_deploy::measure::diagnose::{
     diagnose, part, DiagnoseSettings, Verdict, EXPLAINED_RMS,
 };
-use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, standard_sensors, DAILY_SWING_K};
-use tensegrity_deploy::measure::EffectModel;
-use tensegrity_deploy::model::{
-    reference_bridge, BridgeParameters, EffectKind, Effects, MemberKind, RelaxSettings, Structure,
-};
+use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
+use tensegrity_deploy::measure::log::MeasurementLog;
+use tensegrity_deploy::model::{EffectKind, Effects, MemberKind, RelaxSettings, Structure};
+use tensegrity_deploy::sim::standard_sensors;
+use tensegrity_deploy::sim::EffectModel;
 
 const AMPLITUDES_M: [f64; 4] = [0.05, 0.2, 0.1, 0.2];
 const STEPS: usize = 4;

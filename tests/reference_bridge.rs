@@ -3,9 +3,10 @@
 //! symmetry and friction hysteresis.
 
 use nalgebra::Vector3;
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::model::{
-    reference_bridge, BridgeParameters, CommandReport, DeploymentState, ForwardModel,
-    JointFriction, MemberKind, RelaxSettings, Structure, Workspace,
+    CommandReport, DeploymentState, ForwardModel, JointFriction, MemberKind, RelaxSettings,
+    Structure, Workspace,
 };
 
 fn bridge() -> Structure {

@@ -7,14 +7,14 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::ArgMatches;
 
-use tensegrity_deploy::io::figures::{
-    measured_vs_predicted_svg, residuals_over_steps_svg, residuals_vs_features_svg,
-};
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::measure::compare::{
     compare as compare_runs, noise_rms_limit, Comparison, FEATURES,
+};
+use tensegrity_deploy::report::figures::{
+    measured_vs_predicted_svg, residuals_over_steps_svg, residuals_vs_features_svg,
 };
 
 /// Runs `tdeploy compare`.
@@ -55,7 +55,7 @@ pub fn compare(a: &ArgMatches) -> Result<()> {
     Ok(())
 }
 
-fn print_tables(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Comparison) {
+fn print_tables(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Comparison) {
     say!(
         "{:<22} {:>5} {:>11} {:>11} {:>11} {:>11} {:>8}",
         "sensor",
@@ -103,7 +103,7 @@ fn print_tables(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Comparison
 }
 
 /// The comparison's verdict in words: noise, or where the model fails.
-fn verdict(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Comparison) -> String {
+fn verdict(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Comparison) -> String {
     let limit = noise_rms_limit(c.overall.count);
     if c.worst_sensor().is_some() && c.overall.rms <= limit {
         return format!(
@@ -117,7 +117,7 @@ fn verdict(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Comparison) -> 
 /// Where the model fails worst: sensor, direction and the feature its
 /// residual correlates with most, in words.
 pub(super) fn where_it_fails(
-    log: &tensegrity_deploy::io::log::MeasurementLog,
+    log: &tensegrity_deploy::measure::log::MeasurementLog,
     c: &Comparison,
 ) -> String {
     let Some(worst) = c.worst_sensor() else {
@@ -144,7 +144,7 @@ pub(super) fn where_it_fails(
     )
 }
 
-fn residuals_csv(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Comparison) -> String {
+fn residuals_csv(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Comparison) -> String {
     let mut s = String::from(
         "cycle,step,sensor,direction,measured,predicted,residual,z,payout_m,command_m,joint_angle_deg,temperature_c\n",
     );
@@ -175,7 +175,7 @@ fn residuals_csv(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Compariso
     s
 }
 
-fn sensors_csv(log: &tensegrity_deploy::io::log::MeasurementLog, c: &Comparison) -> String {
+fn sensors_csv(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Comparison) -> String {
     let mut s = String::from("sensor,count,mean,sd,rms,worst,rms_z,mean_z\n");
     for (sensor, (st, z)) in log.sensors.iter().zip(&c.per_sensor) {
         if st.count > 0 {

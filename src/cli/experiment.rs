@@ -7,14 +7,14 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::ArgMatches;
 
-use tensegrity_deploy::analysis::{friction_effect, FrictionEffectSettings};
-use tensegrity_deploy::io::drawing::{state_views_svg, DrawnState};
+use tensegrity_deploy::design::friction_rig::modelled_slip_ratio;
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::write_atomically;
-use tensegrity_deploy::model::friction_rig::modelled_slip_ratio;
 use tensegrity_deploy::model::{
-    reference_bridge, AngleConvention, BridgeParameters, FrictionCoefficient, JointFriction,
-    RelaxSettings,
+    AngleConvention, FrictionCoefficient, JointFriction, RelaxSettings,
 };
+use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
+use tensegrity_deploy::studies::{friction_effect, FrictionEffectSettings};
 
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -290,8 +290,8 @@ fn friction_vs_measurement_experiment(
     e: &FrictionVsMeasurementExperiment,
     path: &Path,
 ) -> Result<()> {
-    use tensegrity_deploy::io::figures::grouped_bars_svg;
-    use tensegrity_deploy::measure::friction_study::{
+    use tensegrity_deploy::report::figures::grouped_bars_svg;
+    use tensegrity_deploy::studies::friction_study::{
         friction_study, CellComparison, FrictionStudySettings,
     };
     check_numbers(

@@ -8,7 +8,8 @@ use clap::ArgMatches;
 use tensegrity_deploy::io::log::write_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_atomically;
-use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, standard_sensors};
+use tensegrity_deploy::measure::lab::{run_lab, standard_cycles};
+use tensegrity_deploy::sim::standard_sensors;
 
 /// Runs `tdeploy lab`.
 pub fn lab(a: &ArgMatches) -> Result<()> {

@@ -35,11 +35,10 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::friction_table::read_friction_table;
 use tensegrity_deploy::io::structure_file::write_structure;
-use tensegrity_deploy::model::{
-    reference_bridge, AngleConvention, BridgeParameters, FrictionCoefficient, JointFriction,
-};
+use tensegrity_deploy::model::{AngleConvention, FrictionCoefficient, JointFriction};
 
 /// The `tdeploy` command with its subcommands.
 pub fn command() -> Command {
@@ -193,8 +192,8 @@ fn friction_from(a: &ArgMatches) -> Result<JointFriction> {
 /// seed's actuation step).
 fn effect_model(
     file: &tensegrity_deploy::io::model_file::ModelFile,
-) -> Result<tensegrity_deploy::measure::EffectModel> {
-    Ok(tensegrity_deploy::measure::EffectModel {
+) -> Result<tensegrity_deploy::sim::EffectModel> {
+    Ok(tensegrity_deploy::sim::EffectModel {
         structure: file.load_structure()?,
         effects: file.effects,
         settings: tensegrity_deploy::model::RelaxSettings::default(),

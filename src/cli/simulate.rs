@@ -7,15 +7,16 @@ use anyhow::{bail, Result};
 use clap::ArgMatches;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::commands::{read_commands, CommandSequence};
-use tensegrity_deploy::io::drawing::{state_views_svg, DrawnState};
 use tensegrity_deploy::io::results::{write_simulation, StepRecord};
 use tensegrity_deploy::io::structure_file::read_structure;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::model::{
-    reference_bridge, BridgeParameters, CommandReport, ForwardModel, IncrementObserver,
-    RelaxReport, RelaxSettings, RelaxStatus, Structure, Workspace,
+    CommandReport, ForwardModel, IncrementObserver, RelaxReport, RelaxSettings, RelaxStatus,
+    Structure, Workspace,
 };
+use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 
 use super::friction_from;
 

@@ -27,7 +27,9 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use super::{csv_records, csv_with_header, write_atomically, FileError};
+use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::Structure;
+use crate::sim::{Sensor, SensorTarget};
 
 /// The `format` a log must declare.
 pub const LOG_FORMAT: &str = "tensegrity-deploy/log/1";
@@ -37,92 +39,6 @@ pub const LOG_COMMANDS_HEADER: [&str; 4] = ["cycle", "step", "cable", "payout_ch
 pub const SENSORS_HEADER: [&str; 4] = ["sensor", "kind", "target", "noise_sd"];
 /// Header of `measurements.csv`.
 pub const MEASUREMENTS_HEADER: [&str; 4] = ["cycle", "step", "sensor", "value"];
-
-/// What a sensor measures, resolved against the structure.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SensorTarget {
-    /// Tension of segment `segment` of continuous cable `cable`, N.
-    SegmentTension {
-        /// Cable index.
-        cable: usize,
-        /// Segment index along the cable.
-        segment: usize,
-    },
-    /// Axial force of member `member`, N.
-    MemberForce {
-        /// Member index.
-        member: usize,
-    },
-    /// Coordinate `axis` (0 x, 1 y, 2 z) of node `node`, m.
-    Position {
-        /// Node index.
-        node: usize,
-        /// Axis.
-        axis: usize,
-    },
-    /// Air temperature, °C.
-    Temperature,
-}
-
-/// One sensor of the layout.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Sensor {
-    /// Unique id.
-    pub id: String,
-    /// What it measures.
-    pub target: SensorTarget,
-    /// Noise standard deviation, in the sensor's unit.
-    pub noise_sd: f64,
-}
-
-impl Sensor {
-    /// `kind` and `target` as written in `sensors.csv`.
-    pub fn kind_and_target(&self, structure: &Structure) -> (String, String) {
-        match self.target {
-            SensorTarget::SegmentTension { cable, segment } => (
-                "tension".into(),
-                format!("{}:{segment}", structure.continuous_cables[cable].id),
-            ),
-            SensorTarget::MemberForce { member } => {
-                ("tension".into(), structure.members[member].id.clone())
-            }
-            SensorTarget::Position { node, axis } => (
-                format!("position_{}", ["x", "y", "z"][axis]),
-                structure.nodes[node].id.clone(),
-            ),
-            SensorTarget::Temperature => ("temperature".into(), "-".into()),
-        }
-    }
-}
-
-/// The commands of one step: a payout change per continuous cable, m.
-pub type StepCommand = Vec<f64>;
-
-/// One deployment-fold cycle: its steps' commands and readings.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Cycle {
-    /// Cycle number as logged.
-    pub label: u64,
-    /// Step numbers as logged (step 0, the state before any command, has no
-    /// command and is not listed).
-    pub step_labels: Vec<u64>,
-    /// Commands per step (same order as `step_labels`).
-    pub commands: Vec<StepCommand>,
-    /// Readings per step, step 0 first then `step_labels` order; one
-    /// `Option` per sensor (layout order).
-    pub readings: Vec<Vec<Option<f64>>>,
-}
-
-/// A whole log.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MeasurementLog {
-    /// Name of the structure it was made on.
-    pub structure: String,
-    /// Sensor layout.
-    pub sensors: Vec<Sensor>,
-    /// Cycles in order.
-    pub cycles: Vec<Cycle>,
-}
 
 #[derive(serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -423,7 +339,7 @@ pub fn write_log(dir: &Path, log: &MeasurementLog, structure: &Structure) -> Res
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{reference_bridge, BridgeParameters};
+    use crate::design::{reference_bridge, BridgeParameters};
 
     fn sample(structure: &Structure) -> MeasurementLog {
         let n = structure.continuous_cables.len();

@@ -6,8 +6,6 @@
 //! failed run never leaves a half-written file in place of a good one.
 
 pub mod commands;
-pub mod drawing;
-pub mod figures;
 pub mod friction_table;
 pub mod log;
 pub mod model_file;

@@ -46,7 +46,8 @@ use serde::{Deserialize, Serialize};
 
 use super::structure_file::read_structure;
 use super::{write_atomically, FileError};
-use crate::model::{reference_bridge, BridgeParameters, Effects, Structure};
+use crate::design::{reference_bridge, BridgeParameters};
+use crate::model::{Effects, Structure};
 
 /// The `format` a model file must declare.
 pub const MODEL_FORMAT: &str = "tensegrity-deploy/model/1";

@@ -5,9 +5,10 @@
 //! that sensors of different kinds compare: a model that explains the log
 //! leaves `z` with RMS about 1 and mean about 0 everywhere.
 
-use crate::io::log::{MeasurementLog, SensorTarget};
+use crate::measure::log::MeasurementLog;
+use crate::sim::SensorTarget;
 
-use super::replay::{CycleSchedule, EffectModel, ReplayError, Run, StepFeatures};
+use crate::sim::{CycleSchedule, EffectModel, ReplayError, Run, StepFeatures};
 
 /// Which way the cables moved in a step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -283,8 +284,10 @@ pub fn residuals_of(log: &MeasurementLog, run: &Run) -> Comparison {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::measure::lab::{run_lab, standard_cycles, standard_sensors, DAILY_SWING_K};
-    use crate::model::{reference_bridge, BridgeParameters, EffectKind, Effects, RelaxSettings};
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
+    use crate::model::{EffectKind, Effects, RelaxSettings};
+    use crate::sim::standard_sensors;
 
     fn model(effects: Effects) -> EffectModel {
         EffectModel {

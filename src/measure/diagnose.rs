@@ -42,11 +42,11 @@
 
 use rayon::prelude::*;
 
-use crate::io::log::MeasurementLog;
+use crate::measure::log::MeasurementLog;
 use crate::model::{EffectKind, Effects};
 
 use super::compare::{compare, noise_rms_limit, Comparison};
-use super::replay::{EffectModel, ReplayError};
+use crate::sim::{EffectModel, ReplayError};
 
 /// Levenberg–Marquardt iterations per fit.
 const MAX_LM_ITERATIONS: usize = 30;

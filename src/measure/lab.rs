@@ -1,7 +1,7 @@
 //! The synthetic lab: deployment-fold cycles run on a "truth" model with
 //! any effects on, read by sensors with noise, as the seed's tests were.
 //!
-//! Standard layout ([`standard_sensors`]), after the seed's instrumentation:
+//! Standard layout ([`crate::sim::standard_sensors`]), after the seed's instrumentation:
 //! in-line load cells on four continuous cables of half A in the segment
 //! that ends at the midspan node (noise 7 N), the 3-D positions of all
 //! midspan nodes (1 mm), and a temperature channel (0.1 °C). Standard
@@ -15,47 +15,8 @@
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
-use super::replay::{CycleSchedule, EffectModel, ReplayError};
-use crate::io::log::{Cycle, MeasurementLog, Sensor, SensorTarget};
-use crate::model::Structure;
-
-/// Load-cell noise, N (seed: about 7 N).
-pub const LOAD_CELL_NOISE_N: f64 = 7.0;
-/// Position noise, m (seed: about 1 mm).
-pub const POSITION_NOISE_M: f64 = 0.001;
-/// Temperature noise, °C.
-pub const TEMPERATURE_NOISE_C: f64 = 0.1;
-
-/// The seed-like sensor layout for `structure` (a reference bridge: its
-/// cables `A_cc0`–`A_cc3` carry the load cells).
-pub fn standard_sensors(structure: &Structure) -> Vec<Sensor> {
-    let mut sensors = Vec::new();
-    for (c, cable) in structure.continuous_cables.iter().enumerate().take(4) {
-        sensors.push(Sensor {
-            id: format!("load_{}", cable.id),
-            target: SensorTarget::SegmentTension {
-                cable: c,
-                segment: cable.segment_count() - 1,
-            },
-            noise_sd: LOAD_CELL_NOISE_N,
-        });
-    }
-    for &node in structure.midspan_pairs.iter().flatten() {
-        for (axis, name) in ["x", "y", "z"].iter().enumerate() {
-            sensors.push(Sensor {
-                id: format!("{}_{name}", structure.nodes[node].id),
-                target: SensorTarget::Position { node, axis },
-                noise_sd: POSITION_NOISE_M,
-            });
-        }
-    }
-    sensors.push(Sensor {
-        id: "temperature".into(),
-        target: SensorTarget::Temperature,
-        noise_sd: TEMPERATURE_NOISE_C,
-    });
-    sensors
-}
+use super::log::{Cycle, MeasurementLog};
+use crate::sim::{CycleSchedule, EffectModel, ReplayError, Sensor};
 
 /// Temperature swing of the standard cycles, K: a day's swing outdoors.
 pub const DAILY_SWING_K: f64 = 12.0;
@@ -143,7 +104,9 @@ pub fn run_lab(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{reference_bridge, BridgeParameters, Effects, RelaxSettings};
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::{Effects, RelaxSettings};
+    use crate::sim::{standard_sensors, SensorTarget};
 
     fn truth() -> EffectModel {
         EffectModel {

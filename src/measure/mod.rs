@@ -1,13 +1,11 @@
-//! Model against measurement: running a model with effects through a
-//! schedule of cycles ([`replay`]), the synthetic lab that makes logs from
-//! a truth model ([`lab`]), and the comparison of a model with a log
-//! ([`compare`]). Pure: files are read and written in
-//! [`crate::io`].
+//! Model against measurement: logs in memory ([`log`]), the synthetic lab
+//! that makes logs from a truth model ([`lab`]), the comparison of a model
+//! with a log ([`compare`]) and the search for what the model lacks
+//! ([`diagnose`]). Pure: files are read and written in [`crate::io`].
 
 pub mod compare;
 pub mod diagnose;
-pub mod friction_study;
 pub mod lab;
-pub mod replay;
+pub mod log;
 
-pub use replay::{CycleSchedule, EffectModel, Readings, ReplayError, Run, StepFeatures};
+pub use log::{Cycle, MeasurementLog, StepCommand};

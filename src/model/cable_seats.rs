@@ -19,7 +19,7 @@
 //! angles move material: a replay subtracts the change of
 //! [`seat_material_m`] since the last solve from each segment and solves
 //! again until the arcs stop changing (see
-//! [`crate::measure::replay`]).
+//! [`crate::sim::replay`]).
 
 use nalgebra::Vector3;
 
@@ -54,7 +54,7 @@ pub fn seat_material_m(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{reference_bridge, BridgeParameters};
+    use crate::design::{reference_bridge, BridgeParameters};
     use std::f64::consts::PI;
 
     #[test]

@@ -613,7 +613,7 @@ impl MotorModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{reference_bridge, BridgeParameters};
+    use crate::design::{reference_bridge, BridgeParameters};
 
     #[test]
     fn every_effect_round_trips_through_its_parameter_vector() {

@@ -161,7 +161,8 @@ fn as_built_reactions_n(structure: &Structure) -> Vec<Vector3<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{reference_bridge, BridgeParameters, ForwardModel, JointFriction};
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::{ForwardModel, JointFriction};
     use crate::model::{RelaxSettings, Workspace};
 
     fn bridge() -> Structure {

@@ -28,9 +28,10 @@
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
 use super::friction::JointFriction;
-use super::relax::ForwardModel;
 use super::sliding::{interior_angle, segment_tension};
+use super::solver::ForwardModel;
 use super::state::{DeploymentState, JointSlip};
+use crate::numerics::FreeDofs;
 
 /// How continuous cables behave at their joints in a linearisation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -43,43 +44,6 @@ pub enum JointMode {
     /// sliding ones exchange material at their current tension ratio (the
     /// consistent tangent of the friction return mapping; non-symmetric).
     AsMapped,
-}
-
-/// Numbering of the free degrees of freedom: `index[node][axis]` is the
-/// row of that DOF, `None` where the axis is fixed.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FreeDofs {
-    /// Row of each node's axis, or `None` for a supported axis.
-    pub index: Vec<[Option<usize>; 3]>,
-    /// Number of free DOFs.
-    pub count: usize,
-}
-
-impl FreeDofs {
-    /// Numbers the free DOFs of a model's structure node by node, x, y, z.
-    pub fn of(model: &ForwardModel) -> Self {
-        Self::of_structure(&model.structure)
-    }
-
-    /// Numbers the free DOFs of a structure node by node, x, y, z.
-    pub fn of_structure(structure: &super::Structure) -> Self {
-        let mut count = 0;
-        let index = structure
-            .nodes
-            .iter()
-            .map(|n| {
-                let mut row = [None; 3];
-                for (a, slot) in row.iter_mut().enumerate() {
-                    if !n.fixed[a] {
-                        *slot = Some(count);
-                        count += 1;
-                    }
-                }
-                row
-            })
-            .collect();
-        FreeDofs { index, count }
-    }
 }
 
 /// Adds `sign·block` to the (`i`, `j`) node block of `k`, free rows only.
@@ -119,7 +83,7 @@ pub fn tangent_stiffness(
     state: &DeploymentState,
     joints: JointMode,
 ) -> (DMatrix<f64>, FreeDofs) {
-    let dofs = FreeDofs::of(model);
+    let dofs = model.free_dofs().clone();
     let mut k = DMatrix::zeros(dofs.count, dofs.count);
     let x = &state.positions_m;
     for m in &model.structure.members {
@@ -344,8 +308,8 @@ pub fn min_stiffness_eigenvalue(k: &DMatrix<f64>) -> f64 {
 mod tests {
     use super::*;
     use crate::model::friction::JointFriction;
-    use crate::model::relax::RelaxSettings;
     use crate::model::structure::{ContinuousCable, Node, Structure};
+    use crate::model::RelaxSettings;
 
     /// A V-shaped continuous cable from two supports over one free joint.
     fn v_cable(rest_scale: f64) -> ForwardModel {
@@ -374,7 +338,7 @@ mod tests {
 
     /// Central differences of the out-of-balance force, for comparison.
     fn finite_difference(model: &ForwardModel, state: &DeploymentState, h: f64) -> DMatrix<f64> {
-        let dofs = FreeDofs::of(model);
+        let dofs = model.free_dofs().clone();
         let mut k = DMatrix::zeros(dofs.count, dofs.count);
         let force = |s: &DeploymentState| -> Vec<Vector3<f64>> {
             let f = model.member_forces(s);

@@ -13,12 +13,12 @@
 
 use thiserror::Error;
 
-use crate::io::log::{Sensor, SensorTarget};
 use crate::model::sliding::interior_angle;
 use crate::model::{
     CommandError, DeploymentState, Effects, ForwardModel, RelaxSettings, RelaxStatus, Structure,
     StructureError, Workspace,
 };
+use crate::sim::{Sensor, SensorTarget};
 
 /// The seat arcs are followed until they change by less than this between
 /// two solves, m: a thousandth of the 1 mm position noise.
@@ -362,7 +362,8 @@ fn relax(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{reference_bridge, BridgeParameters, EffectKind};
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::EffectKind;
 
     fn schedule(n: usize) -> Vec<CycleSchedule> {
         let out_in = |d: f64| {

@@ -22,7 +22,8 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use crate::qp::{self, QpError, QpSettings, QpSolution, QuadraticProgram};
+use crate::numerics::qp::{self, QpError, QpSettings, QpSolution, QuadraticProgram};
+use crate::numerics::FreeDofs;
 
 /// Elements sharing one unknown force, with its bounds and target.
 #[derive(Debug, Clone, PartialEq)]
@@ -51,7 +52,8 @@ pub fn prestress_problem(
     loads_n: &[Vector3<f64>],
     groups: &[ForceGroup],
 ) -> QuadraticProgram {
-    let (dof_row, rows) = free_rows(fixed);
+    let dofs = FreeDofs::from_fixed(fixed);
+    let (dof_row, rows) = (&dofs.index, dofs.count);
     let n = groups.len();
     let mut eq = DMatrix::zeros(rows, n);
     let mut rhs = DVector::zeros(rows);
@@ -60,19 +62,19 @@ pub fn prestress_problem(
             let u = (positions_m[b] - positions_m[a]).normalize();
             // A tension pulls a towards b and b towards a.
             for ax in 0..3 {
-                if dof_row[a][ax] != usize::MAX {
-                    eq[(dof_row[a][ax], g)] += u[ax];
+                if let Some(r) = dof_row[a][ax] {
+                    eq[(r, g)] += u[ax];
                 }
-                if dof_row[b][ax] != usize::MAX {
-                    eq[(dof_row[b][ax], g)] -= u[ax];
+                if let Some(r) = dof_row[b][ax] {
+                    eq[(r, g)] -= u[ax];
                 }
             }
         }
     }
     for (i, l) in loads_n.iter().enumerate() {
         for ax in 0..3 {
-            if dof_row[i][ax] != usize::MAX {
-                rhs[dof_row[i][ax]] = -l[ax];
+            if let Some(r) = dof_row[i][ax] {
+                rhs[r] = -l[ax];
             }
         }
     }
@@ -98,34 +100,22 @@ pub fn prestress_problem(
     }
 }
 
-/// Free-DOF numbering of `fixed`: `rows[i][axis]`, `usize::MAX` if fixed.
-fn free_rows(fixed: &[[bool; 3]]) -> (Vec<[usize; 3]>, usize) {
-    let mut dof_row = vec![[usize::MAX; 3]; fixed.len()];
-    let mut rows = 0;
-    for (i, f) in fixed.iter().enumerate() {
-        for a in 0..3 {
-            if !f[a] {
-                dof_row[i][a] = rows;
-                rows += 1;
-            }
-        }
-    }
-    (dof_row, rows)
-}
-
 /// Adds `scale·gᵀ-outer` style blocks: `k[(r_i, r_j)] += w·u_i·u_j` over
 /// the free rows of the listed (node, vector) entries.
-fn add_outer(k: &mut DMatrix<f64>, rows: &[[usize; 3]], entries: &[(usize, Vector3<f64>)], w: f64) {
+fn add_outer(
+    k: &mut DMatrix<f64>,
+    rows: &[[Option<usize>; 3]],
+    entries: &[(usize, Vector3<f64>)],
+    w: f64,
+) {
     for (i, ui) in entries {
         for (j, uj) in entries {
             for a in 0..3 {
-                let r = rows[*i][a];
-                if r == usize::MAX {
+                let Some(r) = rows[*i][a] else {
                     continue;
-                }
+                };
                 for b in 0..3 {
-                    let c = rows[*j][b];
-                    if c != usize::MAX {
+                    if let Some(c) = rows[*j][b] {
                         k[(r, c)] += w * ui[a] * uj[b];
                     }
                 }
@@ -141,7 +131,8 @@ pub fn stiffness_parts(
     fixed: &[[bool; 3]],
     groups: &[ForceGroup],
 ) -> (DMatrix<f64>, Vec<DMatrix<f64>>) {
-    let (rows, n) = free_rows(fixed);
+    let dofs = FreeDofs::from_fixed(fixed);
+    let (rows, n) = (&dofs.index, dofs.count);
     let mut material = DMatrix::zeros(n, n);
     let mut geometric = Vec::with_capacity(groups.len());
     for group in groups {
@@ -154,8 +145,7 @@ pub fn stiffness_parts(
             // (1/L)(I − eeᵀ) on x_b − x_a: identity part minus the e-outer part.
             for (i, j, sign) in [(a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)] {
                 for ax in 0..3 {
-                    let (r, c) = (rows[i][ax], rows[j][ax]);
-                    if r != usize::MAX && c != usize::MAX {
+                    if let (Some(r), Some(c)) = (rows[i][ax], rows[j][ax]) {
                         g[(r, c)] += sign / l;
                     }
                 }

@@ -12,10 +12,11 @@
 //! reports them. The seed found friction cut the first by 50 % and the
 //! second by 40 %.
 
-use super::lab::{run_lab, standard_sensors};
-use super::replay::{CycleSchedule, EffectModel, ReplayError};
-use crate::io::log::SensorTarget;
+use crate::measure::lab::run_lab;
 use crate::model::{Effects, RelaxSettings, Structure};
+use crate::sim::standard_sensors;
+use crate::sim::SensorTarget;
+use crate::sim::{CycleSchedule, EffectModel, ReplayError};
 
 /// What to run.
 #[derive(Debug, Clone, PartialEq)]

@@ -16,11 +16,13 @@
 
 use nalgebra::Vector3;
 
-use super::friction::JointFriction;
-use super::sliding::{map_cable, map_cable_with_slip, segment_tension, IncrementStart};
-use super::state::{DeploymentState, JointSlip};
-use super::stiffness::FreeDofs;
-use super::structure::Structure;
+use crate::model::friction::JointFriction;
+use crate::model::sliding::{map_cable, map_cable_with_slip, segment_tension, IncrementStart};
+use crate::model::state::{DeploymentState, JointSlip};
+use crate::model::structure::Structure;
+#[allow(unused_imports)] // named in docs
+use crate::numerics::BlockLu;
+use crate::numerics::FreeDofs;
 
 /// Settings of the DR solver. Defaults are what the reference bridge needs
 /// for 0.01 mm-level positions; every field says what changing it does.
@@ -172,6 +174,7 @@ pub struct ForwardModel {
     external_n: Vec<Vector3<f64>>,
     free_mask: Vec<Vector3<f64>>,
     size_m: f64,
+    free_dofs: FreeDofs,
     dof_blocks: Vec<Vec<usize>>,
 }
 
@@ -297,7 +300,15 @@ impl ForwardModel {
             hi = hi.sup(&n.position_m);
         }
         let size_m = (hi - lo).norm().max(1e-3);
-        let dof_blocks = super::newton::dof_blocks(&FreeDofs::of_structure(&structure), &structure);
+        let free_dofs = FreeDofs::from_fixed(structure.nodes.iter().map(|n| &n.fixed));
+        let dof_blocks = free_dofs.blocks(
+            structure.members.iter().map(|m| m.nodes).chain(
+                structure
+                    .continuous_cables
+                    .iter()
+                    .flat_map(|c| c.path.windows(2).map(|w| [w[0], w[1]])),
+            ),
+        );
         ForwardModel {
             structure,
             friction,
@@ -306,6 +317,7 @@ impl ForwardModel {
             external_n,
             free_mask,
             size_m,
+            free_dofs,
             dof_blocks,
         }
     }
@@ -450,7 +462,13 @@ impl ForwardModel {
             .sum()
     }
 
-    /// Free DOFs in blocks that no member couples (see [`super::newton`]).
+    /// Numbering of the free degrees of freedom, as in every matrix the
+    /// model builds.
+    pub fn free_dofs(&self) -> &FreeDofs {
+        &self.free_dofs
+    }
+
+    /// Free DOFs in blocks that no member couples (see [`BlockLu`]).
     pub(super) fn dof_blocks(&self) -> &[Vec<usize>] {
         &self.dof_blocks
     }

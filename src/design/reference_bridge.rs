@@ -55,7 +55,9 @@ use nalgebra::Vector3;
 use thiserror::Error;
 
 use super::form_finding::{find_stable_prestress, ForceGroup};
-use super::structure::{ContinuousCable, Member, MemberKind, Node, Structure, StructureError};
+use crate::model::structure::{
+    ContinuousCable, Member, MemberKind, Node, Structure, StructureError,
+};
 
 /// Every value the generator assumes, with its source or reasoning.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -227,7 +229,7 @@ pub enum BridgeError {
     },
     /// No prestress meets the bounds in this geometry.
     #[error("form finding found no admissible prestress (QP status {0:?}); change ring radius, module length or tension bounds")]
-    NoPrestress(crate::qp::QpStatus),
+    NoPrestress(crate::numerics::qp::QpStatus),
     /// Prestress exists but none makes the frictionless structure as stiff
     /// as asked.
     #[error("no prestress gives a tangent stiffness above {wanted_n_per_m} N/m with sliding joints (best found {achieved_n_per_m:.1} N/m); lower `min_stiffness_n_per_m` or change the geometry")]
@@ -239,7 +241,7 @@ pub enum BridgeError {
     },
     /// The QP solver could not be set up.
     #[error(transparent)]
-    Qp(#[from] crate::qp::QpError),
+    Qp(#[from] crate::numerics::qp::QpError),
     /// The generated structure failed validation (a generator bug).
     #[error(transparent)]
     Structure(#[from] StructureError),

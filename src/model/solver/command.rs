@@ -8,7 +8,7 @@
 use thiserror::Error;
 
 use super::relax::{ForwardModel, RelaxReport, RelaxStatus, Workspace};
-use super::state::DeploymentState;
+use crate::model::state::DeploymentState;
 
 /// A command the model cannot apply.
 #[derive(Debug, Clone, PartialEq, Error)]

@@ -8,9 +8,10 @@
 
 use nalgebra::Vector3;
 
-use super::friction::JointFriction;
-use super::relax::{ForwardModel, RelaxReport, RelaxSettings, Workspace};
-use super::structure::{ContinuousCable, Node, Structure};
+use crate::model::{
+    ContinuousCable, ForwardModel, JointFriction, Node, RelaxReport, RelaxSettings, Structure,
+    Workspace,
+};
 
 /// Centre distance of the rig's pulleys, m (seed: 400 mm).
 pub const PULLEY_SPACING_M: f64 = 0.4;

@@ -37,11 +37,12 @@
 //! with stuck joints, so the continuation only supplies initial guesses:
 //! the answer is that of the full increment (backward Euler), as with DR.
 
-use nalgebra::{DMatrix, DVector, Dyn, Vector3, LU};
+use nalgebra::DVector;
 
 use super::relax::{ForwardModel, Workspace};
-use super::state::{DeploymentState, JointSlip};
-use super::stiffness::{tangent_stiffness, FreeDofs, JointMode};
+use crate::model::state::{DeploymentState, JointSlip};
+use crate::model::stiffness::{tangent_stiffness, JointMode};
+use crate::numerics::{BlockLu, FreeDofs};
 
 /// A Newton step is rejected when it multiplies the residual norm by more.
 const WATCHDOG: f64 = 100.0;
@@ -124,8 +125,8 @@ impl ForwardModel {
             let (dx, labels) = self.linear_prediction(&partial(done, &solved), &trial, ws);
             if let Some(dx) = dx {
                 outcome.iterations += 1;
-                let dofs = FreeDofs::of(self);
-                add_free(&mut trial.positions_m, &dofs, &dx, 1.0);
+                self.free_dofs()
+                    .scatter_add(&mut trial.positions_m, &dx, 1.0);
             }
             ws.start_increment(&trial);
             // The joints that slide as this step begins: the active set to
@@ -269,7 +270,7 @@ impl ForwardModel {
                 fresh = true;
             }
             let (lu, dofs) = factor.as_ref().expect("factorised above");
-            let rhs = free_vector(&ws.force, dofs);
+            let rhs = dofs.gather(&ws.force);
             let step = lu.solve(&rhs);
             if !(step.dot(&rhs) > 0.0) {
                 if fresh {
@@ -289,7 +290,7 @@ impl ForwardModel {
             let mut alpha = 1.0;
             for _ in 0..=MAX_HALVINGS {
                 state.positions_m.copy_from_slice(&before);
-                add_free(&mut state.positions_m, dofs, &step, alpha);
+                dofs.scatter_add(&mut state.positions_m, &step, alpha);
                 (*max_t, *friction_left) = self.residual(state, ws);
                 let trial = self.free_residual_norm(ws);
                 if trial < WATCHDOG * norm {
@@ -337,123 +338,12 @@ impl ForwardModel {
     }
 }
 
-/// LU factors of a tangent stiffness block by block: free DOFs that no
-/// chain of members joins (the two halves of the bridge, parted by their
-/// supports) never couple, so each block is factorised on its own, which
-/// for two equal halves quarters the work.
-struct BlockLu {
-    blocks: Vec<(Vec<usize>, LU<f64, Dyn, Dyn>)>,
-    size: usize,
-}
-
-impl BlockLu {
-    /// Factorises `k` block by block; `None` if a block is singular.
-    fn new(k: &DMatrix<f64>, blocks: &[Vec<usize>]) -> Option<Self> {
-        let mut factors = Vec::with_capacity(blocks.len());
-        for members in blocks {
-            let sub = DMatrix::from_fn(members.len(), members.len(), |i, j| {
-                k[(members[i], members[j])]
-            });
-            let lu = sub.lu();
-            if !lu.is_invertible() {
-                return None;
-            }
-            factors.push((members.clone(), lu));
-        }
-        Some(BlockLu {
-            blocks: factors,
-            size: k.nrows(),
-        })
-    }
-
-    /// Solves `K·x = rhs`.
-    fn solve(&self, rhs: &DVector<f64>) -> DVector<f64> {
-        let mut x = DVector::zeros(self.size);
-        for (members, lu) in &self.blocks {
-            let b = DVector::from_iterator(members.len(), members.iter().map(|&i| rhs[i]));
-            if let Some(y) = lu.solve(&b) {
-                for (i, v) in members.iter().zip(y.iter()) {
-                    x[*i] = *v;
-                }
-            }
-        }
-        x
-    }
-}
-
-/// Free DOFs grouped into blocks that no member couples: connected
-/// components of the free nodes, joined by members and segments (a
-/// supported node joins nothing), each block its nodes' free DOFs in order.
-pub(super) fn dof_blocks(model_dofs: &FreeDofs, structure: &super::Structure) -> Vec<Vec<usize>> {
-    let n = structure.nodes.len();
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    let free = |i: usize| structure.nodes[i].is_free();
-    let mut join = |a: usize, b: usize| {
-        if free(a) && free(b) {
-            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-            parent[ra] = rb;
-        }
-    };
-    for m in &structure.members {
-        join(m.nodes[0], m.nodes[1]);
-    }
-    for c in &structure.continuous_cables {
-        for w in c.path.windows(2) {
-            join(w[0], w[1]);
-        }
-    }
-    let mut block_of_root = vec![usize::MAX; n];
-    let mut blocks: Vec<Vec<usize>> = Vec::new();
-    for (i, rows) in model_dofs.index.iter().enumerate() {
-        for row in rows.iter().flatten() {
-            let r = root(&mut parent, i);
-            if block_of_root[r] == usize::MAX {
-                block_of_root[r] = blocks.len();
-                blocks.push(Vec::new());
-            }
-            blocks[block_of_root[r]].push(*row);
-        }
-    }
-    blocks
-}
-
-/// The free-DOF entries of per-node vectors.
-fn free_vector(per_node: &[Vector3<f64>], dofs: &FreeDofs) -> DVector<f64> {
-    let mut v = DVector::zeros(dofs.count);
-    for (i, rows) in dofs.index.iter().enumerate() {
-        for (a, row) in rows.iter().enumerate() {
-            if let Some(r) = row {
-                v[*r] = per_node[i][a];
-            }
-        }
-    }
-    v
-}
-
-/// `positions += scale·step` on the free DOFs.
-fn add_free(positions: &mut [Vector3<f64>], dofs: &FreeDofs, step: &DVector<f64>, scale: f64) {
-    for (i, rows) in dofs.index.iter().enumerate() {
-        for (a, row) in rows.iter().enumerate() {
-            if let Some(r) = row {
-                positions[i][a] += scale * step[*r];
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::design::{reference_bridge, BridgeParameters};
     use crate::model::friction::JointFriction;
-    use crate::model::reference_bridge::{reference_bridge, BridgeParameters};
-    use crate::model::relax::RelaxSettings;
+    use crate::model::RelaxSettings;
     use nalgebra::DMatrix;
 
     /// K = −∂R/∂x of the mapped residual, by central differences.
@@ -462,7 +352,7 @@ mod tests {
         // Prime the workspace: start of increment = `state`'s material.
         let mut probe = state.clone();
         model.prime(&mut probe, &mut ws);
-        let dofs = crate::model::stiffness::FreeDofs::of(model);
+        let dofs = model.free_dofs().clone();
         let mut k = DMatrix::zeros(dofs.count, dofs.count);
         for (node, rows) in dofs.index.iter().enumerate() {
             for a in 0..3 {

@@ -235,9 +235,8 @@ pub fn state_views_svg(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{
-        reference_bridge, BridgeParameters, ForwardModel, JointFriction, RelaxSettings,
-    };
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::{ForwardModel, JointFriction, RelaxSettings};
 
     #[test]
     fn draws_every_member_in_each_of_three_views() {

@@ -10,8 +10,9 @@
 use plotters::prelude::*;
 
 use super::drawing::DrawingError;
-use crate::io::log::{MeasurementLog, SensorTarget};
 use crate::measure::compare::{Comparison, Direction, FEATURES};
+use crate::measure::log::MeasurementLog;
+use crate::sim::SensorTarget;
 
 fn err<E: std::fmt::Debug>(e: E) -> DrawingError {
     DrawingError::new(format!("{e:?}"))

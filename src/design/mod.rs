@@ -1,0 +1,11 @@
+//! Design tools: structures to run the model on. The reference footbridge
+//! ([`reference_bridge`]), its stability-constrained prestress
+//! ([`form_finding`]) and the seed's friction test rig ([`friction_rig`]).
+
+pub mod form_finding;
+pub mod friction_rig;
+pub mod reference_bridge;
+
+pub use reference_bridge::{
+    reference_bridge, BridgeError, BridgeParameters, BridgeTopology, SpringPlacement,
+};

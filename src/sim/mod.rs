@@ -1,0 +1,12 @@
+//! Simulation of a model with effects: sensors, schedules of commands, and
+//! the replay of a model through them. The planner's closed loop and the
+//! measurement tools both stand on this layer. Pure: no files.
+
+pub mod replay;
+pub mod sensors;
+
+pub use replay::{CycleSchedule, EffectModel, Readings, ReplayError, Run, StepFeatures};
+pub use sensors::{
+    standard_sensors, Sensor, SensorTarget, LOAD_CELL_NOISE_N, POSITION_NOISE_M,
+    TEMPERATURE_NOISE_C,
+};

@@ -1,0 +1,8 @@
+//! Studies: what the experiments in `experiments/` compute, runs of the
+//! model compared with each other or with a synthetic measurement. They
+//! read the other layers and are read only by the CLI. Pure: no files.
+
+pub mod friction_effect;
+pub mod friction_study;
+
+pub use friction_effect::{friction_effect, FrictionEffect, FrictionEffectSettings};
