@@ -20,6 +20,7 @@ fn bridge_model(mu: f64) -> ForwardModel {
         JointFriction::constant(mu).unwrap(),
         RelaxSettings::default(),
     )
+    .unwrap()
 }
 
 fn single_increment(c: &mut Criterion) {
@@ -27,7 +28,7 @@ fn single_increment(c: &mut Criterion) {
         let model = bridge_model(mu);
         let mut ws = Workspace::default();
         let start = model.reference_state();
-        let mut cmd = vec![0.0; model.structure.continuous_cables.len()];
+        let mut cmd = vec![0.0; model.structure().continuous_cables.len()];
         cmd[0] = -0.01;
         let mut probe = start.clone();
         let r = model
@@ -58,7 +59,7 @@ fn whole_deployment(c: &mut Criterion) {
     group.sample_size(10);
     for mu in [0.0, 0.2] {
         let model = bridge_model(mu);
-        let n = model.structure.continuous_cables.len();
+        let n = model.structure().continuous_cables.len();
         let mut ws = Workspace::default();
         let mut folded = model.reference_state();
         let fold = model
@@ -99,7 +100,7 @@ fn cable_net() -> ForwardModel {
         tol_force_rel: 1e-7,
         ..RelaxSettings::default()
     };
-    ForwardModel::new(s, JointFriction::frictionless(), settings)
+    ForwardModel::new(s, JointFriction::frictionless(), settings).unwrap()
 }
 
 fn cable_net_solve(c: &mut Criterion) {
@@ -144,10 +145,10 @@ fn per_iteration_scaling(c: &mut Criterion) {
             newton_max_iter: 0,
             ..RelaxSettings::default()
         };
-        let model = ForwardModel::new(s, JointFriction::constant(0.2).unwrap(), settings);
+        let model = ForwardModel::new(s, JointFriction::constant(0.2).unwrap(), settings).unwrap();
         let mut start = model.reference_state();
         // Perturb: pay out every cable 1 mm so the solve has work to do.
-        for c in 0..model.structure.continuous_cables.len() {
+        for c in 0..model.structure().continuous_cables.len() {
             start.segment_rest_lengths_m[start.segment_offsets[c]] += 0.001;
         }
         let mut ws = Workspace::default();

@@ -20,7 +20,7 @@ fn cable_net_matches_independent_newton_solution() {
         tol_force_rel: 1e-9,
         ..RelaxSettings::default()
     };
-    let model = ForwardModel::new(structure, JointFriction::frictionless(), settings);
+    let model = ForwardModel::new(structure, JointFriction::frictionless(), settings).unwrap();
     let mut state = model.reference_state();
     let report = model.relax(&mut state, &mut Workspace::default());
     assert!(report.status.is_converged(), "{report:?}");

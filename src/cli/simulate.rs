@@ -13,8 +13,8 @@ use tensegrity_deploy::io::results::{write_simulation, StepRecord};
 use tensegrity_deploy::io::structure_file::read_structure;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::model::{
-    CommandReport, ForwardModel, IncrementObserver, RelaxReport, RelaxSettings, RelaxStatus,
-    Structure, Workspace,
+    CommandReport, DeploymentState, ForwardModel, IncrementObserver, RelaxReport, RelaxSettings,
+    RelaxStatus, Structure, Workspace,
 };
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 
@@ -23,7 +23,7 @@ use super::friction_from;
 struct Progress(ProgressBar);
 
 impl IncrementObserver for Progress {
-    fn on_increment(&mut self, index: usize, count: usize, r: &RelaxReport) {
+    fn on_increment(&mut self, index: usize, count: usize, r: &RelaxReport, _: &DeploymentState) {
         self.0.set_message(format!(
             "increment {}/{count}: {} iterations",
             index + 1,
@@ -63,7 +63,7 @@ pub fn simulate(a: &ArgMatches) -> Result<()> {
         tol_force_rel: tol,
         ..RelaxSettings::default()
     };
-    let model = ForwardModel::new(structure, friction_from(a)?, settings);
+    let model = ForwardModel::new(structure, friction_from(a)?, settings)?;
     let mut ws = Workspace::default();
     let mut state = model.reference_state();
     let initial = model.relax(&mut state, &mut ws);
@@ -109,7 +109,7 @@ pub fn simulate(a: &ArgMatches) -> Result<()> {
     let (first, last) = (&records[0].state, &records[records.len() - 1].state);
     let (f0, f1) = (model.member_forces(first), model.member_forces(last));
     let svg = state_views_svg(
-        &model.structure,
+        &model.structure(),
         DrawnState {
             state: last,
             forces: &f1,
@@ -120,7 +120,7 @@ pub fn simulate(a: &ArgMatches) -> Result<()> {
             forces: &f0,
             label: "initial state",
         }),
-        &model.structure.name,
+        &model.structure().name,
     )?;
     write_atomically(&out.join("state.svg"), svg.as_bytes())?;
     print_summary(&model, &records, out);
@@ -144,7 +144,7 @@ fn print_summary(model: &ForwardModel, records: &[StepRecord], out: &Path) {
     for r in records {
         let gap = r
             .state
-            .max_midspan_gap_m(&model.structure)
+            .max_midspan_gap_m(&model.structure())
             .map(|g| format!("{:.3}", 1e3 * g))
             .unwrap_or_else(|| "-".into());
         say!(

@@ -77,7 +77,8 @@ pub fn load_rig(
         tol_force_rel: 1e-12,
         ..RelaxSettings::default()
     };
-    let model = ForwardModel::new(structure, friction.clone(), settings);
+    let model = ForwardModel::new(structure, friction.clone(), settings)
+        .expect("the rig's constant settings are valid");
     let mut state = model.reference_state();
     let before = state.segment_rest_lengths_m[0];
     let report = model.relax(&mut state, &mut Workspace::default());

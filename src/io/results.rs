@@ -37,7 +37,7 @@ pub fn write_simulation(
     records: &[StepRecord],
 ) -> Result<(), FileError> {
     std::fs::create_dir_all(dir).map_err(|e| FileError::write(dir, e))?;
-    let s = &model.structure;
+    let s = &model.structure();
     let steps = csv_bytes(|w| {
         w.write_record([
             "step",

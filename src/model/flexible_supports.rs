@@ -180,7 +180,8 @@ mod tests {
         let s = bridge();
         let f = with_flexible_supports(&s, 2e-5).unwrap();
         assert_eq!(f.nodes[..s.nodes.len()].len(), s.nodes.len());
-        let model = ForwardModel::new(f, JointFriction::frictionless(), RelaxSettings::default());
+        let model =
+            ForwardModel::new(f, JointFriction::frictionless(), RelaxSettings::default()).unwrap();
         let mut state = model.reference_state();
         let r = model.relax(&mut state, &mut Workspace::default());
         assert!(r.status.is_converged());
@@ -224,7 +225,8 @@ mod tests {
         .unwrap();
         let c = 3e-5;
         let f = with_flexible_supports(&s, c).unwrap();
-        let model = ForwardModel::new(f, JointFriction::frictionless(), RelaxSettings::default());
+        let model =
+            ForwardModel::new(f, JointFriction::frictionless(), RelaxSettings::default()).unwrap();
         let mut state = model.reference_state();
         let r = model.relax(&mut state, &mut Workspace::default());
         assert!(r.status.is_converged());
@@ -235,7 +237,8 @@ mod tests {
         // with the hanger (1e5 N/m) in series with the anchor's support.
         let mut m2 = model.structure.clone();
         m2.nodes[0].load_n.z = -200.0;
-        let model2 = ForwardModel::new(m2, JointFriction::frictionless(), RelaxSettings::default());
+        let model2 =
+            ForwardModel::new(m2, JointFriction::frictionless(), RelaxSettings::default()).unwrap();
         let mut state2 = model2.reference_state();
         assert!(model2
             .relax(&mut state2, &mut Workspace::default())

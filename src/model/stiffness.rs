@@ -333,7 +333,7 @@ mod tests {
             segment_rest_lengths_m: vec![l * rest_scale, l * rest_scale],
         };
         let s = Structure::new("v", nodes, vec![], vec![cable], Vector3::zeros(), vec![]).unwrap();
-        ForwardModel::new(s, JointFriction::frictionless(), RelaxSettings::default())
+        ForwardModel::new(s, JointFriction::frictionless(), RelaxSettings::default()).unwrap()
     }
 
     /// Central differences of the out-of-balance force, for comparison.

@@ -241,7 +241,8 @@ mod tests {
     #[test]
     fn draws_every_member_in_each_of_three_views() {
         let s = reference_bridge(&BridgeParameters::default()).unwrap();
-        let m = ForwardModel::new(s, JointFriction::frictionless(), RelaxSettings::default());
+        let m =
+            ForwardModel::new(s, JointFriction::frictionless(), RelaxSettings::default()).unwrap();
         let state = m.reference_state();
         let forces = m.member_forces(&state);
         let drawn = DrawnState {
@@ -249,9 +250,9 @@ mod tests {
             forces: &forces,
             label: "designed",
         };
-        let one = state_views_svg(&m.structure, drawn, None, "bridge").unwrap();
-        let two = state_views_svg(&m.structure, drawn, Some(drawn), "bridge").unwrap();
-        let lines = m.structure.members.len() + m.structure.segment_count();
+        let one = state_views_svg(&m.structure(), drawn, None, "bridge").unwrap();
+        let two = state_views_svg(&m.structure(), drawn, Some(drawn), "bridge").unwrap();
+        let lines = m.structure().members.len() + m.structure().segment_count();
         // The designed state has no slack member: one polyline per line per
         // view, plus the axes plotters draws (the same count in both).
         let count = |svg: &str| svg.matches("<polyline").count();

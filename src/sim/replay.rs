@@ -15,8 +15,8 @@ use thiserror::Error;
 
 use crate::model::sliding::interior_angle;
 use crate::model::{
-    CommandError, DeploymentState, Effects, ForwardModel, RelaxSettings, RelaxStatus, Structure,
-    StructureError, Workspace,
+    CommandError, DeploymentState, Effects, ForwardModel, RelaxSettings, RelaxStatus,
+    SettingsError, Structure, StructureError, Workspace,
 };
 use crate::sim::{Sensor, SensorTarget};
 
@@ -85,6 +85,9 @@ pub enum ReplayError {
     /// The effects cannot be applied to the structure.
     #[error("applying the effects: {0}")]
     Structure(#[from] StructureError),
+    /// The solver settings are invalid.
+    #[error("{0}")]
+    Settings(#[from] SettingsError),
     /// The cable-seat arcs did not settle within the re-solves allowed.
     #[error("cycle {cycle}, step {step}: the cable-seat arcs did not settle ({change_m:.2e} m still changing)")]
     SeatsUnsettled {
@@ -137,7 +140,7 @@ impl EffectModel {
         let base = self.effects.apply_to_structure(&self.structure)?;
         let friction = self.effects.joint_friction();
         let mut strain = 0.0;
-        let mut model = ForwardModel::new(base.clone(), friction.clone(), self.settings.clone());
+        let mut model = ForwardModel::new(base.clone(), friction.clone(), self.settings.clone())?;
         let mut state = model.reference_state();
         let mut ws = Workspace::default();
         let mut motor = self.effects.motor_model(base.continuous_cables.len());
@@ -163,7 +166,7 @@ impl EffectModel {
                         ),
                         friction.clone(),
                         self.settings.clone(),
-                    );
+                    )?;
                     for r in &mut state.segment_rest_lengths_m {
                         *r *= scale;
                     }
@@ -203,7 +206,7 @@ impl EffectModel {
                     payout_m: state.payout_m.iter().sum::<f64>()
                         / state.payout_m.len().max(1) as f64,
                     command_m,
-                    joint_angle_rad: mean_joint_angle(&model.structure, &state),
+                    joint_angle_rad: mean_joint_angle(&model.structure(), &state),
                     temperature_c: temperature,
                 });
             }
@@ -226,12 +229,12 @@ impl EffectModel {
         ws: &mut Workspace,
         seats: &mut [f64],
     ) -> Result<(), ReplayError> {
-        let no_payout = vec![0.0; model.structure.continuous_cables.len()];
+        let no_payout = vec![0.0; model.structure().continuous_cables.len()];
         let mut change_m = f64::INFINITY;
         for _ in 0..MAX_SEAT_SOLVES {
             let now = self
                 .effects
-                .seat_material_m(&model.structure, &state.positions_m)
+                .seat_material_m(&model.structure(), &state.positions_m)
                 .expect("seats are followed only with the effect on");
             change_m = 0.0;
             for ((rest, before), after) in state
@@ -315,7 +318,7 @@ impl ReplayError {
                 step,
                 change_m,
             },
-            e @ ReplayError::Structure(_) => e,
+            e @ (ReplayError::Structure(_) | ReplayError::Settings(_)) => e,
         }
     }
 }

@@ -16,6 +16,17 @@ use crate::model::{
     MemberKind, RelaxSettings, Structure, Workspace,
 };
 
+/// Why a study could not run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StudyError {
+    /// The solver settings are invalid.
+    #[error("{0}")]
+    Settings(#[from] crate::model::SettingsError),
+    /// A command could not be applied.
+    #[error("{0}")]
+    Command(#[from] CommandError),
+}
+
 /// What to run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrictionEffectSettings {
@@ -81,8 +92,8 @@ fn run(
     structure: &Structure,
     friction: JointFriction,
     s: &FrictionEffectSettings,
-) -> Result<Run, CommandError> {
-    let model = ForwardModel::new(structure.clone(), friction, s.relax.clone());
+) -> Result<Run, StudyError> {
+    let model = ForwardModel::new(structure.clone(), friction, s.relax.clone())?;
     let mut ws = Workspace::default();
     let mut state = model.reference_state();
     let n = structure.continuous_cables.len();
@@ -114,7 +125,7 @@ fn run(
 pub fn friction_effect(
     structure: &Structure,
     settings: &FrictionEffectSettings,
-) -> Result<FrictionEffect, CommandError> {
+) -> Result<FrictionEffect, StudyError> {
     let frictionless = run(structure, JointFriction::frictionless(), settings)?;
     let with_friction = run(structure, settings.friction.clone(), settings)?;
     let midspan_shift_m = structure

@@ -5,4 +5,4 @@
 pub mod friction_effect;
 pub mod friction_study;
 
-pub use friction_effect::{friction_effect, FrictionEffect, FrictionEffectSettings};
+pub use friction_effect::{friction_effect, FrictionEffect, FrictionEffectSettings, StudyError};

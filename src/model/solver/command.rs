@@ -43,13 +43,20 @@ pub enum CommandError {
 /// Receives each increment's result as a command is applied. The CLI's
 /// progress bar is one; numerics never print.
 pub trait IncrementObserver {
-    /// Called after increment `index` (0-based) of `count`.
-    fn on_increment(&mut self, index: usize, count: usize, report: &RelaxReport);
+    /// Called after increment `index` (0-based) of `count`, with the state
+    /// that increment reached (e.g. to check limits along the path).
+    fn on_increment(
+        &mut self,
+        index: usize,
+        count: usize,
+        report: &RelaxReport,
+        state: &DeploymentState,
+    );
 }
 
 /// An observer that ignores everything.
 impl IncrementObserver for () {
-    fn on_increment(&mut self, _: usize, _: usize, _: &RelaxReport) {}
+    fn on_increment(&mut self, _: usize, _: usize, _: &RelaxReport, _: &DeploymentState) {}
 }
 
 /// What applying one command did.
@@ -135,7 +142,7 @@ impl ForwardModel {
             let newton = self.newton_increment(state, ws, &increment);
             out.newton_iterations += newton.iterations;
             let r = self.relax_from(state, ws, false);
-            observer.on_increment(k, count, &r);
+            observer.on_increment(k, count, &r, state);
             out.increments += 1;
             out.iterations += r.iterations;
             out.newton_iterations += r.newton_iterations;

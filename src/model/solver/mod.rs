@@ -8,4 +8,6 @@ mod newton;
 pub mod relax;
 
 pub use command::{CommandError, CommandReport, IncrementObserver};
-pub use relax::{ForwardModel, MemberForces, RelaxReport, RelaxSettings, RelaxStatus, Workspace};
+pub use relax::{
+    ForwardModel, MemberForces, RelaxReport, RelaxSettings, RelaxStatus, SettingsError, Workspace,
+};

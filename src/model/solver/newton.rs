@@ -384,7 +384,8 @@ mod tests {
                 structure.clone(),
                 JointFriction::constant(mu).unwrap(),
                 RelaxSettings::default(),
-            );
+            )
+            .unwrap();
             // Reel cable 0 in by 5 mm with joints stuck: its first joint must slide.
             let mut state = model.reference_state();
             let first = state.segment_offsets[0];

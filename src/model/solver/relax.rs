@@ -26,7 +26,8 @@ use crate::numerics::FreeDofs;
 
 /// Settings of the DR solver. Defaults are what the reference bridge needs
 /// for 0.01 mm-level positions; every field says what changing it does.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct RelaxSettings {
     /// Largest number of DR iterations per solve. Default 200 000.
     /// A solve that reaches it reports [`RelaxStatus::IterationLimit`].
@@ -86,8 +87,81 @@ impl Default for RelaxSettings {
     }
 }
 
+/// A setting outside its admissible range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("solver setting `{field}` = {value}: {expected}")]
+pub struct SettingsError {
+    /// The field, as named in [`RelaxSettings`].
+    pub field: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// What it must be.
+    pub expected: &'static str,
+}
+
+impl RelaxSettings {
+    /// Checks every field against its admissible range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let check = |field: &'static str, value: f64, ok: bool, expected: &'static str| {
+            if ok && value.is_finite() {
+                Ok(())
+            } else {
+                Err(SettingsError {
+                    field,
+                    value,
+                    expected,
+                })
+            }
+        };
+        check("max_iter", self.max_iter as f64, true, "a count")?;
+        check(
+            "tol_force_rel",
+            self.tol_force_rel,
+            self.tol_force_rel > 0.0 && self.tol_force_rel <= 1e-2,
+            "in (0, 1e-2]: a looser tolerance is no equilibrium",
+        )?;
+        check(
+            "tol_force_abs",
+            self.tol_force_abs,
+            self.tol_force_abs > 0.0 && self.tol_force_abs <= 1.0,
+            "in (0, 1] N",
+        )?;
+        check(
+            "time_step",
+            self.time_step,
+            self.time_step > 0.0,
+            "positive",
+        )?;
+        check(
+            "mass_factor",
+            self.mass_factor,
+            self.mass_factor >= 1.0,
+            "at least 1 (below 1 the explicit step is unstable)",
+        )?;
+        check(
+            "mass_update_resets",
+            self.mass_update_resets as f64,
+            self.mass_update_resets >= 1,
+            "at least 1",
+        )?;
+        check(
+            "max_displacement_rel",
+            self.max_displacement_rel,
+            self.max_displacement_rel > 0.0,
+            "positive",
+        )?;
+        check(
+            "newton_max_step_rel",
+            self.newton_max_step_rel,
+            self.newton_max_step_rel > 0.0 && self.newton_max_step_rel <= 1.0,
+            "in (0, 1]",
+        )?;
+        Ok(())
+    }
+}
+
 /// How a solve ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RelaxStatus {
     /// Node out-of-balance forces and joint friction residuals are within
@@ -143,7 +217,7 @@ impl RelaxStatus {
 }
 
 /// The outcome of one solve, with its final residuals.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RelaxReport {
     /// How it ended.
     pub status: RelaxStatus,
@@ -163,13 +237,14 @@ pub struct RelaxReport {
 
 /// A structure with its joint friction and solver settings: the forward model.
 #[derive(Debug, Clone)]
+///
+/// Its parts are read-only once built, so the element list and other
+/// caches derived from them can never go stale; build a new model to change
+/// one.
 pub struct ForwardModel {
-    /// The structure.
-    pub structure: Structure,
-    /// Joint friction of all continuous cables.
-    pub friction: JointFriction,
-    /// DR settings.
-    pub settings: RelaxSettings,
+    pub(in crate::model) structure: Structure,
+    pub(in crate::model) friction: JointFriction,
+    pub(in crate::model) settings: RelaxSettings,
     elements: Vec<Element>,
     external_n: Vec<Vector3<f64>>,
     free_mask: Vec<Vector3<f64>>,
@@ -256,8 +331,15 @@ pub struct MemberForces {
 }
 
 impl ForwardModel {
-    /// Builds the model; cheap, and it precomputes the element list.
-    pub fn new(structure: Structure, friction: JointFriction, settings: RelaxSettings) -> Self {
+    /// Builds the model; cheap, and it precomputes the element list. The
+    /// structure and friction are valid by construction; the settings are
+    /// checked here.
+    pub fn new(
+        structure: Structure,
+        friction: JointFriction,
+        settings: RelaxSettings,
+    ) -> Result<Self, SettingsError> {
+        settings.validate()?;
         let mut elements = Vec::with_capacity(structure.members.len() + structure.segment_count());
         for m in &structure.members {
             elements.push(Element {
@@ -309,7 +391,7 @@ impl ForwardModel {
                     .flat_map(|c| c.path.windows(2).map(|w| [w[0], w[1]])),
             ),
         );
-        ForwardModel {
+        Ok(ForwardModel {
             structure,
             friction,
             settings,
@@ -319,7 +401,22 @@ impl ForwardModel {
             size_m,
             free_dofs,
             dof_blocks,
-        }
+        })
+    }
+
+    /// The structure.
+    pub fn structure(&self) -> &Structure {
+        &self.structure
+    }
+
+    /// Joint friction of all continuous cables.
+    pub fn friction(&self) -> &JointFriction {
+        &self.friction
+    }
+
+    /// Solver settings.
+    pub fn settings(&self) -> &RelaxSettings {
+        &self.settings
     }
 
     /// The as-built state of this model's structure.
