@@ -7,7 +7,7 @@
 
 use thiserror::Error;
 
-use super::relax::{ForwardModel, RelaxReport, RelaxStatus, Workspace};
+use super::{ForwardModel, RelaxReport, RelaxStatus, Workspace};
 use crate::model::state::DeploymentState;
 
 /// A command the model cannot apply.

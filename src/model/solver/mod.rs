@@ -1,13 +1,21 @@
-//! The equilibrium solver: the forward model type, dynamic relaxation with
-//! kinetic damping ([`relax`]), Newton with the consistent friction tangent
-//! ahead of it ([`newton`]), and commands applied in increments
-//! ([`command`]).
+//! The equilibrium solver, one concept per file: [`settings`], [`status`],
+//! the [`forward_model`] type, the two-node [`element`] force law, the
+//! [`residual`] with the friction return mapping, dynamic relaxation
+//! ([`relax`]), Newton with the consistent friction tangent ([`newton`]),
+//! and commands applied in increments ([`command`]).
 
 pub mod command;
+mod element;
+pub mod forward_model;
 mod newton;
 pub mod relax;
+mod residual;
+pub mod settings;
+pub mod status;
+mod workspace;
 
 pub use command::{CommandError, CommandReport, IncrementObserver};
-pub use relax::{
-    ForwardModel, MemberForces, RelaxReport, RelaxSettings, RelaxStatus, SettingsError, Workspace,
-};
+pub use forward_model::{ForwardModel, MemberForces};
+pub use settings::{RelaxSettings, SettingsError};
+pub use status::{RelaxReport, RelaxStatus};
+pub use workspace::Workspace;

@@ -39,7 +39,7 @@
 
 use nalgebra::DVector;
 
-use super::relax::{ForwardModel, Workspace};
+use super::{ForwardModel, Workspace};
 use crate::model::state::{DeploymentState, JointSlip};
 use crate::model::stiffness::{tangent_stiffness, JointMode};
 use crate::numerics::{BlockLu, FreeDofs};

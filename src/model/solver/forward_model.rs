@@ -1,0 +1,219 @@
+//! The forward model: a structure with its joint friction and solver
+//! settings, and the caches derived from them once (element list, loads,
+//! free-DOF numbering and blocks).
+
+use nalgebra::Vector3;
+
+use super::element::{Element, ElementLaw};
+use super::settings::{RelaxSettings, SettingsError};
+use crate::model::friction::JointFriction;
+use crate::model::sliding::segment_tension;
+use crate::model::state::DeploymentState;
+use crate::model::structure::Structure;
+#[allow(unused_imports)] // named in docs
+use crate::numerics::BlockLu;
+use crate::numerics::FreeDofs;
+
+/// A structure with its joint friction and solver settings: the forward model.
+#[derive(Debug, Clone)]
+///
+/// Its parts are read-only once built, so the element list and other
+/// caches derived from them can never go stale; build a new model to change
+/// one.
+pub struct ForwardModel {
+    pub(in crate::model) structure: Structure,
+    pub(in crate::model) friction: JointFriction,
+    pub(in crate::model) settings: RelaxSettings,
+    pub(super) elements: Vec<Element>,
+    pub(super) external_n: Vec<Vector3<f64>>,
+    pub(super) free_mask: Vec<Vector3<f64>>,
+    pub(super) size_m: f64,
+    pub(super) free_dofs: FreeDofs,
+    pub(super) dof_blocks: Vec<Vec<usize>>,
+}
+
+/// Forces in every member and segment of a state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MemberForces {
+    /// Axial force of each member (tension positive), N, as [`Structure::members`].
+    pub member_n: Vec<f64>,
+    /// Tension of each continuous-cable segment, N, flat as the state's segments.
+    pub segment_n: Vec<f64>,
+    /// Current length of each member, m.
+    pub member_length_m: Vec<f64>,
+    /// Current length of each segment, m.
+    pub segment_length_m: Vec<f64>,
+    /// Support reaction at each node (zero on free DOFs), N.
+    pub reaction_n: Vec<Vector3<f64>>,
+}
+
+impl ForwardModel {
+    /// Builds the model; cheap, and it precomputes the element list. The
+    /// structure and friction are valid by construction; the settings are
+    /// checked here.
+    pub fn new(
+        structure: Structure,
+        friction: JointFriction,
+        settings: RelaxSettings,
+    ) -> Result<Self, SettingsError> {
+        settings.validate()?;
+        let mut elements = Vec::with_capacity(structure.members.len() + structure.segment_count());
+        for m in &structure.members {
+            elements.push(Element {
+                a: m.nodes[0],
+                b: m.nodes[1],
+                law: ElementLaw::Linear {
+                    stiffness_n_per_m: m.kind.axial_stiffness(m.rest_length_m),
+                    rest_m: m.rest_length_m,
+                    tension_only: m.kind.is_tension_only(),
+                },
+            });
+        }
+        let mut index = 0;
+        for c in &structure.continuous_cables {
+            for w in c.path.windows(2) {
+                elements.push(Element {
+                    a: w[0],
+                    b: w[1],
+                    law: ElementLaw::Segment {
+                        ea_n: c.ea_n,
+                        index,
+                    },
+                });
+                index += 1;
+            }
+        }
+        let external_n = structure
+            .nodes
+            .iter()
+            .map(|n| n.mass_kg * structure.gravity_m_per_s2 + n.load_n)
+            .collect();
+        let free_mask = structure
+            .nodes
+            .iter()
+            .map(|n| n.fixed.map(|f| if f { 0.0 } else { 1.0 }).into())
+            .collect();
+        let (mut lo, mut hi) = (Vector3::repeat(f64::MAX), Vector3::repeat(f64::MIN));
+        for n in &structure.nodes {
+            lo = lo.inf(&n.position_m);
+            hi = hi.sup(&n.position_m);
+        }
+        let size_m = (hi - lo).norm().max(1e-3);
+        let free_dofs = FreeDofs::from_fixed(structure.nodes.iter().map(|n| &n.fixed));
+        let dof_blocks = free_dofs.blocks(
+            structure.members.iter().map(|m| m.nodes).chain(
+                structure
+                    .continuous_cables
+                    .iter()
+                    .flat_map(|c| c.path.windows(2).map(|w| [w[0], w[1]])),
+            ),
+        );
+        Ok(ForwardModel {
+            structure,
+            friction,
+            settings,
+            elements,
+            external_n,
+            free_mask,
+            size_m,
+            free_dofs,
+            dof_blocks,
+        })
+    }
+
+    /// The structure.
+    pub fn structure(&self) -> &Structure {
+        &self.structure
+    }
+
+    /// Joint friction of all continuous cables.
+    pub fn friction(&self) -> &JointFriction {
+        &self.friction
+    }
+
+    /// Solver settings.
+    pub fn settings(&self) -> &RelaxSettings {
+        &self.settings
+    }
+
+    /// The as-built state of this model's structure.
+    pub fn reference_state(&self) -> DeploymentState {
+        DeploymentState::reference(&self.structure)
+    }
+
+    /// Number of free degrees of freedom.
+    pub(super) fn free_dof_count(&self) -> usize {
+        self.structure
+            .nodes
+            .iter()
+            .map(|n| n.fixed.iter().filter(|f| !**f).count())
+            .sum()
+    }
+
+    /// Numbering of the free degrees of freedom, as in every matrix the
+    /// model builds.
+    pub fn free_dofs(&self) -> &FreeDofs {
+        &self.free_dofs
+    }
+
+    /// Free DOFs in blocks that no member couples (see [`BlockLu`]).
+    pub(super) fn dof_blocks(&self) -> &[Vec<usize>] {
+        &self.dof_blocks
+    }
+
+    /// Bounding-box diagonal of the as-built structure, m.
+    pub(super) fn size_m(&self) -> f64 {
+        self.size_m
+    }
+
+    /// Member and segment forces and support reactions of a state.
+    ///
+    /// Does not relax or slide anything: it reads the state as it is.
+    pub fn member_forces(&self, state: &DeploymentState) -> MemberForces {
+        let x = &state.positions_m;
+        let n_members = self.structure.members.len();
+        let n_seg = state.segment_rest_lengths_m.len();
+        let mut out = MemberForces {
+            member_n: vec![0.0; n_members],
+            segment_n: vec![0.0; n_seg],
+            member_length_m: vec![0.0; n_members],
+            segment_length_m: vec![0.0; n_seg],
+            reaction_n: vec![Vector3::zeros(); x.len()],
+        };
+        let mut net = self.external_n.clone();
+        for (k, e) in self.elements.iter().enumerate() {
+            let d = x[e.b] - x[e.a];
+            let l = d.norm();
+            let t = match e.law {
+                ElementLaw::Linear {
+                    stiffness_n_per_m,
+                    rest_m,
+                    tension_only,
+                } => {
+                    let t = stiffness_n_per_m * (l - rest_m);
+                    let t = if tension_only { t.max(0.0) } else { t };
+                    out.member_n[k] = t;
+                    out.member_length_m[k] = l;
+                    t
+                }
+                ElementLaw::Segment { ea_n, index } => {
+                    let t = segment_tension(ea_n, l, state.segment_rest_lengths_m[index]);
+                    out.segment_n[index] = t;
+                    out.segment_length_m[index] = l;
+                    t
+                }
+            };
+            let f = t * d / l;
+            net[e.a] += f;
+            net[e.b] -= f;
+        }
+        for (i, node) in self.structure.nodes.iter().enumerate() {
+            for a in 0..3 {
+                if node.fixed[a] {
+                    out.reaction_n[i][a] = -net[i][a];
+                }
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,134 @@
+//! The out-of-balance force of a state, with the friction return mapping
+//! run from the start of the increment, and the convergence measures the
+//! DR and Newton loops share.
+
+use super::element::ElementLaw;
+use super::forward_model::ForwardModel;
+use super::workspace::Workspace;
+use crate::model::sliding::{map_cable, map_cable_with_slip, segment_tension, IncrementStart};
+use crate::model::state::DeploymentState;
+
+impl ForwardModel {
+    /// Makes `state` the start of an increment in `ws` and maps sliding for
+    /// its geometry, leaving its residual in `ws.force` (for tests).
+    #[cfg(test)]
+    pub(super) fn prime(&self, state: &mut DeploymentState, ws: &mut Workspace) {
+        ws.start_increment(state);
+        self.residual(state, ws);
+    }
+
+    /// The force tolerance for the largest member force `max_t`, N.
+    pub(super) fn tolerance(&self, max_t: f64) -> f64 {
+        self.settings
+            .tol_force_abs
+            .max(self.settings.tol_force_rel * max_t)
+    }
+
+    pub(super) fn ran_away(&self, state: &DeploymentState, ws: &Workspace, max_disp: f64) -> bool {
+        state
+            .positions_m
+            .iter()
+            .zip(&ws.start)
+            .any(|(x, x0)| !((x - x0).norm() <= max_disp))
+    }
+
+    pub(super) fn max_free_residual(&self, ws: &Workspace) -> f64 {
+        let mut worst = 0.0f64;
+        for (r, mask) in ws.force.iter().zip(&self.free_mask) {
+            let n = r.component_mul(mask).norm();
+            if !(n <= worst) {
+                worst = n;
+            }
+        }
+        worst
+    }
+
+    /// Maps sliding for the current geometry, then fills `ws.force` with the
+    /// out-of-balance force at every node (external plus member forces).
+    /// Returns the largest member force and the friction residual left.
+    pub(super) fn residual(&self, state: &mut DeploymentState, ws: &mut Workspace) -> (f64, f64) {
+        let x = &state.positions_m;
+        // Segment geometry first: the return mapping needs it.
+        let n_members = self.structure.members.len();
+        for e in &self.elements[n_members..] {
+            if let ElementLaw::Segment { index, .. } = e.law {
+                let d = x[e.b] - x[e.a];
+                let l = d.norm();
+                ws.seg_len[index] = l;
+                ws.seg_dir[index] = d / l;
+            }
+        }
+        let mut friction_left = 0.0f64;
+        // Backward-Euler return mapping: sliding is always mapped from the
+        // material distribution at the start of the solve to the current
+        // geometry, so the result depends on where the increment starts and
+        // ends, not on the pseudo-dynamic path DR takes in between (mapping
+        // incrementally along that path lets transient overshoot slide
+        // material, and the answer then fails to converge as increments
+        // shrink).
+        // The mapping only needs to be a little tighter than the force
+        // tolerance: DR and Newton call it again at every iterate.
+        let map_tol = 1e-2 * self.tolerance(ws.last_max_t);
+        for (c, cable) in self.structure.continuous_cables.iter().enumerate() {
+            let (o0, o1) = (state.segment_offsets[c], state.segment_offsets[c + 1]);
+            if ws.slip_fixed {
+                map_cable_with_slip(
+                    cable.ea_n,
+                    &ws.seg_len[o0..o1],
+                    &ws.seg_dir[o0..o1],
+                    &mut state.segment_rest_lengths_m[o0..o1],
+                    &state.joint_slip[o0..o1],
+                    IncrementStart {
+                        rest_m: &ws.rest_start[o0..o1],
+                        slip: &ws.slip_start[o0..o1],
+                    },
+                    &self.friction,
+                );
+                continue;
+            }
+            let left = map_cable(
+                cable.ea_n,
+                &ws.seg_len[o0..o1],
+                &ws.seg_dir[o0..o1],
+                &mut state.segment_rest_lengths_m[o0..o1],
+                &mut state.joint_slip[o0..o1],
+                IncrementStart {
+                    rest_m: &ws.rest_start[o0..o1],
+                    slip: &ws.slip_start[o0..o1],
+                },
+                &self.friction,
+                map_tol,
+            );
+            friction_left = friction_left.max(left);
+        }
+        ws.force.copy_from_slice(&self.external_n);
+        let mut max_t = 0.0f64;
+        for e in &self.elements {
+            let (t, dir) = match e.law {
+                ElementLaw::Linear {
+                    stiffness_n_per_m,
+                    rest_m,
+                    tension_only,
+                } => {
+                    let d = x[e.b] - x[e.a];
+                    let l = d.norm();
+                    let mut t = stiffness_n_per_m * (l - rest_m);
+                    if tension_only && t < 0.0 {
+                        t = 0.0;
+                    }
+                    (t, d / l)
+                }
+                ElementLaw::Segment { ea_n, index } => (
+                    segment_tension(ea_n, ws.seg_len[index], state.segment_rest_lengths_m[index]),
+                    ws.seg_dir[index],
+                ),
+            };
+            let f = t * dir;
+            ws.force[e.a] += f;
+            ws.force[e.b] -= f;
+            max_t = max_t.max(t.abs());
+        }
+        ws.last_max_t = max_t;
+        (max_t, friction_left)
+    }
+}

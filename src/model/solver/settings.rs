@@ -1,0 +1,138 @@
+//! Settings of the equilibrium solver: one flat struct, every field with
+//! its meaning, default, unit and the effect of changing it.
+
+/// Settings of the DR solver. Defaults are what the reference bridge needs
+/// for 0.01 mm-level positions; every field says what changing it does.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RelaxSettings {
+    /// Largest number of DR iterations per solve. Default 200 000.
+    /// A solve that reaches it reports [`RelaxStatus::IterationLimit`].
+    pub max_iter: usize,
+    /// Out-of-balance force tolerance relative to the largest member force.
+    /// Default 1e-6. Smaller: more accurate, more iterations (about a
+    /// constant number per decade).
+    pub tol_force_rel: f64,
+    /// Absolute floor of the force tolerance, N. Default 1e-9, so that an
+    /// unloaded structure still has a finite tolerance.
+    pub tol_force_abs: f64,
+    /// Fictitious time step Δt, s. Default 1. Masses scale with Δt², so this
+    /// only rescales velocities; it is kept for readers of Barnes' papers.
+    pub time_step: f64,
+    /// Safety factor on the Gershgorin fictitious masses. Default 1.0 (which
+    /// already holds a factor two of margin). Raise it if a solve diverges.
+    pub mass_factor: f64,
+    /// Fictitious masses are recomputed after this many kinetic-damping
+    /// resets, because geometry and tensions change. Default 16.
+    pub mass_update_resets: usize,
+    /// A solve that moves any node farther than this fraction of the
+    /// structure's bounding-box diagonal stops with
+    /// [`RelaxStatus::UnstableMechanism`]. Default 0.5.
+    pub max_displacement_rel: f64,
+    /// Newton–Raphson iterations per solve before DR takes over, with the
+    /// consistent tangent of the friction mapping ([`super::stiffness`]).
+    /// Default 12 (a converging solve takes 3 to 9);
+    /// 0 gives pure DR. Newton reaches the tolerance in a few iterations
+    /// where DR needs thousands; DR takes over from the best Newton iterate
+    /// whenever Newton stalls (slackening members, loss of stability), and
+    /// the convergence test is the same either way.
+    pub newton_max_iter: usize,
+    /// Newton is skipped on structures with more free degrees of freedom
+    /// than this (its dense factorisation grows with their cube). Default
+    /// 1500.
+    pub newton_max_dofs: usize,
+    /// Largest Newton step, as a fraction of the bounding-box diagonal;
+    /// longer steps are shortened. Default 0.05: one step may not fold the
+    /// structure into another equilibrium.
+    pub newton_max_step_rel: f64,
+}
+
+impl Default for RelaxSettings {
+    fn default() -> Self {
+        RelaxSettings {
+            max_iter: 200_000,
+            tol_force_rel: 1e-6,
+            tol_force_abs: 1e-9,
+            time_step: 1.0,
+            mass_factor: 1.0,
+            mass_update_resets: 16,
+            max_displacement_rel: 0.5,
+            newton_max_iter: 12,
+            newton_max_dofs: 1500,
+            newton_max_step_rel: 0.05,
+        }
+    }
+}
+
+/// A setting outside its admissible range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("solver setting `{field}` = {value}: {expected}")]
+pub struct SettingsError {
+    /// The field, as named in [`RelaxSettings`].
+    pub field: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// What it must be.
+    pub expected: &'static str,
+}
+
+impl RelaxSettings {
+    /// Checks every field against its admissible range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let check = |field: &'static str, value: f64, ok: bool, expected: &'static str| {
+            if ok && value.is_finite() {
+                Ok(())
+            } else {
+                Err(SettingsError {
+                    field,
+                    value,
+                    expected,
+                })
+            }
+        };
+        check("max_iter", self.max_iter as f64, true, "a count")?;
+        check(
+            "tol_force_rel",
+            self.tol_force_rel,
+            self.tol_force_rel > 0.0 && self.tol_force_rel <= 1e-2,
+            "in (0, 1e-2]: a looser tolerance is no equilibrium",
+        )?;
+        check(
+            "tol_force_abs",
+            self.tol_force_abs,
+            self.tol_force_abs > 0.0 && self.tol_force_abs <= 1.0,
+            "in (0, 1] N",
+        )?;
+        check(
+            "time_step",
+            self.time_step,
+            self.time_step > 0.0,
+            "positive",
+        )?;
+        check(
+            "mass_factor",
+            self.mass_factor,
+            self.mass_factor >= 1.0,
+            "at least 1 (below 1 the explicit step is unstable)",
+        )?;
+        check(
+            "mass_update_resets",
+            self.mass_update_resets as f64,
+            self.mass_update_resets >= 1,
+            "at least 1",
+        )?;
+        check(
+            "max_displacement_rel",
+            self.max_displacement_rel,
+            self.max_displacement_rel > 0.0,
+            "positive",
+        )?;
+        check(
+            "newton_max_step_rel",
+            self.newton_max_step_rel,
+            self.newton_max_step_rel > 0.0 && self.newton_max_step_rel <= 1.0,
+            "in (0, 1]",
+        )?;
+        Ok(())
+    }
+}

@@ -1,0 +1,47 @@
+//! Reusable buffers of a solve, one per thread.
+
+use nalgebra::Vector3;
+
+use crate::model::state::{DeploymentState, JointSlip};
+
+/// Reusable buffers for [`ForwardModel::relax`]; one per thread.
+#[derive(Debug, Clone, Default)]
+pub struct Workspace {
+    pub(super) force: Vec<Vector3<f64>>,
+    pub(super) velocity: Vec<Vector3<f64>>,
+    pub(super) mass: Vec<Vector3<f64>>,
+    pub(super) start: Vec<Vector3<f64>>,
+    pub(super) seg_len: Vec<f64>,
+    pub(super) seg_dir: Vec<Vector3<f64>>,
+    pub(super) rest_start: Vec<f64>,
+    pub(super) slip_start: Vec<JointSlip>,
+    /// Largest member force at the last residual evaluation, N.
+    pub(super) last_max_t: f64,
+    /// When set, [`ForwardModel::residual`] keeps the state's joint slip
+    /// states and solves the material distribution for them (Newton's
+    /// active-set phase) instead of running the return mapping.
+    pub(super) slip_fixed: bool,
+    /// Continuation step (fraction of an increment) that last succeeded.
+    pub(super) continuation_step: f64,
+}
+
+impl Workspace {
+    /// Records `state`'s material and slip as the start of an increment.
+    pub(super) fn start_increment(&mut self, state: &DeploymentState) {
+        self.fit(state.positions_m.len(), state.segment_rest_lengths_m.len());
+        self.rest_start
+            .copy_from_slice(&state.segment_rest_lengths_m);
+        self.slip_start.copy_from_slice(&state.joint_slip);
+    }
+
+    pub(super) fn fit(&mut self, nodes: usize, segments: usize) {
+        self.force.resize(nodes, Vector3::zeros());
+        self.velocity.resize(nodes, Vector3::zeros());
+        self.mass.resize(nodes, Vector3::zeros());
+        self.start.resize(nodes, Vector3::zeros());
+        self.seg_len.resize(segments, 0.0);
+        self.seg_dir.resize(segments, Vector3::zeros());
+        self.rest_start.resize(segments, 0.0);
+        self.slip_start.resize(segments, JointSlip::Stuck);
+    }
+}
