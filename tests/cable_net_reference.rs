@@ -42,3 +42,45 @@ fn cable_net_matches_independent_newton_solution() {
         report.iterations, report.resets
     );
 }
+
+/// Regression: when Newton gave up on the net from its flat start, DR
+/// restarted from the entry state and all of Newton's iterations were
+/// thrown away. DR must now start from Newton's best iterate and so take
+/// fewer iterations than pure DR, to the same answer.
+#[test]
+fn newton_hands_dr_its_best_iterate_on_the_net_from_flat() {
+    let (structure, r) = load();
+    let solve = |newton_max_iter: usize| {
+        let settings = RelaxSettings {
+            tol_force_rel: 1e-9,
+            newton_max_iter,
+            ..RelaxSettings::default()
+        };
+        let model =
+            ForwardModel::new(structure.clone(), JointFriction::frictionless(), settings).unwrap();
+        let mut state = model.reference_state();
+        let report = model.relax(&mut state, &mut Workspace::default());
+        assert!(report.status.is_converged(), "{report:?}");
+        let worst = state
+            .positions_m
+            .iter()
+            .zip(&r.nodes_equilibrium_m)
+            .map(|(x, want)| (x - Vector3::from(*want)).norm())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-6, "position error {worst:e} m");
+        report
+    };
+    let pure_dr = solve(0);
+    let with_newton = solve(RelaxSettings::default().newton_max_iter);
+    eprintln!(
+        "net from flat: pure DR {} iterations; Newton ({} iterations) then DR {} iterations",
+        pure_dr.iterations, with_newton.newton_iterations, with_newton.iterations
+    );
+    assert!(with_newton.newton_iterations > 0);
+    assert!(
+        with_newton.iterations < pure_dr.iterations,
+        "DR after Newton took {} iterations, pure DR {}",
+        with_newton.iterations,
+        pure_dr.iterations
+    );
+}

@@ -29,6 +29,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 
 use super::friction::JointFriction;
 use super::sliding::{interior_angle, segment_tension};
+use super::solver::element::ElementLaw;
 use super::solver::ForwardModel;
 use super::state::{DeploymentState, JointSlip};
 use crate::numerics::FreeDofs;
@@ -86,16 +87,24 @@ pub fn tangent_stiffness(
     let dofs = model.free_dofs().clone();
     let mut k = DMatrix::zeros(dofs.count, dofs.count);
     let x = &state.positions_m;
-    for m in &model.structure.members {
-        let [a, b] = m.nodes;
-        let d = x[b] - x[a];
-        let l = d.norm();
-        let k_axial = m.kind.axial_stiffness(m.rest_length_m);
-        let t = k_axial * (l - m.rest_length_m);
-        if m.kind.is_tension_only() && t <= 0.0 {
+    // Members: the solver's element law (segments are handled per cable
+    // below, where joints couple them).
+    for e in &model.elements[..model.structure.members.len()] {
+        let ElementLaw::Linear { tension_only, .. } = e.law else {
+            continue;
+        };
+        let d = x[e.b] - x[e.a];
+        let axial = e.law.at(d.norm(), &state.segment_rest_lengths_m);
+        if tension_only && axial.tension_n <= 0.0 {
             continue;
         }
-        add_element(&mut k, &dofs, a, b, &element_block(k_axial, t, &d));
+        add_element(
+            &mut k,
+            &dofs,
+            e.a,
+            e.b,
+            &element_block(axial.stiffness_n_per_m, axial.tension_n, &d),
+        );
     }
     for (c, cable) in model.structure.continuous_cables.iter().enumerate() {
         let o = state.segment_offsets[c];

@@ -7,7 +7,6 @@ use nalgebra::Vector3;
 use super::element::{Element, ElementLaw};
 use super::settings::{RelaxSettings, SettingsError};
 use crate::model::friction::JointFriction;
-use crate::model::sliding::segment_tension;
 use crate::model::state::DeploymentState;
 use crate::model::structure::Structure;
 #[allow(unused_imports)] // named in docs
@@ -24,7 +23,7 @@ pub struct ForwardModel {
     pub(in crate::model) structure: Structure,
     pub(in crate::model) friction: JointFriction,
     pub(in crate::model) settings: RelaxSettings,
-    pub(super) elements: Vec<Element>,
+    pub(in crate::model) elements: Vec<Element>,
     pub(super) external_n: Vec<Vector3<f64>>,
     pub(super) free_mask: Vec<Vector3<f64>>,
     pub(super) size_m: f64,
@@ -184,25 +183,17 @@ impl ForwardModel {
         for (k, e) in self.elements.iter().enumerate() {
             let d = x[e.b] - x[e.a];
             let l = d.norm();
-            let t = match e.law {
-                ElementLaw::Linear {
-                    stiffness_n_per_m,
-                    rest_m,
-                    tension_only,
-                } => {
-                    let t = stiffness_n_per_m * (l - rest_m);
-                    let t = if tension_only { t.max(0.0) } else { t };
+            let t = e.law.at(l, &state.segment_rest_lengths_m).tension_n;
+            match e.law {
+                ElementLaw::Linear { .. } => {
                     out.member_n[k] = t;
                     out.member_length_m[k] = l;
-                    t
                 }
-                ElementLaw::Segment { ea_n, index } => {
-                    let t = segment_tension(ea_n, l, state.segment_rest_lengths_m[index]);
+                ElementLaw::Segment { index, .. } => {
                     out.segment_n[index] = t;
                     out.segment_length_m[index] = l;
-                    t
                 }
-            };
+            }
             let f = t * d / l;
             net[e.a] += f;
             net[e.b] -= f;

@@ -5,7 +5,7 @@
 //! and commands applied in increments ([`command`]).
 
 pub mod command;
-mod element;
+pub(in crate::model) mod element;
 pub mod forward_model;
 mod newton;
 pub mod relax;

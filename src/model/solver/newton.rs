@@ -39,6 +39,7 @@
 
 use nalgebra::DVector;
 
+use super::residual::SlipMapping;
 use super::{ForwardModel, Workspace};
 use crate::model::state::{DeploymentState, JointSlip};
 use crate::model::stiffness::{tangent_stiffness, JointMode};
@@ -228,9 +229,12 @@ impl ForwardModel {
         }
         let entry = state.clone();
         let max_step = self.settings.newton_max_step_rel * self.size_m();
-        ws.slip_fixed = true;
-        (*max_t, *friction_left) = self.residual(state, ws);
+        let fixed = SlipMapping::Fixed;
+        (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
         let mut norm = self.free_residual_norm(ws);
+        // The iterate with the smallest residual so far: DR's start if
+        // Newton gives up (see `newton_max_iter` in the settings).
+        let mut best = (norm, state.positions_m.clone());
         let mut factor: Option<(BlockLu, FreeDofs)> = None;
         let mut fresh = false;
         let mut revisions = 0;
@@ -239,7 +243,6 @@ impl ForwardModel {
             if self.max_free_residual(ws) <= tol {
                 // The return mapping at this geometry says which joints
                 // slide; if it agrees, this is the answer.
-                ws.slip_fixed = false;
                 (*max_t, *friction_left) = self.residual(state, ws);
                 let tol = self.tolerance(*max_t);
                 if self.max_free_residual(ws) <= tol && *friction_left <= tol {
@@ -252,8 +255,7 @@ impl ForwardModel {
                 if revisions > MAX_ACTIVE_SET_ROUNDS {
                     break true;
                 }
-                ws.slip_fixed = true;
-                (*max_t, *friction_left) = self.residual(state, ws);
+                (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
                 norm = self.free_residual_norm(ws);
                 factor = None;
                 continue;
@@ -291,7 +293,7 @@ impl ForwardModel {
             for _ in 0..=MAX_HALVINGS {
                 state.positions_m.copy_from_slice(&before);
                 dofs.scatter_add(&mut state.positions_m, &step, alpha);
-                (*max_t, *friction_left) = self.residual(state, ws);
+                (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
                 let trial = self.free_residual_norm(ws);
                 if trial < WATCHDOG * norm {
                     accepted = Some(trial);
@@ -304,19 +306,34 @@ impl ForwardModel {
                     break true;
                 }
                 state.positions_m.copy_from_slice(&before);
-                (*max_t, *friction_left) = self.residual(state, ws);
+                (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
                 factor = None;
                 continue;
             };
-            if trial > 0.5 * norm || !ws.slip_fixed {
+            if trial > 0.5 * norm {
                 factor = None;
             }
             fresh = false;
             norm = trial;
+            if norm < best.0 {
+                best = (norm, state.positions_m.clone());
+            }
         };
-        ws.slip_fixed = false;
         if failed {
-            *state = entry;
+            // Hand DR the best iterate, unless the physical (return-mapped)
+            // residual says the entry state is the better start.
+            state.positions_m.copy_from_slice(&best.1);
+            state.joint_slip.copy_from_slice(&entry.joint_slip);
+            state
+                .segment_rest_lengths_m
+                .copy_from_slice(&entry.segment_rest_lengths_m);
+            self.residual(state, ws);
+            let best_norm = self.free_residual_norm(ws);
+            let mut at_entry = entry.clone();
+            self.residual(&mut at_entry, ws);
+            if !(best_norm < self.free_residual_norm(ws)) {
+                *state = at_entry;
+            }
             (*max_t, *friction_left) = self.residual(state, ws);
         }
         outcome

@@ -16,11 +16,9 @@
 
 use nalgebra::Vector3;
 
-use super::element::ElementLaw;
 use super::forward_model::ForwardModel;
 use super::status::{RelaxReport, RelaxStatus};
 use super::workspace::Workspace;
-use crate::model::sliding::segment_tension;
 use crate::model::state::DeploymentState;
 
 impl ForwardModel {
@@ -148,17 +146,8 @@ impl ForwardModel {
         for e in &self.elements {
             let d = x[e.b] - x[e.a];
             let l = d.norm();
-            let (k, t) = match e.law {
-                ElementLaw::Linear {
-                    stiffness_n_per_m,
-                    rest_m,
-                    ..
-                } => (stiffness_n_per_m, stiffness_n_per_m * (l - rest_m)),
-                ElementLaw::Segment { ea_n, index } => {
-                    let s = state.segment_rest_lengths_m[index];
-                    (ea_n / s, segment_tension(ea_n, l, s))
-                }
-            };
+            let axial = e.law.at(l, &state.segment_rest_lengths_m);
+            let (k, t) = (axial.stiffness_n_per_m, axial.elastic_n);
             let u = (d / l).abs();
             // Worst axis of the Gershgorin row sum, used on all three axes:
             // members rotate during a solve, and a mass that suited the old

@@ -5,8 +5,19 @@
 use super::element::ElementLaw;
 use super::forward_model::ForwardModel;
 use super::workspace::Workspace;
-use crate::model::sliding::{map_cable, map_cable_with_slip, segment_tension, IncrementStart};
+use crate::model::sliding::{map_cable, map_cable_with_slip, IncrementStart};
 use crate::model::state::DeploymentState;
+
+/// How a residual evaluation treats the joints' slip.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum SlipMapping {
+    /// The friction return mapping decides which joints slide (the
+    /// physical residual; DR and every convergence test use it).
+    ReturnMapping,
+    /// The state's joint slip states are kept and the material is
+    /// distributed for them: Newton's smooth active-set problem.
+    Fixed,
+}
 
 impl ForwardModel {
     /// Makes `state` the start of an increment in `ws` and maps sliding for
@@ -43,10 +54,21 @@ impl ForwardModel {
         worst
     }
 
-    /// Maps sliding for the current geometry, then fills `ws.force` with the
-    /// out-of-balance force at every node (external plus member forces).
-    /// Returns the largest member force and the friction residual left.
+    /// Maps sliding for the current geometry by the return mapping, then
+    /// fills `ws.force` with the out-of-balance force at every node
+    /// (external plus member forces). Returns the largest member force and
+    /// the friction residual left.
     pub(super) fn residual(&self, state: &mut DeploymentState, ws: &mut Workspace) -> (f64, f64) {
+        self.residual_as(state, ws, SlipMapping::ReturnMapping)
+    }
+
+    /// [`Self::residual`], with the joints' slip treated as `mapping` says.
+    pub(super) fn residual_as(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        mapping: SlipMapping,
+    ) -> (f64, f64) {
         let x = &state.positions_m;
         // Segment geometry first: the return mapping needs it.
         let n_members = self.structure.members.len();
@@ -71,7 +93,7 @@ impl ForwardModel {
         let map_tol = 1e-2 * self.tolerance(ws.last_max_t);
         for (c, cable) in self.structure.continuous_cables.iter().enumerate() {
             let (o0, o1) = (state.segment_offsets[c], state.segment_offsets[c + 1]);
-            if ws.slip_fixed {
+            if mapping == SlipMapping::Fixed {
                 map_cable_with_slip(
                     cable.ea_n,
                     &ws.seg_len[o0..o1],
@@ -104,25 +126,16 @@ impl ForwardModel {
         ws.force.copy_from_slice(&self.external_n);
         let mut max_t = 0.0f64;
         for e in &self.elements {
-            let (t, dir) = match e.law {
-                ElementLaw::Linear {
-                    stiffness_n_per_m,
-                    rest_m,
-                    tension_only,
-                } => {
+            // Segment geometry is already in the workspace.
+            let (l, dir) = match e.law {
+                ElementLaw::Segment { index, .. } => (ws.seg_len[index], ws.seg_dir[index]),
+                ElementLaw::Linear { .. } => {
                     let d = x[e.b] - x[e.a];
                     let l = d.norm();
-                    let mut t = stiffness_n_per_m * (l - rest_m);
-                    if tension_only && t < 0.0 {
-                        t = 0.0;
-                    }
-                    (t, d / l)
+                    (l, d / l)
                 }
-                ElementLaw::Segment { ea_n, index } => (
-                    segment_tension(ea_n, ws.seg_len[index], state.segment_rest_lengths_m[index]),
-                    ws.seg_dir[index],
-                ),
             };
+            let t = e.law.at(l, &state.segment_rest_lengths_m).tension_n;
             let f = t * dir;
             ws.force[e.a] += f;
             ws.force[e.b] -= f;

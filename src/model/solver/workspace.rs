@@ -17,10 +17,6 @@ pub struct Workspace {
     pub(super) slip_start: Vec<JointSlip>,
     /// Largest member force at the last residual evaluation, N.
     pub(super) last_max_t: f64,
-    /// When set, [`ForwardModel::residual`] keeps the state's joint slip
-    /// states and solves the material distribution for them (Newton's
-    /// active-set phase) instead of running the return mapping.
-    pub(super) slip_fixed: bool,
     /// Continuation step (fraction of an increment) that last succeeded.
     pub(super) continuation_step: f64,
 }
