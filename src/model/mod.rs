@@ -17,7 +17,7 @@ pub use effects::{EffectKind, Effects, MotorModel};
 pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFriction};
 pub use solver::{
     CommandError, CommandReport, ForwardModel, IncrementObserver, MemberForces, RelaxReport,
-    RelaxSettings, RelaxStatus, SettingsError, Workspace,
+    RelaxSettings, RelaxStatus, SettingsError, SolveMode, Workspace,
 };
 pub use state::{DeploymentState, JointSlip};
 pub use stiffness::{min_stiffness_eigenvalue, tangent_stiffness, JointMode};

@@ -7,6 +7,7 @@
 
 use thiserror::Error;
 
+use super::relax::SolveMode;
 use super::{ForwardModel, RelaxReport, RelaxStatus, Workspace};
 use crate::model::state::DeploymentState;
 
@@ -141,7 +142,7 @@ impl ForwardModel {
         for k in 0..count {
             let newton = self.newton_increment(state, ws, &increment);
             out.newton_iterations += newton.iterations;
-            let r = self.relax_from(state, ws, false);
+            let r = self.relax_with(state, ws, SolveMode::DrOnly);
             observer.on_increment(k, count, &r, state);
             out.increments += 1;
             out.iterations += r.iterations;

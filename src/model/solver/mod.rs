@@ -16,6 +16,7 @@ mod workspace;
 
 pub use command::{CommandError, CommandReport, IncrementObserver};
 pub use forward_model::{ForwardModel, MemberForces};
+pub use relax::SolveMode;
 pub use settings::{RelaxSettings, SettingsError};
 pub use status::{RelaxReport, RelaxStatus};
 pub use workspace::Workspace;

@@ -10,7 +10,7 @@
 //!
 //! Each Newton step solves `K·Δx = R` on the free DOFs and is shortened to
 //! `newton_max_step_rel` of the structure size. The full step is taken
-//! unless it multiplies the residual norm by more than [`WATCHDOG`]: a
+//! unless it multiplies the residual norm by more than `newton_watchdog`: a
 //! correct step along a soft mode stretches the stiff struts to second order
 //! and raises the residual for one iteration, so a monotone line search would
 //! stall. Newton gives up when a step is not a descent direction (`Δx·R ≤ 0`:
@@ -25,14 +25,14 @@
 //! a smooth problem whose consistent tangent is exactly
 //! [`JointMode::AsMapped`]; when it has converged, the return mapping at
 //! that geometry either agrees (the answer) or supplies the next slip
-//! states (at most [`MAX_ACTIVE_SET_ROUNDS`] times).
+//! states (at most `newton_max_active_set_rounds` times).
 //!
 //! A payout increment is solved by continuation in its size
 //! ([`ForwardModel::newton_increment`]): the problem "apply λ of the increment
 //! from the start state" is solved for growing λ, each solution with a
 //! linear predictor from the last, whose probe also gives the slip states
 //! to start from. A failed step is halved, down to
-//! [`MIN_CONTINUATION_STEP`]; then DR solves the increment from the farthest
+//! `newton_min_continuation_step`; then DR solves the increment from the farthest
 //! partial solution. Every partial problem starts from the same start state
 //! with stuck joints, so the continuation only supplies initial guesses:
 //! the answer is that of the full increment (backward Euler), as with DR.
@@ -45,22 +45,8 @@ use crate::model::state::{DeploymentState, JointSlip};
 use crate::model::stiffness::{tangent_stiffness, JointMode};
 use crate::numerics::{BlockLu, FreeDofs};
 
-/// A Newton step is rejected when it multiplies the residual norm by more.
-const WATCHDOG: f64 = 100.0;
-/// Halvings of a rejected step before Newton gives up.
-const MAX_HALVINGS: usize = 6;
 /// Payout fraction of the probe that finds the predictor's load.
 const PROBE: f64 = 1e-6;
-/// Active-set revisions of the joints' slip states per Newton solve.
-const MAX_ACTIVE_SET_ROUNDS: usize = 4;
-/// First continuation step of a command with friction, as a fraction of its
-/// increment: joints start sliding early in an increment from rest, and a
-/// step that fails costs a whole Newton solve (without friction the first
-/// step is the whole increment). Later increments of the same command
-/// start from the step that last succeeded.
-const FIRST_CONTINUATION_STEP: f64 = 1.0 / 16.0;
-/// Smallest continuation step, as a fraction of the increment.
-const MIN_CONTINUATION_STEP: f64 = 1.0 / 64.0;
 
 /// How a Newton solve ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -116,10 +102,14 @@ impl ForwardModel {
             ws.continuation_step = if frictionless {
                 1.0
             } else {
-                FIRST_CONTINUATION_STEP
+                self.settings.newton_first_continuation_step
             };
         }
-        let (mut done, mut step) = (0.0, ws.continuation_step.clamp(MIN_CONTINUATION_STEP, 1.0));
+        let (mut done, mut step) = (
+            0.0,
+            ws.continuation_step
+                .clamp(self.settings.newton_min_continuation_step, 1.0),
+        );
         while done < 1.0 {
             let lambda = f64::min(done + step, 1.0);
             let mut trial = partial(lambda, &solved);
@@ -143,7 +133,7 @@ impl ForwardModel {
                 step = f64::min(2.0 * step, 1.0);
             } else {
                 step *= 0.5;
-                if step < MIN_CONTINUATION_STEP {
+                if step < self.settings.newton_min_continuation_step {
                     *state = partial(1.0, &solved);
                     return outcome;
                 }
@@ -209,7 +199,7 @@ impl ForwardModel {
     /// smooth problem of the current joint slip states; once that converges
     /// the states are revised against the result ([`super::sliding::revise_slip`])
     /// and Newton goes on, until a revision changes nothing (at most
-    /// [`MAX_ACTIVE_SET_ROUNDS`] revisions). The answer is confirmed with the
+    /// `newton_max_active_set_rounds` revisions). The answer is confirmed with the
     /// return mapping itself. On failure `state` is restored. Updates
     /// `max_t` and `friction_left`.
     ///
@@ -252,7 +242,7 @@ impl ForwardModel {
                 // The mapping disagrees with the slip states solved for:
                 // adopt its states (an active-set step) and solve again.
                 revisions += 1;
-                if revisions > MAX_ACTIVE_SET_ROUNDS {
+                if revisions > self.settings.newton_max_active_set_rounds {
                     break true;
                 }
                 (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
@@ -290,12 +280,12 @@ impl ForwardModel {
             let before = state.positions_m.clone();
             let mut accepted = None;
             let mut alpha = 1.0;
-            for _ in 0..=MAX_HALVINGS {
+            for _ in 0..=self.settings.newton_max_halvings {
                 state.positions_m.copy_from_slice(&before);
                 dofs.scatter_add(&mut state.positions_m, &step, alpha);
                 (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
                 let trial = self.free_residual_norm(ws);
-                if trial < WATCHDOG * norm {
+                if trial < self.settings.newton_watchdog * norm {
                     accepted = Some(trial);
                     break;
                 }

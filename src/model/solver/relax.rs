@@ -21,6 +21,19 @@ use super::status::{RelaxReport, RelaxStatus};
 use super::workspace::Workspace;
 use crate::model::state::DeploymentState;
 
+/// Which methods a solve uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolveMode {
+    /// Newton with the consistent friction tangent (up to
+    /// `newton_max_iter` iterations, where the structure is small enough),
+    /// then DR from its best iterate: the default.
+    NewtonThenDr,
+    /// Dynamic relaxation alone (e.g. right after Newton has been tried on
+    /// the same increment).
+    DrOnly,
+}
+
 impl ForwardModel {
     /// Relaxes `state` to equilibrium in place, warm-started from it.
     ///
@@ -28,16 +41,15 @@ impl ForwardModel {
     /// first call [`DeploymentState::stick_all_joints`]. A state that is
     /// already in equilibrium returns after zero iterations.
     pub fn relax(&self, state: &mut DeploymentState, ws: &mut Workspace) -> RelaxReport {
-        self.relax_from(state, ws, true)
+        self.relax_with(state, ws, SolveMode::NewtonThenDr)
     }
 
-    /// [`Self::relax`], with the Newton phase optional (skipped by callers
-    /// that have just tried Newton on the same increment).
-    pub(super) fn relax_from(
+    /// [`Self::relax`] in an explicit [`SolveMode`].
+    pub fn relax_with(
         &self,
         state: &mut DeploymentState,
         ws: &mut Workspace,
-        try_newton: bool,
+        mode: SolveMode,
     ) -> RelaxReport {
         let n_nodes = self.structure.nodes.len();
         ws.fit(n_nodes, state.segment_rest_lengths_m.len());
@@ -49,7 +61,7 @@ impl ForwardModel {
         ws.velocity.fill(Vector3::zeros());
 
         let (mut max_t, mut friction_left) = self.residual(state, ws);
-        let newton_iterations = if try_newton {
+        let newton_iterations = if mode == SolveMode::NewtonThenDr {
             self.newton(state, ws, &mut max_t, &mut friction_left)
                 .iterations
         } else {

@@ -90,7 +90,7 @@ impl ForwardModel {
         // shrink).
         // The mapping only needs to be a little tighter than the force
         // tolerance: DR and Newton call it again at every iterate.
-        let map_tol = 1e-2 * self.tolerance(ws.last_max_t);
+        let map_tol = self.settings.tol_mapping_rel * self.tolerance(ws.last_max_t);
         for (c, cable) in self.structure.continuous_cables.iter().enumerate() {
             let (o0, o1) = (state.segment_offsets[c], state.segment_offsets[c + 1]);
             if mapping == SlipMapping::Fixed {

@@ -45,6 +45,31 @@ pub struct RelaxSettings {
     /// longer steps are shortened. Default 0.05: one step may not fold the
     /// structure into another equilibrium.
     pub newton_max_step_rel: f64,
+    /// A Newton step is rejected (and halved) when it multiplies the
+    /// residual norm by more than this. Default 100: a correct step along a
+    /// soft mode stretches the stiff struts to second order and raises the
+    /// residual for one iteration, so a monotone line search would stall.
+    pub newton_watchdog: f64,
+    /// Halvings of a rejected Newton step before Newton gives up. Default 6.
+    pub newton_max_halvings: usize,
+    /// Revisions of the joints' slip states (active-set rounds) per Newton
+    /// solve. Default 4; more lets Newton follow more stick-slip changes
+    /// before DR takes over.
+    pub newton_max_active_set_rounds: usize,
+    /// First continuation step of a command with friction, as a fraction of
+    /// its increment. Default 1/16: joints start sliding early in an
+    /// increment from rest, and a failed step costs a whole Newton solve
+    /// (without friction the first step is the whole increment). Later
+    /// increments of a command start from the step that last succeeded.
+    pub newton_first_continuation_step: f64,
+    /// Smallest continuation step, as a fraction of the increment; below it
+    /// DR solves the increment from the farthest partial solution. Default
+    /// 1/64.
+    pub newton_min_continuation_step: f64,
+    /// Tolerance of the friction return mapping relative to the force
+    /// tolerance. Default 1e-2: the mapping need only be a little tighter
+    /// than the force test, since DR and Newton call it at every iterate.
+    pub tol_mapping_rel: f64,
 }
 
 impl Default for RelaxSettings {
@@ -60,6 +85,12 @@ impl Default for RelaxSettings {
             newton_max_iter: 12,
             newton_max_dofs: 1500,
             newton_max_step_rel: 0.05,
+            newton_watchdog: 100.0,
+            newton_max_halvings: 6,
+            newton_max_active_set_rounds: 4,
+            newton_first_continuation_step: 1.0 / 16.0,
+            newton_min_continuation_step: 1.0 / 64.0,
+            tol_mapping_rel: 1e-2,
         }
     }
 }
@@ -131,6 +162,31 @@ impl RelaxSettings {
             "newton_max_step_rel",
             self.newton_max_step_rel,
             self.newton_max_step_rel > 0.0 && self.newton_max_step_rel <= 1.0,
+            "in (0, 1]",
+        )?;
+        check(
+            "newton_watchdog",
+            self.newton_watchdog,
+            self.newton_watchdog > 1.0,
+            "above 1",
+        )?;
+        check(
+            "newton_first_continuation_step",
+            self.newton_first_continuation_step,
+            self.newton_first_continuation_step > 0.0 && self.newton_first_continuation_step <= 1.0,
+            "in (0, 1]",
+        )?;
+        check(
+            "newton_min_continuation_step",
+            self.newton_min_continuation_step,
+            self.newton_min_continuation_step > 0.0
+                && self.newton_min_continuation_step <= self.newton_first_continuation_step,
+            "in (0, newton_first_continuation_step]",
+        )?;
+        check(
+            "tol_mapping_rel",
+            self.tol_mapping_rel,
+            self.tol_mapping_rel > 0.0 && self.tol_mapping_rel <= 1.0,
             "in (0, 1]",
         )?;
         Ok(())
