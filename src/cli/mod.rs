@@ -246,7 +246,7 @@ mod tests {
     #[test]
     fn a_bad_flag_value_names_the_flag() {
         let m = command()
-            .try_get_matches_from(["tdeploy", "simulate", "--tol", "-1"])
+            .try_get_matches_from(["tdeploy", "simulate", "--tol=-1"])
             .unwrap();
         let e = Options::from_matches(&m).unwrap_err().to_string();
         assert_eq!(e, "--tol: must be a finite number in (0, 0.01], got -1");
