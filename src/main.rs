@@ -1,11 +1,10 @@
-//! `tdeploy`: the command-line front end. All work happens in `cli::run`.
+//! `tdeploy`: the command-line front end: parse, check the options, run,
+//! and exit with the code `cli::finish` gives (0 done, 1 goal not
+//! reached, 2 bad input or I/O error).
 
 mod cli;
 
-fn main() {
+fn main() -> std::process::ExitCode {
     let matches = cli::command().get_matches();
-    if let Err(e) = cli::run(&matches) {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
-    }
+    cli::finish(cli::Options::from_matches(&matches).and_then(|options| cli::run(&options)))
 }

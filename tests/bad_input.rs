@@ -1,5 +1,6 @@
 //! Bad files are rejected with errors that name the file and the line and
-//! field (CSV) or the entry (JSON); the CLI exits non-zero without a panic.
+//! field (CSV) or the entry (JSON); the CLI exits 2 (bad input) without a
+//! panic.
 
 use std::path::Path;
 use std::process::Command;
@@ -156,7 +157,7 @@ fn cli_exits_non_zero_with_one_clear_line_on_a_bad_file() {
         .arg(dir.path().join("out"))
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("bad.json: cables[1] (\"c1\"): unknown node id \"zz\""),

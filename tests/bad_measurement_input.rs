@@ -1,6 +1,6 @@
 //! Malformed logs and model files given to the measurement commands
 //! (`compare`, `diagnose`, `calibrate`): one clear error line naming file,
-//! line and field, exit status 1, never a panic, nothing written.
+//! line and field, exit status 2 (bad input), never a panic, nothing written.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -46,7 +46,7 @@ fn fixture() -> (tempfile::TempDir, PathBuf) {
 fn compare_fails(dir: &Path, model: &str) -> String {
     let out = tdeploy(&["compare", model, "log", "-o", "report"], dir);
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "one line: {stderr}");
     assert!(!dir.join("report").exists(), "nothing written on bad input");
@@ -194,7 +194,7 @@ fn calibrate_never_overwrites_a_model_file() {
             dir.path(),
         );
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
         assert!(!stderr.contains("panicked"), "{stderr}");
     }
     assert_eq!(
@@ -218,6 +218,6 @@ fn calibrate_never_overwrites_a_model_file() {
         dir.path(),
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     assert!(stderr.contains("unknown effect \"flux\""), "{stderr}");
 }

@@ -1,44 +1,100 @@
 //! `tdeploy compare MODEL LOG`: the model replayed through a log, residuals
 //! per sensor, per direction and overall, in a table, CSV files and SVG
 //! figures, and a sentence on where the model fails worst.
+//!
+//! `--json FILE` writes the whole comparison as one JSON object:
+//! `model` and `log` (the paths), `sensors` (sensor ids in log order: the
+//! `sensor` index of every residual and the order of `per_sensor`),
+//! `comparison` ([`Comparison`]: `residuals`, `per_sensor` as
+//! `[stats of the residual in its unit, stats of z]`, `per_direction`,
+//! `overall`; `overall.rms` is the overall RMS in noise SDs) and `verdict`
+//! ([`ComparisonVerdict`], tagged by its `verdict` field).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use clap::ArgMatches;
+use clap::{value_parser, Arg, ArgMatches, Command};
+use serde::Serialize;
 
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
-use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::io::{write_atomically, write_json, CsvTable};
 use tensegrity_deploy::measure::compare::{
-    compare as compare_runs, noise_rms_limit, Comparison, FEATURES,
+    compare as compare_runs, verdict, Comparison, ComparisonVerdict, WhereItFails,
 };
+use tensegrity_deploy::measure::log::MeasurementLog;
 use tensegrity_deploy::report::figures::{
     measured_vs_predicted_svg, residuals_over_steps_svg, residuals_vs_features_svg,
 };
 
+use super::{replay_stopped, value, Outcome};
+
+/// The `compare` subcommand's arguments.
+pub fn command() -> Command {
+    Command::new("compare")
+        .about("Replay a measurement log through a model and report the residuals per sensor, step and direction")
+        .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
+        .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
+        .arg(Arg::new("out").long("out").short('o').default_value("out/compare").value_parser(value_parser!(PathBuf)).help("Report folder (CSV and SVG)"))
+        .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the comparison and its verdict as JSON to this file"))
+}
+
+/// Options of `tdeploy compare`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Model file.
+    pub model: PathBuf,
+    /// Log folder.
+    pub log: PathBuf,
+    /// Report folder.
+    pub out: PathBuf,
+    /// JSON report file, if asked for.
+    pub json: Option<PathBuf>,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        Ok(Options {
+            model: value(m, "model")?,
+            log: value(m, "log")?,
+            out: value(m, "out")?,
+            json: m.get_one::<PathBuf>("json").cloned(),
+        })
+    }
+}
+
+/// The JSON report (see the module notes).
+#[derive(Serialize)]
+struct CompareReport<'a> {
+    model: &'a Path,
+    log: &'a Path,
+    sensors: Vec<&'a str>,
+    comparison: &'a Comparison,
+    verdict: &'a ComparisonVerdict,
+}
+
 /// Runs `tdeploy compare`.
-pub fn compare(a: &ArgMatches) -> Result<()> {
-    let model_path = a.get_one::<PathBuf>("model").unwrap();
-    let log_dir = a.get_one::<PathBuf>("log").unwrap();
-    let out = a.get_one::<PathBuf>("out").unwrap();
-    let model_file = read_model(model_path)?;
-    let model = super::effect_model(&model_file)?;
-    let log = read_log(log_dir, &model.structure)?;
-    let c = compare_runs(&model, &log).with_context(|| {
-        format!(
-            "replaying {} through {}",
-            log_dir.display(),
-            model_path.display()
-        )
-    })?;
-    print_tables(&log, &c);
+pub fn run(o: &Options) -> Result<Outcome> {
+    let model = read_model(&o.model)?.measurement_model()?;
+    let log = read_log(&o.log, &model.structure)?;
+    let c = match compare_runs(&model, &log) {
+        Ok(c) => c,
+        Err(e) => {
+            let context = format!(
+                "replaying {} through {}",
+                o.log.display(),
+                o.model.display()
+            );
+            return replay_stopped(e, context);
+        }
+    };
+    let v = verdict(&c);
+    print_tables(&log, &c, &v);
+    let out = &o.out;
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
-    write_atomically(
-        &out.join("residuals.csv"),
-        residuals_csv(&log, &c).as_bytes(),
-    )?;
-    write_atomically(&out.join("sensors.csv"), sensors_csv(&log, &c).as_bytes())?;
+    residuals_csv(&log, &c).write(&out.join("residuals.csv"))?;
+    sensors_csv(&log, &c).write(&out.join("sensors.csv"))?;
     write_atomically(
         &out.join("measured_vs_predicted.svg"),
         measured_vs_predicted_svg(&log, &c)?.as_bytes(),
@@ -51,11 +107,22 @@ pub fn compare(a: &ArgMatches) -> Result<()> {
         &out.join("residuals_vs_features.svg"),
         residuals_vs_features_svg(&c)?.as_bytes(),
     )?;
+    if let Some(json) = &o.json {
+        let report = CompareReport {
+            model: &o.model,
+            log: &o.log,
+            sensors: log.sensors.iter().map(|s| s.id.as_str()).collect(),
+            comparison: &c,
+            verdict: &v,
+        };
+        write_json(json, &report)?;
+        say!("JSON report in {}", json.display());
+    }
     say!("report in {}", out.display());
-    Ok(())
+    Ok(Outcome::GoalReached)
 }
 
-fn print_tables(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Comparison) {
+fn print_tables(log: &MeasurementLog, c: &Comparison, v: &ComparisonVerdict) {
     say!(
         "{:<22} {:>5} {:>11} {:>11} {:>11} {:>11} {:>8}",
         "sensor",
@@ -99,91 +166,101 @@ fn print_tables(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Compa
         c.overall.rms,
         c.overall.count
     );
-    say!("{}", verdict(log, c));
+    say!("{}", verdict_in_words(log, v));
 }
 
-/// The comparison's verdict in words: noise, or where the model fails.
-fn verdict(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Comparison) -> String {
-    let limit = noise_rms_limit(c.overall.count);
-    if c.worst_sensor().is_some() && c.overall.rms <= limit {
-        return format!(
-            "the residuals are consistent with sensor noise (overall RMS {:.2} σ ≤ {:.2} σ)",
-            c.overall.rms, limit
-        );
+/// The comparison's verdict in words.
+fn verdict_in_words(log: &MeasurementLog, v: &ComparisonVerdict) -> String {
+    match v {
+        ComparisonVerdict::NoReadings => "no reading could be compared".into(),
+        ComparisonVerdict::Noise { rms_z, limit } => format!(
+            "the residuals are consistent with sensor noise (overall RMS {rms_z:.2} σ ≤ {limit:.2} σ)"
+        ),
+        ComparisonVerdict::Fails(w) => where_it_fails_in_words(log, w),
     }
-    where_it_fails(log, c)
 }
 
-/// Where the model fails worst: sensor, direction and the feature its
-/// residual correlates with most, in words.
-pub(super) fn where_it_fails(
-    log: &tensegrity_deploy::measure::log::MeasurementLog,
-    c: &Comparison,
-) -> String {
-    let Some(worst) = c.worst_sensor() else {
-        return "no reading could be compared".into();
+/// Where the model fails worst, in words.
+pub(super) fn where_it_fails_in_words(log: &MeasurementLog, w: &WhereItFails) -> String {
+    let sensor = log
+        .sensors
+        .get(w.sensor)
+        .map(|s| s.id.as_str())
+        .unwrap_or("-");
+    let direction = w.direction.map(|d| d.as_str()).unwrap_or("-");
+    let feature = match &w.feature {
+        Some(f) => format!(
+            "its residual correlates most with {f} (r = {:+.2})",
+            w.correlation
+        ),
+        None => "its residual correlates with no feature".into(),
     };
-    let z = c.per_sensor[worst].1;
-    let (dir, dz) = c
-        .per_direction
-        .iter()
-        .filter(|(_, s)| s.count > 0)
-        .max_by(|a, b| a.1.rms.total_cmp(&b.1.rms))
-        .map(|(d, s)| (d.as_str(), s.rms))
-        .unwrap_or(("-", 0.0));
-    let corr = c.feature_correlations(worst);
-    let (f, r) = corr
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-        .map(|(f, r)| (FEATURES[f], *r))
-        .unwrap_or(("-", 0.0));
     format!(
-        "the model fails worst at {} (RMS {:.1} σ, mean {:+.1} σ), most in the {dir} direction (RMS {:.1} σ); its residual correlates most with {f} (r = {r:+.2})",
-        log.sensors[worst].id, z.rms, z.mean, dz
+        "the model fails worst at {sensor} (RMS {:.1} σ, mean {:+.1} σ), most in the {direction} direction (RMS {:.1} σ); {feature}",
+        w.sensor_rms_z, w.sensor_mean_z, w.direction_rms_z
     )
 }
 
-fn residuals_csv(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Comparison) -> String {
-    let mut s = String::from(
-        "cycle,step,sensor,direction,measured,predicted,residual,z,payout_m,command_m,joint_angle_deg,temperature_c\n",
-    );
+fn residuals_csv(log: &MeasurementLog, c: &Comparison) -> CsvTable {
+    let mut t = CsvTable::new(&[
+        "cycle",
+        "step",
+        "sensor",
+        "direction",
+        "measured",
+        "predicted",
+        "residual",
+        "z",
+        "payout_m",
+        "command_m",
+        "joint_angle_deg",
+        "temperature_c",
+    ]);
     for r in &c.residuals {
-        s += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            log.cycles[r.cycle].label,
-            if r.step == 0 {
-                0
-            } else {
-                log.cycles[r.cycle].step_labels[r.step - 1]
-            },
-            log.sensors[r.sensor].id,
-            r.direction.as_str(),
-            r.measured,
-            r.predicted,
-            r.residual,
-            r.z,
-            r.features.payout_m,
-            r.features.command_m,
-            r.features.joint_angle_rad.to_degrees(),
+        let cycle = &log.cycles[r.cycle];
+        let step = if r.step == 0 {
+            0
+        } else {
+            cycle.step_labels[r.step - 1]
+        };
+        t.row([
+            cycle.label.to_string(),
+            step.to_string(),
+            log.sensors[r.sensor].id.clone(),
+            r.direction.as_str().to_string(),
+            r.measured.to_string(),
+            r.predicted.to_string(),
+            r.residual.to_string(),
+            r.z.to_string(),
+            r.features.payout_m.to_string(),
+            r.features.command_m.to_string(),
+            r.features.joint_angle_rad.to_degrees().to_string(),
             r.features
                 .temperature_c
                 .map(|t| t.to_string())
-                .unwrap_or_default()
-        );
+                .unwrap_or_default(),
+        ]);
     }
-    s
+    t
 }
 
-fn sensors_csv(log: &tensegrity_deploy::measure::log::MeasurementLog, c: &Comparison) -> String {
-    let mut s = String::from("sensor,count,mean,sd,rms,worst,rms_z,mean_z\n");
+fn sensors_csv(log: &MeasurementLog, c: &Comparison) -> CsvTable {
+    let mut t = CsvTable::new(&[
+        "sensor", "count", "mean", "sd", "rms", "worst", "rms_z", "mean_z",
+    ]);
     for (sensor, (st, z)) in log.sensors.iter().zip(&c.per_sensor) {
         if st.count > 0 {
-            s += &format!(
-                "{},{},{},{},{},{},{},{}\n",
-                sensor.id, st.count, st.mean, st.sd, st.rms, st.worst, z.rms, z.mean
-            );
+            t.row([
+                sensor.id.clone(),
+                st.count.to_string(),
+                st.mean.to_string(),
+                st.sd.to_string(),
+                st.rms.to_string(),
+                st.worst.to_string(),
+                z.rms.to_string(),
+                z.mean.to_string(),
+            ]);
         }
     }
-    s
+    t
 }

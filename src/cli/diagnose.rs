@@ -1,38 +1,100 @@
 //! `tdeploy diagnose MODEL LOG`: which effect the model lacks, found by
 //! fitting every candidate and scoring it on held-out cycles.
+//!
+//! `--json FILE` writes the diagnosis as one JSON object: `model`, `log`,
+//! `sensors` (ids in log order), `diagnosis` ([`Diagnosis`]: `rounds`,
+//! `verdict`, and `final_comparison`, whose `overall.rms` is the overall
+//! RMS in noise SDs with the effects found) and `where_it_fails` (for a
+//! structured residual, else `null`). Standard errors that could not be
+//! estimated are `null`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
-use clap::ArgMatches;
+use anyhow::Result;
+use clap::{value_parser, Arg, ArgMatches, Command};
+use serde::Serialize;
 
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
-use tensegrity_deploy::measure::diagnose::{diagnose as run, Candidate, DiagnoseSettings, Verdict};
+use tensegrity_deploy::io::write_json;
+use tensegrity_deploy::measure::compare::{where_it_fails, WhereItFails};
+use tensegrity_deploy::measure::diagnose::{
+    diagnose, Candidate, DiagnoseSettings, Diagnosis, Verdict,
+};
+use tensegrity_deploy::model::EffectKind;
+
+use super::compare::where_it_fails_in_words;
+use super::{fitted_parameter, replay_stopped, value, Outcome};
+
+/// The `diagnose` subcommand's arguments.
+pub fn command() -> Command {
+    Command::new("diagnose")
+        .about("Fit every effect the model lacks to a log, score each on held-out cycles, and say which is missing")
+        .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
+        .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
+        .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects to look for at most, one per round (1 to the number of effects)"))
+        .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the diagnosis as JSON to this file"))
+}
+
+/// Options of `tdeploy diagnose`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Model file.
+    pub model: PathBuf,
+    /// Log folder.
+    pub log: PathBuf,
+    /// Search settings.
+    pub settings: DiagnoseSettings,
+    /// JSON report file, if asked for.
+    pub json: Option<PathBuf>,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        let max_rounds: usize = value(m, "rounds")?;
+        let most = EffectKind::ALL.len();
+        if !(1..=most).contains(&max_rounds) {
+            anyhow::bail!("--rounds: must be 1 to {most}, got {max_rounds}");
+        }
+        Ok(Options {
+            model: value(m, "model")?,
+            log: value(m, "log")?,
+            settings: DiagnoseSettings { max_rounds },
+            json: m.get_one::<PathBuf>("json").cloned(),
+        })
+    }
+}
+
+/// The JSON report (see the module notes).
+#[derive(Serialize)]
+struct DiagnoseReport<'a> {
+    model: &'a Path,
+    log: &'a Path,
+    sensors: Vec<&'a str>,
+    diagnosis: &'a Diagnosis,
+    where_it_fails: Option<WhereItFails>,
+}
 
 fn params(c: &Candidate) -> String {
     c.kind
         .parameters()
         .iter()
         .zip(c.values.iter().zip(&c.std_errors))
-        .map(|(p, (v, se))| super::fitted_parameter(p, *v, *se))
+        .map(|(p, (v, se))| fitted_parameter(p, *v, *se))
         .collect::<Vec<_>>()
         .join(", ")
 }
 
 /// Runs `tdeploy diagnose`.
-pub fn diagnose(a: &ArgMatches) -> Result<()> {
-    let model_path = a.get_one::<PathBuf>("model").unwrap();
-    let log_dir = a.get_one::<PathBuf>("log").unwrap();
-    let model_file = read_model(model_path)?;
-    let model = super::effect_model(&model_file)?;
-    let log = read_log(log_dir, &model.structure)?;
-    let settings = DiagnoseSettings {
-        max_rounds: *a.get_one::<usize>("rounds").unwrap(),
-    };
+pub fn run(o: &Options) -> Result<Outcome> {
+    let model = read_model(&o.model)?.measurement_model()?;
+    let log = read_log(&o.log, &model.structure)?;
     let start = std::time::Instant::now();
-    let d = run(&model, &log, &settings)
-        .with_context(|| format!("diagnosing {}", log_dir.display()))?;
+    let d = match diagnose(&model, &log, &o.settings) {
+        Ok(d) => d,
+        Err(e) => return replay_stopped(e, format!("diagnosing {}", o.log.display())),
+    };
     for (i, round) in d.rounds.iter().enumerate() {
         say!(
             "round {}: model held-out RMS {:.2} σ, BIC {:.1}",
@@ -77,6 +139,10 @@ pub fn diagnose(a: &ArgMatches) -> Result<()> {
             say!("  not worth fitting: {}", unfitted.join(", "));
         }
     }
+    let fails = match &d.verdict {
+        Verdict::Unexplained { .. } => where_it_fails(&d.final_comparison),
+        _ => None,
+    };
     match &d.verdict {
         Verdict::NothingMissing => {
             say!("verdict: residuals are consistent with sensor noise: nothing is missing")
@@ -101,9 +167,12 @@ pub fn diagnose(a: &ArgMatches) -> Result<()> {
             } else {
                 format!(" after adding [{}]", names.join(", "))
             };
+            let place = match &fails {
+                Some(w) => where_it_fails_in_words(&log, w),
+                None => "no reading could be compared".into(),
+            };
             say!(
-                "verdict: a structured residual remains that no candidate explains: held-out RMS {held_out_rms:.2} σ{after}; {}",
-                super::compare::where_it_fails(&log, &d.final_comparison)
+                "verdict: a structured residual remains that no candidate explains: held-out RMS {held_out_rms:.2} σ{after}; {place}"
             );
         }
     }
@@ -112,5 +181,16 @@ pub fn diagnose(a: &ArgMatches) -> Result<()> {
         start.elapsed().as_secs_f64(),
         rayon::current_num_threads()
     );
-    Ok(())
+    if let Some(json) = &o.json {
+        let report = DiagnoseReport {
+            model: &o.model,
+            log: &o.log,
+            sensors: log.sensors.iter().map(|s| s.id.as_str()).collect(),
+            diagnosis: &d,
+            where_it_fails: fails,
+        };
+        write_json(json, &report)?;
+        say!("JSON report in {}", json.display());
+    }
+    Ok(Outcome::GoalReached)
 }

@@ -1,74 +1,81 @@
 //! `tdeploy experiment FILE`: the experiments in `experiments/`, each a TOML
-//! file whose `kind` picks the study; results as CSV and SVG, and a table
-//! beside the seed's values.
+//! file ([`tensegrity_deploy::io::experiment_file`]) whose `kind` picks the
+//! study; results as CSV and SVG, and a table beside the seed's values.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
-use clap::ArgMatches;
+use anyhow::{Context, Result};
+use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::design::friction_rig::modelled_slip_ratio;
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::io::write_atomically;
-use tensegrity_deploy::model::{
-    AngleConvention, FrictionCoefficient, JointFriction, RelaxSettings,
+use tensegrity_deploy::io::experiment_file::{
+    read_experiment, Experiment, FrictionEffectExperiment, FrictionRigExperiment,
+    FrictionVsMeasurementExperiment,
 };
+use tensegrity_deploy::io::{write_atomically, CsvTable};
+use tensegrity_deploy::model::{FrictionCoefficient, JointFriction, RelaxSettings};
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
+use tensegrity_deploy::report::figures::grouped_bars_svg;
+use tensegrity_deploy::studies::friction_study::{
+    friction_study, CellComparison, FrictionStudySettings,
+};
 use tensegrity_deploy::studies::{friction_effect, FrictionEffectSettings};
 
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RigExperiment {
-    kind: String,
-    mu: f64,
-    #[serde(default)]
-    convention: AngleConvention,
-    interior_angles_deg: Vec<f64>,
-    tensions_kn: Vec<Vec<f64>>,
-    out: PathBuf,
+use super::{replay_stopped, value, Outcome};
+
+/// The `experiment` subcommand's arguments.
+pub fn command() -> Command {
+    Command::new("experiment")
+        .about("Run an experiment file from experiments/")
+        .arg(
+            Arg::new("file")
+                .required(true)
+                .value_parser(value_parser!(PathBuf)),
+        )
+}
+
+/// Options of `tdeploy experiment`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Experiment file.
+    pub file: PathBuf,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        Ok(Options {
+            file: value(m, "file")?,
+        })
+    }
 }
 
 /// Runs `tdeploy experiment`.
-pub fn experiment(a: &ArgMatches) -> Result<()> {
-    let path = a.get_one::<PathBuf>("file").unwrap();
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    let kind: toml::Table =
-        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    match kind.get("kind").and_then(|k| k.as_str()) {
-        Some("friction-rig") => {
-            let e: RigExperiment =
-                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-            debug_assert_eq!(e.kind, "friction-rig");
-            friction_rig_experiment(&e, path)
-        }
-        Some("friction-effect") => {
-            let e: FrictionEffectExperiment =
-                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-            friction_effect_experiment(&e, path)
-        }
-        Some("friction-vs-measurement") => {
-            let e: FrictionVsMeasurementExperiment =
-                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-            friction_vs_measurement_experiment(&e, path)
-        }
-        Some(other) => bail!(
-            "{}: field `kind`: unknown experiment \"{other}\" (known: friction-rig, friction-effect, friction-vs-measurement)",
-            path.display()
-        ),
-        None => bail!("{}: field `kind` is missing", path.display()),
+pub fn run(o: &Options) -> Result<Outcome> {
+    match read_experiment(&o.file)? {
+        Experiment::FrictionRig(e) => friction_rig(&e),
+        Experiment::FrictionEffect(e) => friction_effect_experiment(&e),
+        Experiment::FrictionVsMeasurement(e) => friction_vs_measurement(&e),
     }
 }
 
-fn friction_rig_experiment(e: &RigExperiment, path: &Path) -> Result<()> {
-    if e.interior_angles_deg.len() != e.tensions_kn.len() {
-        bail!(
-            "{}: `tensions_kn` needs one list per entry of `interior_angles_deg`",
-            path.display()
-        );
-    }
+/// Creates the results folder `dir`.
+fn results_folder(dir: &std::path::Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))
+}
+
+fn friction_rig(e: &FrictionRigExperiment) -> Result<Outcome> {
     let friction = JointFriction::new(FrictionCoefficient::Constant(e.mu), e.convention)?;
-    let mut csv = String::from("interior_angle_deg,tension_kn,slip_ratio_model,slip_ratio_formula,slip_load_n,mu_backcalc_interior,mu_backcalc_wrap\n");
+    let mut csv = CsvTable::new(&[
+        "interior_angle_deg",
+        "tension_kn",
+        "slip_ratio_model",
+        "slip_ratio_formula",
+        "slip_load_n",
+        "mu_backcalc_interior",
+        "mu_backcalc_wrap",
+    ]);
     say!(
         "friction rig, true μ = {} ({:?} convention)",
         e.mu,
@@ -94,65 +101,32 @@ fn friction_rig_experiment(e: &RigExperiment, path: &Path) -> Result<()> {
             let mu_wrap = ratio.ln() / (std::f64::consts::PI - theta);
             let load = t * (ratio - 1.0);
             say!("{theta_deg:>6.0} {t_kn:>6.1} {ratio:>12.6} {formula:>12.6} {load:>12.1} {mu_interior:>10.4} {mu_wrap:>10.4}");
-            csv +=
-                &format!("{theta_deg},{t_kn},{ratio},{formula},{load},{mu_interior},{mu_wrap}\n");
-        }
-    }
-    std::fs::create_dir_all(&e.out)
-        .with_context(|| format!("{}: cannot create", e.out.display()))?;
-    let file = e.out.join("friction-rig.csv");
-    tensegrity_deploy::io::write_atomically(&file, csv.as_bytes())?;
-    say!("The seed back-calculates μ with the interior angle θ; with the wrap angle π−θ the same slips give the μ(π−θ) column.");
-    say!("results in {}", file.display());
-    Ok(())
-}
-
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FrictionEffectExperiment {
-    #[allow(dead_code)]
-    kind: String,
-    mu: f64,
-    #[serde(default)]
-    convention: AngleConvention,
-    fold_m: f64,
-    deploy_m: f64,
-    increment_m: f64,
-    force_floor_n: f64,
-    out: PathBuf,
-}
-
-/// Every `(field, value)` of an experiment file is a finite number above
-/// zero (or at least zero, with `zero_allowed`); else an error naming the
-/// file and field.
-fn check_numbers(path: &Path, fields: &[(&str, f64)], zero_allowed: bool) -> Result<()> {
-    for &(field, v) in fields {
-        let ok = v.is_finite() && (v > 0.0 || (zero_allowed && v == 0.0));
-        if !ok {
-            let want = if zero_allowed {
-                "non-negative"
-            } else {
-                "positive"
-            };
-            bail!(
-                "{}: field `{field}`: must be a {want} number, got {v}",
-                path.display()
+            csv.row(
+                [
+                    theta_deg,
+                    t_kn,
+                    &ratio,
+                    &formula,
+                    &load,
+                    &mu_interior,
+                    &mu_wrap,
+                ]
+                .map(f64::to_string),
             );
         }
     }
-    Ok(())
+    results_folder(&e.out)?;
+    let file = e.out.join("friction-rig.csv");
+    csv.write(&file)?;
+    say!("The seed back-calculates μ with the interior angle θ; with the wrap angle π−θ the same slips give the μ(π−θ) column.");
+    say!("results in {}", file.display());
+    Ok(Outcome::GoalReached)
 }
 
 /// The seed's Table 2: midspan node shift with friction, mm (nodes 1–5).
 const SEED_TABLE_2_MM: [f64; 5] = [2.0, 2.3, 3.5, 3.6, 3.0];
 
-fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Result<()> {
-    check_numbers(
-        path,
-        &[("fold_m", e.fold_m), ("deploy_m", e.deploy_m)],
-        true,
-    )?;
-    check_numbers(path, &[("increment_m", e.increment_m)], false)?;
+fn friction_effect_experiment(e: &FrictionEffectExperiment) -> Result<Outcome> {
     let structure = reference_bridge(&BridgeParameters::default())?;
     let settings = FrictionEffectSettings {
         friction: JointFriction::new(FrictionCoefficient::Constant(e.mu), e.convention)?,
@@ -169,7 +143,10 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
     ] {
         for (what, rep) in [("fold", &run.fold), ("deploy", &run.deploy)] {
             if !rep.status.is_converged() {
-                bail!("{name} run, {what} command: {}", rep.status.describe());
+                return Ok(Outcome::GoalMissed(format!(
+                    "{name} run, {what} command: {}",
+                    rep.status.describe()
+                )));
             }
         }
     }
@@ -186,7 +163,6 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
         "seed ΔL mm",
         "seed %"
     );
-    let mut csv = String::from("node,shift_m,percent_of_30mm\n");
     let half_a: Vec<_> = r.midspan_shift_m.iter().step_by(2).collect();
     for (k, (node, shift)) in half_a.iter().enumerate() {
         let seed = SEED_TABLE_2_MM.get(k).copied().unwrap_or(f64::NAN);
@@ -199,12 +175,13 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
             100.0 * seed / 30.0
         );
     }
+    let mut shifts = CsvTable::new(&["node", "shift_m", "percent_of_30mm"]);
     for (node, shift) in &r.midspan_shift_m {
-        csv += &format!(
-            "{},{shift},{}\n",
-            structure.nodes[*node].id,
-            100.0 * shift / 0.03
-        );
+        shifts.row([
+            structure.nodes[*node].id.clone(),
+            shift.to_string(),
+            (100.0 * shift / 0.03).to_string(),
+        ]);
     }
     say!(
         "relative member-force change (members above {} N without friction):",
@@ -217,7 +194,12 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
         "mean %",
         "max %"
     );
-    let mut kinds = String::from("kind,members,mean_relative_change,max_relative_change\n");
+    let mut kinds = CsvTable::new(&[
+        "kind",
+        "members",
+        "mean_relative_change",
+        "max_relative_change",
+    ]);
     for c in &r.force_change {
         say!(
             "{:>18} {:>8} {:>10.2} {:>10.2}",
@@ -226,29 +208,27 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
             100.0 * c.mean_relative,
             100.0 * c.max_relative
         );
-        kinds += &format!(
-            "{},{},{},{}\n",
-            c.kind, c.counted, c.mean_relative, c.max_relative
-        );
+        kinds.row([
+            c.kind.to_string(),
+            c.counted.to_string(),
+            c.mean_relative.to_string(),
+            c.max_relative.to_string(),
+        ]);
     }
     say!("seed (Fig. 12): continuous cables change least, discontinuous cables moderately, struts most.");
-    let mut members = String::from("member,relative_change\n");
+    let mut members = CsvTable::new(&["member", "relative_change"]);
     let n_members = structure.members.len();
     for (i, rel) in &r.member_change {
         let name = match structure.members.get(*i) {
             Some(m) => m.id.clone(),
             None => format!("segment_{}", i - n_members),
         };
-        members += &format!("{name},{rel}\n");
+        members.row([name, rel.to_string()]);
     }
-    std::fs::create_dir_all(&e.out)
-        .with_context(|| format!("{}: cannot create", e.out.display()))?;
-    write_atomically(&e.out.join("midspan_shift.csv"), csv.as_bytes())?;
-    write_atomically(&e.out.join("force_change_by_type.csv"), kinds.as_bytes())?;
-    write_atomically(
-        &e.out.join("force_change_by_member.csv"),
-        members.as_bytes(),
-    )?;
+    results_folder(&e.out)?;
+    shifts.write(&e.out.join("midspan_shift.csv"))?;
+    kinds.write(&e.out.join("force_change_by_type.csv"))?;
+    members.write(&e.out.join("force_change_by_member.csv"))?;
     let svg = state_views_svg(
         &structure,
         DrawnState {
@@ -265,52 +245,16 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment, path: &Path) -> Resu
     )?;
     write_atomically(&e.out.join("overlay.svg"), svg.as_bytes())?;
     say!("results in {}", e.out.display());
-    Ok(())
-}
-
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FrictionVsMeasurementExperiment {
-    #[allow(dead_code)]
-    kind: String,
-    actuation_m: f64,
-    steps: usize,
-    model_mu: f64,
-    seed: u64,
-    increment_m: f64,
-    truth: tensegrity_deploy::model::Effects,
-    out: PathBuf,
+    Ok(Outcome::GoalReached)
 }
 
 /// The seed's finding: friction cut the mean difference by 50 % and the
 /// standard deviation by 40 %.
 const SEED_CUTS_PERCENT: (f64, f64) = (50.0, 40.0);
 
-fn friction_vs_measurement_experiment(
-    e: &FrictionVsMeasurementExperiment,
-    path: &Path,
-) -> Result<()> {
-    use tensegrity_deploy::report::figures::grouped_bars_svg;
-    use tensegrity_deploy::studies::friction_study::{
-        friction_study, CellComparison, FrictionStudySettings,
-    };
-    check_numbers(
-        path,
-        &[
-            ("actuation_m", e.actuation_m),
-            ("increment_m", e.increment_m),
-            ("model_mu", e.model_mu),
-        ],
-        false,
-    )?;
-    if e.steps == 0 {
-        bail!("{}: field `steps`: must be at least 1", path.display());
-    }
-    e.truth
-        .validate()
-        .map_err(|err| anyhow::anyhow!("{}: truth.{err}", path.display()))?;
+fn friction_vs_measurement(e: &FrictionVsMeasurementExperiment) -> Result<Outcome> {
     let structure = reference_bridge(&BridgeParameters::default())?;
-    let study = friction_study(
+    let study = match friction_study(
         &structure,
         &FrictionStudySettings {
             truth_effects: e.truth,
@@ -320,7 +264,10 @@ fn friction_vs_measurement_experiment(
             seed: e.seed,
             increment_m: e.increment_m,
         },
-    )?;
+    ) {
+        Ok(study) => study,
+        Err(err) => return replay_stopped(err, "friction-vs-measurement study".into()),
+    };
     say!(
         "friction vs measurement: {} cm deployment in {} steps, truth {:?}, simulation with μ = {}",
         100.0 * e.actuation_m,
@@ -343,7 +290,13 @@ fn friction_vs_measurement_experiment(
         "sd no-fr",
         "sd fric."
     );
-    let mut csv = String::from("sensor,step,measured_n,no_friction_n,friction_n\n");
+    let mut csv = CsvTable::new(&[
+        "sensor",
+        "step",
+        "measured_n",
+        "no_friction_n",
+        "friction_n",
+    ]);
     for c in &study.cells {
         let (a, b) = (c.no_friction(), c.friction());
         say!(
@@ -358,14 +311,13 @@ fn friction_vs_measurement_experiment(
             b.sd_n
         );
         for k in 0..c.measured_n.len() {
-            csv += &format!(
-                "{},{},{},{},{}\n",
-                c.sensor,
-                k + 1,
-                c.measured_n[k],
-                c.no_friction_n[k],
-                c.friction_n[k]
-            );
+            csv.row([
+                c.sensor.clone(),
+                (k + 1).to_string(),
+                c.measured_n[k].to_string(),
+                c.no_friction_n[k].to_string(),
+                c.friction_n[k].to_string(),
+            ]);
         }
     }
     let (without, with) = study.differences();
@@ -408,10 +360,9 @@ fn friction_vs_measurement_experiment(
             ("measurement", averages(|c| &c.measured_n)),
         ],
     )?;
-    std::fs::create_dir_all(&e.out)
-        .with_context(|| format!("{}: cannot create", e.out.display()))?;
-    write_atomically(&e.out.join("tensions.csv"), csv.as_bytes())?;
+    results_folder(&e.out)?;
+    csv.write(&e.out.join("tensions.csv"))?;
     write_atomically(&e.out.join("average_tension.svg"), svg.as_bytes())?;
     say!("results in {}", e.out.display());
-    Ok(())
+    Ok(Outcome::GoalReached)
 }

@@ -2,50 +2,112 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
-use clap::ArgMatches;
+use anyhow::{anyhow, Result};
+use clap::{value_parser, Arg, ArgMatches, Command};
 
+use tensegrity_deploy::io::experiment_file::PAYOUT_RANGE_M;
 use tensegrity_deploy::io::log::write_log;
 use tensegrity_deploy::io::model_file::read_model;
-use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::io::{write_atomically, NumberRange};
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles};
 use tensegrity_deploy::sim::standard_sensors;
 
+use super::{number_in, replay_stopped, value, Outcome};
+
+/// Range of `--temperature-swing`, K: beyond ±100 K about 20 °C no bridge
+/// is deployed.
+const SWING_RANGE_K: NumberRange = NumberRange::non_negative_up_to(100.0);
+/// Range of each of `--amplitudes`, m.
+const AMPLITUDE_RANGE_M: NumberRange = NumberRange {
+    min_exclusive: true,
+    ..PAYOUT_RANGE_M
+};
+
+/// The `lab` subcommand's arguments.
+pub fn command() -> Command {
+    Command::new("lab")
+        .about("Run deployment-fold cycles on a truth model file and write a measurement log with sensor noise")
+        .arg(Arg::new("truth").required(true).value_parser(value_parser!(PathBuf)).help("Truth model file (TOML: structure and effects)"))
+        .arg(Arg::new("out").long("out").short('o').default_value("out/lab-log").value_parser(value_parser!(PathBuf)).help("Log folder to write; the truth is recorded beside it as <out>.truth.toml"))
+        .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
+        .arg(Arg::new("amplitudes").long("amplitudes").value_delimiter(',').default_value("0.01,0.05,0.1,0.4").value_parser(value_parser!(f64)).help("Cable actuation of each cycle, m, each in (0, 1] (paid out, then reeled back in)"))
+        .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle, at least 1"))
+        .arg(Arg::new("temperature-swing").long("temperature-swing").default_value("12").value_parser(value_parser!(f64)).help("Amplitude of the temperature's daily swing about 20 °C, K, in [0, 100]"))
+}
+
+/// Options of `tdeploy lab`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Truth model file.
+    pub truth: PathBuf,
+    /// Log folder to write.
+    pub out: PathBuf,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Actuation of each cycle, m.
+    pub amplitudes_m: Vec<f64>,
+    /// Steps each way per cycle.
+    pub steps: usize,
+    /// Daily temperature swing, K.
+    pub swing_k: f64,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        let amplitudes_m: Vec<f64> = m
+            .get_many::<f64>("amplitudes")
+            .map(|v| v.copied().collect())
+            .unwrap_or_default();
+        if amplitudes_m.is_empty() {
+            return Err(anyhow!("--amplitudes: give at least one"));
+        }
+        for a in &amplitudes_m {
+            AMPLITUDE_RANGE_M
+                .check(*a)
+                .map_err(|why| anyhow!("--amplitudes: {why}"))?;
+        }
+        let steps: usize = value(m, "steps")?;
+        if steps == 0 {
+            return Err(anyhow!("--steps: must be at least 1"));
+        }
+        Ok(Options {
+            truth: value(m, "truth")?,
+            out: value(m, "out")?,
+            seed: value(m, "seed")?,
+            amplitudes_m,
+            steps,
+            swing_k: number_in(m, "temperature-swing", SWING_RANGE_K)?,
+        })
+    }
+}
+
 /// Runs `tdeploy lab`.
-pub fn lab(a: &ArgMatches) -> Result<()> {
-    let truth_path = a.get_one::<PathBuf>("truth").unwrap();
-    let out = a.get_one::<PathBuf>("out").unwrap();
-    let seed = *a.get_one::<u64>("seed").unwrap();
-    let steps = *a.get_one::<usize>("steps").unwrap();
-    let swing_k = *a.get_one::<f64>("temperature-swing").unwrap();
-    let amplitudes: Vec<f64> = a.get_many::<f64>("amplitudes").unwrap().copied().collect();
-    if steps == 0 {
-        bail!("--steps must be at least 1");
-    }
-    if let Some(bad) = amplitudes.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
-        bail!("--amplitudes: {bad} is not a positive length in metres");
-    }
-    let truth = read_model(truth_path)?;
-    let model = super::effect_model(&truth)?;
+pub fn run(o: &Options) -> Result<Outcome> {
+    let truth = read_model(&o.truth)?;
+    let model = truth.measurement_model()?;
     let sensors = standard_sensors(&model.structure);
-    if !(swing_k.is_finite() && swing_k >= 0.0) {
-        bail!("--temperature-swing: {swing_k} is not a non-negative number of kelvin");
-    }
     let cycles = standard_cycles(
         model.structure.continuous_cables.len(),
-        &amplitudes,
-        steps,
-        swing_k,
+        &o.amplitudes_m,
+        o.steps,
+        o.swing_k,
     );
-    let log = run_lab(&model, &sensors, &cycles, seed)
-        .with_context(|| format!("truth model {}", truth_path.display()))?;
-    write_log(out, &log, &model.structure)?;
+    let log = match run_lab(&model, &sensors, &cycles, o.seed) {
+        Ok(log) => log,
+        Err(e) => return replay_stopped(e, format!("truth model {}", o.truth.display())),
+    };
+    write_log(&o.out, &log, &model.structure)?;
     // The truth stays outside the log folder: compare, diagnose and
     // calibrate read only the log.
-    let truth_copy = truth_record_path(out);
+    let truth_copy = truth_record_path(&o.out);
     let record = format!(
-        "# The truth behind the log {}: seed {seed}, amplitudes {amplitudes:?} m, {steps} steps each way, temperature 20 ± {swing_k} °C.\n# Nothing in compare, diagnose or calibrate reads this file.\n{}",
-        out.display(),
+        "# The truth behind the log {}: seed {}, amplitudes {:?} m, {} steps each way, temperature 20 ± {} °C.\n# Nothing in compare, diagnose or calibrate reads this file.\n{}",
+        o.out.display(),
+        o.seed,
+        o.amplitudes_m,
+        o.steps,
+        o.swing_k,
         truth.to_toml(truth_copy.parent().unwrap_or(Path::new(".")))
     );
     write_atomically(&truth_copy, record.as_bytes())?;
@@ -55,17 +117,18 @@ pub fn lab(a: &ArgMatches) -> Result<()> {
         .map(|c| c.readings.len() * log.sensors.len())
         .sum();
     say!(
-        "lab: {} cycles ({} steps each), {} sensors, {readings} readings, seed {seed}",
+        "lab: {} cycles ({} steps each), {} sensors, {readings} readings, seed {}",
         log.cycles.len(),
-        2 * steps,
-        log.sensors.len()
+        2 * o.steps,
+        log.sensors.len(),
+        o.seed
     );
     say!(
         "log in {}; truth recorded in {}",
-        out.display(),
+        o.out.display(),
         truth_copy.display()
     );
-    Ok(())
+    Ok(Outcome::GoalReached)
 }
 
 /// `out/log` → `out/log.truth.toml`.

@@ -1,14 +1,28 @@
 //! Command-line interface: argument parsing, files and printing. The
 //! numerics it calls never print.
 //!
-//! - `structure`: generate the reference bridge ([`structure_cmd`]);
-//! - `simulate`: apply a command sequence ([`simulate`]);
-//! - `experiment`: run an experiment file ([`experiment`]);
-//! - `lab`: a synthetic measurement log from a truth model ([`lab`]);
-//! - `compare`: a model against a log ([`compare`]);
-//! - `diagnose`: which effect the model lacks ([`diagnose`]);
-//! - `calibrate`: a new model file with one effect added and fitted
-//!   ([`calibrate`]).
+//! Every subcommand is a module with the same three parts, so that a new
+//! one is added the same way (as hyperfine's CLI is laid out):
+//! - `command() -> clap::Command`: its arguments;
+//! - `Options::from_matches(&ArgMatches) -> Result<Options>`: the typed
+//!   options, every flag value checked here, with an error naming the flag;
+//! - `run(&Options) -> Result<Outcome>`: the work; it reads and writes
+//!   files through [`tensegrity_deploy::io`] and prints what it found.
+//!
+//! Subcommands: `structure` ([`structure`]), `simulate` ([`simulate`]),
+//! `experiment` ([`experiment`]), `lab` ([`lab`]), `compare` ([`compare`]),
+//! `diagnose` ([`diagnose`]), `calibrate` ([`calibrate`]).
+//!
+//! # Exit codes
+//! | code | meaning |
+//! |------|---------|
+//! | 0 | done: the command reached its goal |
+//! | 1 | it ran but did not reach its goal ([`Outcome::GoalMissed`]): a solve did not converge, a replay or a fit stopped on a solver failure (later: a plan or a deployment that did not connect) |
+//! | 2 | bad input or an I/O error: a file that does not parse or validate, a bad flag value, a file that cannot be read or written; clap's own usage errors exit 2 too |
+//!
+//! Either failure prints one line on stderr (`error: …` for 2, `goal not
+//! reached: …` for 1); what a run that missed its goal did write (results
+//! up to the failure) stays on disk.
 
 /// `println!` that ends the program quietly when stdout is closed early
 /// (`tdeploy … | head`), where `println!` would panic.
@@ -29,185 +43,152 @@ mod diagnose;
 mod experiment;
 mod lab;
 mod simulate;
+mod structure;
 
-use std::path::PathBuf;
+use std::process::ExitCode;
 
-use anyhow::{Context, Result};
-use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use anyhow::{anyhow, bail, Result};
+use clap::{ArgMatches, Command};
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::io::friction_table::read_friction_table;
-use tensegrity_deploy::io::structure_file::write_structure;
-use tensegrity_deploy::model::{AngleConvention, FrictionCoefficient, JointFriction};
+use tensegrity_deploy::io::NumberRange;
+use tensegrity_deploy::model::effects::ParameterSpec;
+use tensegrity_deploy::sim::ReplayError;
+
+/// How a command that ran to its end came out. Errors (bad input, I/O)
+/// are the `Err` of [`run`] instead.
+#[derive(Debug, Clone, PartialEq)]
+#[must_use]
+pub enum Outcome {
+    /// The command did what it was asked: exit 0.
+    GoalReached,
+    /// The command ran but did not get there (why, in one line): exit 1.
+    GoalMissed(String),
+}
+
+/// Exit code of a run that did not reach its goal.
+const EXIT_GOAL_MISSED: u8 = 1;
+/// Exit code of bad input or an I/O error (as clap's usage errors).
+const EXIT_BAD_INPUT: u8 = 2;
 
 /// The `tdeploy` command with its subcommands.
 pub fn command() -> Command {
-    let friction_args = [
-        Arg::new("mu")
-            .long("mu")
-            .value_parser(value_parser!(f64))
-            .default_value("0")
-            .conflicts_with("mu-table")
-            .help("Joint friction coefficient μ (constant). 0: frictionless clustered cables"),
-        Arg::new("mu-table")
-            .long("mu-table")
-            .value_parser(value_parser!(PathBuf))
-            .help("CSV `interior_angle_deg,mu`: μ interpolated over the joint's interior angle"),
-        Arg::new("angle")
-            .long("angle")
-            .value_parser(["wrap", "interior"])
-            .default_value("wrap")
-            .help("Angle in the capstan exponent: wrap angle π−θ (physical) or interior angle θ (the seed's Eq. 6)"),
-    ];
     Command::new("tdeploy")
         .about("Plan and learn the deployment of a tensegrity footbridge")
         .version(env!("CARGO_PKG_VERSION"))
         .subcommand_required(true)
-        .subcommand(
-            Command::new("structure")
-                .about("Generate the reference hollow-rope footbridge and write its structure file")
-                .arg(Arg::new("out").long("out").short('o').default_value("reference-bridge.json").value_parser(value_parser!(PathBuf)))
-                .arg(Arg::new("params").long("params").value_parser(value_parser!(PathBuf)).help("TOML file overriding bridge parameters (field names as in BridgeParameters)")),
-        )
-        .subcommand(
-            Command::new("simulate")
-                .about("Apply a command sequence to a structure and write positions, forces and sliding per step")
-                .arg(Arg::new("structure").long("structure").short('s').value_parser(value_parser!(PathBuf)).help("Structure file (default: the built-in reference bridge)"))
-                .arg(Arg::new("commands").long("commands").short('c').value_parser(value_parser!(PathBuf)).help("Command CSV (default: a 5 cm fold-deploy cycle: every cable paid out 1 cm per step for 5 steps, then reeled in 1 cm per step for 5 steps)"))
-                .args(friction_args.clone())
-                .arg(Arg::new("increment").long("increment").value_parser(value_parser!(f64)).default_value("0.001").help("Largest payout increment per relaxation, m"))
-                .arg(Arg::new("tol").long("tol").value_parser(value_parser!(f64)).default_value("1e-6").help("Force tolerance relative to the largest member force"))
-                .arg(Arg::new("out").long("out").short('o').default_value("out/simulate").value_parser(value_parser!(PathBuf)))
-                .arg(Arg::new("quiet").long("quiet").short('q').action(ArgAction::SetTrue).help("No progress bar")),
-        )
-        .subcommand(
-            Command::new("lab")
-                .about("Run deployment-fold cycles on a truth model file and write a measurement log with sensor noise")
-                .arg(Arg::new("truth").required(true).value_parser(value_parser!(PathBuf)).help("Truth model file (TOML: structure and effects)"))
-                .arg(Arg::new("out").long("out").short('o').default_value("out/lab-log").value_parser(value_parser!(PathBuf)).help("Log folder to write; the truth is recorded beside it as <out>.truth.toml"))
-                .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
-                .arg(Arg::new("amplitudes").long("amplitudes").value_delimiter(',').default_value("0.01,0.05,0.1,0.4").value_parser(value_parser!(f64)).help("Cable actuation of each cycle, m (paid out, then reeled back in)"))
-                .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle"))
-                .arg(Arg::new("temperature-swing").long("temperature-swing").default_value("12").value_parser(value_parser!(f64)).help("Amplitude of the temperature's daily swing about 20 °C, K")),
-        )
-        .subcommand(
-            Command::new("compare")
-                .about("Replay a measurement log through a model and report the residuals per sensor, step and direction")
-                .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
-                .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
-                .arg(Arg::new("out").long("out").short('o').default_value("out/compare").value_parser(value_parser!(PathBuf)).help("Report folder (CSV and SVG)")),
-        )
-        .subcommand(
-            Command::new("diagnose")
-                .about("Fit every effect the model lacks to a log, score each on held-out cycles, and say which is missing")
-                .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
-                .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
-                .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects to look for at most, one per round")),
-        )
-        .subcommand(
-            Command::new("calibrate")
-                .about("Fit one effect to a log and write a new model file with it (never overwriting the input)")
-                .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
-                .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
-                .arg(Arg::new("add").long("add").required(true).help("Effect to add: joint_friction, motor, stiffness_error, thermal, joint_mass_error, load_cell_bias"))
-                .arg(Arg::new("out").long("out").short('o').required(true).value_parser(value_parser!(PathBuf)).help("New model file (must not exist)")),
-        )
-        .subcommand(
-            Command::new("experiment")
-                .about("Run an experiment file from experiments/")
-                .arg(Arg::new("file").required(true).value_parser(value_parser!(PathBuf))),
-        )
+        .subcommand(structure::command())
+        .subcommand(simulate::command())
+        .subcommand(lab::command())
+        .subcommand(compare::command())
+        .subcommand(diagnose::command())
+        .subcommand(calibrate::command())
+        .subcommand(experiment::command())
 }
 
-/// Runs the parsed command line.
-pub fn run(m: &ArgMatches) -> Result<()> {
-    match m.subcommand() {
-        Some(("structure", a)) => structure_cmd(a),
-        Some(("simulate", a)) => simulate::simulate(a),
-        Some(("experiment", a)) => experiment::experiment(a),
-        Some(("lab", a)) => lab::lab(a),
-        Some(("compare", a)) => compare::compare(a),
-        Some(("diagnose", a)) => diagnose::diagnose(a),
-        Some(("calibrate", a)) => calibrate::calibrate(a),
-        _ => unreachable!("clap requires a subcommand"),
+/// The typed options of one subcommand.
+#[derive(Debug, Clone)]
+pub enum Options {
+    /// `tdeploy structure`.
+    Structure(structure::Options),
+    /// `tdeploy simulate`.
+    Simulate(simulate::Options),
+    /// `tdeploy lab`.
+    Lab(lab::Options),
+    /// `tdeploy compare`.
+    Compare(compare::Options),
+    /// `tdeploy diagnose`.
+    Diagnose(diagnose::Options),
+    /// `tdeploy calibrate`.
+    Calibrate(calibrate::Options),
+    /// `tdeploy experiment`.
+    Experiment(experiment::Options),
+}
+
+impl Options {
+    /// The options of the parsed command line, every flag value checked.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        Ok(match m.subcommand() {
+            Some(("structure", a)) => Options::Structure(structure::Options::from_matches(a)?),
+            Some(("simulate", a)) => Options::Simulate(simulate::Options::from_matches(a)?),
+            Some(("lab", a)) => Options::Lab(lab::Options::from_matches(a)?),
+            Some(("compare", a)) => Options::Compare(compare::Options::from_matches(a)?),
+            Some(("diagnose", a)) => Options::Diagnose(diagnose::Options::from_matches(a)?),
+            Some(("calibrate", a)) => Options::Calibrate(calibrate::Options::from_matches(a)?),
+            Some(("experiment", a)) => Options::Experiment(experiment::Options::from_matches(a)?),
+            Some((other, _)) => bail!("unknown subcommand `{other}`"),
+            None => bail!("a subcommand is required"),
+        })
     }
 }
 
-fn bridge_parameters(path: Option<&PathBuf>) -> Result<BridgeParameters> {
-    match path {
-        None => Ok(BridgeParameters::default()),
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("{}: cannot read", p.display()))?;
-            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
+/// Runs one subcommand.
+pub fn run(options: &Options) -> Result<Outcome> {
+    match options {
+        Options::Structure(o) => structure::run(o),
+        Options::Simulate(o) => simulate::run(o),
+        Options::Lab(o) => lab::run(o),
+        Options::Compare(o) => compare::run(o),
+        Options::Diagnose(o) => diagnose::run(o),
+        Options::Calibrate(o) => calibrate::run(o),
+        Options::Experiment(o) => experiment::run(o),
+    }
+}
+
+/// Says how `result` ended, in one line on stderr, and gives its exit code
+/// (see the module notes).
+pub fn finish(result: Result<Outcome>) -> ExitCode {
+    match result {
+        Ok(Outcome::GoalReached) => ExitCode::SUCCESS,
+        Ok(Outcome::GoalMissed(why)) => {
+            eprintln!("goal not reached: {}", one_line(&why));
+            ExitCode::from(EXIT_GOAL_MISSED)
+        }
+        Err(e) => {
+            eprintln!("error: {}", one_line(&format!("{e:#}")));
+            ExitCode::from(EXIT_BAD_INPUT)
         }
     }
 }
 
-fn structure_cmd(a: &ArgMatches) -> Result<()> {
-    let params = bridge_parameters(a.get_one::<PathBuf>("params"))?;
-    let s = reference_bridge(&params)?;
-    let out = a.get_one::<PathBuf>("out").unwrap();
-    write_structure(out, &s)?;
-    let n_struts = s
-        .members
-        .iter()
-        .filter(|m| m.kind.name() == "strut")
-        .count();
-    let n_cables = s
-        .members
-        .iter()
-        .filter(|m| m.kind.name() == "cable")
-        .count();
-    let n_springs = s
-        .members
-        .iter()
-        .filter(|m| m.kind.name() == "spring")
-        .count();
-    say!(
-        "wrote {}: {} nodes, {n_struts} struts, {n_cables} cables, {n_springs} springs, {} continuous cables ({} segments)",
-        out.display(),
-        s.nodes.len(),
-        s.continuous_cables.len(),
-        s.segment_count()
-    );
-    Ok(())
+/// `text` with any line breaks folded: an error is one line.
+fn one_line(text: &str) -> String {
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
-/// Joint friction from `--mu` or `--mu-table` and `--angle`.
-fn friction_from(a: &ArgMatches) -> Result<JointFriction> {
-    let convention = match a.get_one::<String>("angle").map(String::as_str) {
-        Some("interior") => AngleConvention::Interior,
-        _ => AngleConvention::Wrap,
-    };
-    let mu = match a.get_one::<PathBuf>("mu-table") {
-        Some(path) => read_friction_table(path)?,
-        None => FrictionCoefficient::Constant(*a.get_one::<f64>("mu").unwrap()),
-    };
-    Ok(JointFriction::new(mu, convention)?)
+/// The value of flag `id` (one clap gives a default or requires).
+fn value<T: Clone + Send + Sync + 'static>(m: &ArgMatches, id: &str) -> Result<T> {
+    m.get_one::<T>(id)
+        .cloned()
+        .ok_or_else(|| anyhow!("--{id}: missing"))
 }
 
-/// The model a model file describes, run as every measurement command runs
-/// it: default solver settings, commands applied in 1 cm increments (the
-/// seed's actuation step).
-fn effect_model(
-    file: &tensegrity_deploy::io::model_file::ModelFile,
-) -> Result<tensegrity_deploy::sim::EffectModel> {
-    Ok(tensegrity_deploy::sim::EffectModel {
-        structure: file.load_structure()?,
-        effects: file.effects,
-        settings: tensegrity_deploy::model::RelaxSettings::default(),
-        increment_m: 0.01,
-    })
+/// The value of the number flag `id`, checked against `range`.
+fn number_in(m: &ArgMatches, id: &str, range: NumberRange) -> Result<f64> {
+    let v: f64 = value(m, id)?;
+    range.check(v).map_err(|why| anyhow!("--{id}: {why}"))?;
+    Ok(v)
+}
+
+/// A replay that stopped, classified: a solve that did not converge, or
+/// seat arcs that did not settle, is a run that missed its goal (exit 1);
+/// any other failure (effects the structure cannot take, a command the
+/// model cannot apply) is bad input (exit 2).
+fn replay_stopped(e: ReplayError, context: String) -> Result<Outcome> {
+    match e {
+        ReplayError::Solver { .. } | ReplayError::SeatsUnsettled { .. } => {
+            Ok(Outcome::GoalMissed(format!("{context}: {e}")))
+        }
+        other => Err(anyhow::Error::new(other).context(context)),
+    }
 }
 
 /// `name = value ± error unit` of one fitted parameter (no unit for
 /// dimensionless ones).
-fn fitted_parameter(
-    spec: &tensegrity_deploy::model::effects::ParameterSpec,
-    value: f64,
-    std_error: f64,
-) -> String {
+fn fitted_parameter(spec: &ParameterSpec, value: f64, std_error: f64) -> String {
     let unit = if spec.unit == "1" {
         String::new()
     } else {
@@ -229,5 +210,56 @@ fn value_with_error(value: f64, std_error: f64) -> String {
         format!("{value:.4} ± {std_error:.2e}")
     } else {
         format!("{value:.4e} ± {std_error:.2e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        command().debug_assert();
+    }
+
+    #[test]
+    fn every_subcommand_has_options() {
+        for sub in command().get_subcommands() {
+            let name = sub.get_name().to_string();
+            let mut args = vec!["tdeploy".to_string(), name.clone()];
+            // The required positional arguments and flags, with a value.
+            for a in sub.get_arguments().filter(|a| a.is_required_set()) {
+                if let Some(long) = a.get_long() {
+                    args.push(format!("--{long}"));
+                }
+                args.push(if a.get_id() == "add" {
+                    "motor".into()
+                } else {
+                    format!("some-{}", a.get_id())
+                });
+            }
+            let m = command().try_get_matches_from(&args).unwrap();
+            assert!(Options::from_matches(&m).is_ok(), "{name}: {args:?}");
+        }
+    }
+
+    #[test]
+    fn a_bad_flag_value_names_the_flag() {
+        let m = command()
+            .try_get_matches_from(["tdeploy", "simulate", "--tol=-1"])
+            .unwrap();
+        let e = Options::from_matches(&m).unwrap_err().to_string();
+        assert_eq!(e, "--tol: must be a finite number in (0, 0.01], got -1");
+    }
+
+    #[test]
+    fn errors_are_one_line() {
+        assert_eq!(one_line("a\n  b\n\nc"), "a; b; c");
+    }
+
+    #[test]
+    fn values_print_to_four_figures_at_any_scale() {
+        assert_eq!(value_with_error(0.1234567, 0.001), "0.1235 ± 1.00e-3");
+        assert_eq!(value_with_error(3.2e-5, 1e-6), "3.2000e-5 ± 1.00e-6");
     }
 }

@@ -3,22 +3,124 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Result};
-use clap::ArgMatches;
+use anyhow::{anyhow, Result};
+use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::commands::{read_commands, CommandSequence};
+use tensegrity_deploy::io::experiment_file::{INCREMENT_RANGE_M, MU_RANGE};
+use tensegrity_deploy::io::friction_table::read_friction_table;
 use tensegrity_deploy::io::results::{write_simulation, StepRecord};
 use tensegrity_deploy::io::structure_file::read_structure;
-use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::io::{write_atomically, NumberRange};
 use tensegrity_deploy::model::{
-    CommandReport, DeploymentState, ForwardModel, IncrementObserver, RelaxReport, RelaxSettings,
-    RelaxStatus, Structure, Workspace,
+    AngleConvention, CommandReport, DeploymentState, ForwardModel, FrictionCoefficient,
+    IncrementObserver, JointFriction, RelaxReport, RelaxSettings, RelaxStatus, Structure,
+    Workspace,
 };
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 
-use super::friction_from;
+use super::{number_in, value, Outcome};
+
+/// Range of `--tol`: what [`RelaxSettings::validate`] admits.
+const TOL_RANGE: NumberRange = NumberRange::positive_up_to(1e-2);
+
+/// The `simulate` subcommand's arguments.
+pub fn command() -> Command {
+    Command::new("simulate")
+        .about("Apply a command sequence to a structure and write positions, forces and sliding per step")
+        .arg(Arg::new("structure").long("structure").short('s').value_parser(value_parser!(PathBuf)).help("Structure file (default: the built-in reference bridge)"))
+        .arg(Arg::new("commands").long("commands").short('c').value_parser(value_parser!(PathBuf)).help("Command CSV (default: a 5 cm fold-deploy cycle: every cable paid out 1 cm per step for 5 steps, then reeled in 1 cm per step for 5 steps)"))
+        .arg(
+            Arg::new("mu")
+                .long("mu")
+                .value_parser(value_parser!(f64))
+                .default_value("0")
+                .conflicts_with("mu-table")
+                .help("Joint friction coefficient μ (constant), 0 to 2. 0: frictionless clustered cables"),
+        )
+        .arg(
+            Arg::new("mu-table")
+                .long("mu-table")
+                .value_parser(value_parser!(PathBuf))
+                .help("CSV `interior_angle_deg,mu`: μ interpolated over the joint's interior angle"),
+        )
+        .arg(
+            Arg::new("angle")
+                .long("angle")
+                .value_parser(["wrap", "interior"])
+                .default_value("wrap")
+                .help("Angle in the capstan exponent: wrap angle π−θ (physical) or interior angle θ (the seed's Eq. 6)"),
+        )
+        .arg(Arg::new("increment").long("increment").value_parser(value_parser!(f64)).default_value("0.001").help("Largest payout increment per relaxation, m, in (0, 0.1]"))
+        .arg(Arg::new("tol").long("tol").value_parser(value_parser!(f64)).default_value("1e-6").help("Force tolerance relative to the largest member force, in (0, 0.01]"))
+        .arg(Arg::new("max-iter").long("max-iter").value_parser(value_parser!(usize)).default_value("200000").help("Most dynamic-relaxation iterations per solve; a solve that needs more stops the run (exit 1)"))
+        .arg(Arg::new("out").long("out").short('o').default_value("out/simulate").value_parser(value_parser!(PathBuf)))
+        .arg(Arg::new("quiet").long("quiet").short('q').action(ArgAction::SetTrue).help("No progress bar"))
+}
+
+/// Where μ comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MuSource {
+    /// `--mu`.
+    Constant(f64),
+    /// `--mu-table`: a friction table file.
+    Table(PathBuf),
+}
+
+/// Options of `tdeploy simulate`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Structure file; `None`: the reference bridge.
+    pub structure: Option<PathBuf>,
+    /// Command file; `None`: the default fold-deploy cycle.
+    pub commands: Option<PathBuf>,
+    /// Joint friction coefficient.
+    pub mu: MuSource,
+    /// Angle in the capstan exponent.
+    pub convention: AngleConvention,
+    /// Largest payout increment, m.
+    pub increment_m: f64,
+    /// Solver settings (`--tol`, `--max-iter`; the rest default).
+    pub settings: RelaxSettings,
+    /// Results folder.
+    pub out: PathBuf,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        let mu = match m.get_one::<PathBuf>("mu-table") {
+            Some(path) => MuSource::Table(path.clone()),
+            None => MuSource::Constant(number_in(m, "mu", MU_RANGE)?),
+        };
+        let convention = match value::<String>(m, "angle")?.as_str() {
+            "interior" => AngleConvention::Interior,
+            _ => AngleConvention::Wrap,
+        };
+        let max_iter: usize = value(m, "max-iter")?;
+        if max_iter == 0 {
+            return Err(anyhow!("--max-iter: must be at least 1"));
+        }
+        Ok(Options {
+            structure: m.get_one::<PathBuf>("structure").cloned(),
+            commands: m.get_one::<PathBuf>("commands").cloned(),
+            mu,
+            convention,
+            increment_m: number_in(m, "increment", INCREMENT_RANGE_M)?,
+            settings: RelaxSettings {
+                tol_force_rel: number_in(m, "tol", TOL_RANGE)?,
+                max_iter,
+                ..RelaxSettings::default()
+            },
+            out: value(m, "out")?,
+            quiet: m.get_flag("quiet"),
+        })
+    }
+}
 
 struct Progress(ProgressBar);
 
@@ -44,26 +146,24 @@ fn default_commands(s: &Structure) -> CommandSequence {
     }
 }
 
-/// Runs `tdeploy simulate`.
-pub fn simulate(a: &ArgMatches) -> Result<()> {
-    let structure = match a.get_one::<PathBuf>("structure") {
+/// Runs `tdeploy simulate`. Steps stop at the first that does not
+/// converge; what was reached is written, and the outcome says the goal
+/// was missed.
+pub fn run(o: &Options) -> Result<Outcome> {
+    let structure = match &o.structure {
         Some(p) => read_structure(p)?,
         None => reference_bridge(&BridgeParameters::default())?,
     };
-    let commands = match a.get_one::<PathBuf>("commands") {
+    let commands = match &o.commands {
         Some(p) => read_commands(p, &structure)?,
         None => default_commands(&structure),
     };
-    let increment = *a.get_one::<f64>("increment").unwrap();
-    let tol = *a.get_one::<f64>("tol").unwrap();
-    if !(tol > 0.0 && tol.is_finite()) {
-        bail!("--tol must be a positive number, got {tol}");
-    }
-    let settings = RelaxSettings {
-        tol_force_rel: tol,
-        ..RelaxSettings::default()
+    let mu = match &o.mu {
+        MuSource::Constant(mu) => FrictionCoefficient::Constant(*mu),
+        MuSource::Table(path) => read_friction_table(path)?,
     };
-    let model = ForwardModel::new(structure, friction_from(a)?, settings)?;
+    let friction = JointFriction::new(mu, o.convention)?;
+    let model = ForwardModel::new(structure, friction, o.settings.clone())?;
     let mut ws = Workspace::default();
     let mut state = model.reference_state();
     let initial = model.relax(&mut state, &mut ws);
@@ -79,33 +179,37 @@ pub fn simulate(a: &ArgMatches) -> Result<()> {
         },
         state: state.clone(),
     }];
-    let bar = if a.get_flag("quiet") {
+    let bar = if o.quiet {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(commands.step_labels.len() as u64)
     };
-    bar.set_style(ProgressStyle::with_template("{bar:30} {pos}/{len} steps {msg}").unwrap());
+    if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} steps {msg}") {
+        bar.set_style(style);
+    }
     let mut progress = Progress(bar.clone());
     let mut worst = initial.status;
-    for (label, change) in commands.step_labels.iter().zip(&commands.payout_change_m) {
-        let report = model.apply_payout(&mut state, &mut ws, change, increment, &mut progress)?;
-        bar.inc(1);
-        if report.status.severity() > worst.severity() {
-            worst = report.status;
-        }
-        let stop = !report.status.is_converged();
-        records.push(StepRecord {
-            step: *label,
-            report,
-            state: state.clone(),
-        });
-        if stop {
-            break;
+    if initial.status.is_converged() {
+        for (label, change) in commands.step_labels.iter().zip(&commands.payout_change_m) {
+            let report =
+                model.apply_payout(&mut state, &mut ws, change, o.increment_m, &mut progress)?;
+            bar.inc(1);
+            if report.status.severity() > worst.severity() {
+                worst = report.status;
+            }
+            let stop = !report.status.is_converged();
+            records.push(StepRecord {
+                step: *label,
+                report,
+                state: state.clone(),
+            });
+            if stop {
+                break;
+            }
         }
     }
     bar.finish_and_clear();
-    let out = a.get_one::<PathBuf>("out").unwrap();
-    write_simulation(out, &model, &records)?;
+    write_simulation(&o.out, &model, &records)?;
     let (first, last) = (&records[0].state, &records[records.len() - 1].state);
     let (f0, f1) = (model.member_forces(first), model.member_forces(last));
     let svg = state_views_svg(
@@ -122,12 +226,17 @@ pub fn simulate(a: &ArgMatches) -> Result<()> {
         }),
         &model.structure().name,
     )?;
-    write_atomically(&out.join("state.svg"), svg.as_bytes())?;
-    print_summary(&model, &records, out);
+    write_atomically(&o.out.join("state.svg"), svg.as_bytes())?;
+    print_summary(&model, &records, &o.out);
     if worst != RelaxStatus::Converged {
-        bail!("simulation stopped: {}", worst.describe());
+        let step = records.last().map(|r| r.step).unwrap_or(0);
+        return Ok(Outcome::GoalMissed(format!(
+            "simulation stopped at step {step}: {} (results up to it in {})",
+            worst.describe(),
+            o.out.display()
+        )));
     }
-    Ok(())
+    Ok(Outcome::GoalReached)
 }
 
 fn print_summary(model: &ForwardModel, records: &[StepRecord], out: &Path) {

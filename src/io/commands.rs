@@ -15,7 +15,7 @@
 
 use std::path::Path;
 
-use super::FileError;
+use super::{CsvTable, FileError};
 use crate::model::Structure;
 
 /// The header a command file must have.
@@ -116,15 +116,32 @@ pub fn parse_commands(
     Ok(out)
 }
 
-/// Writes a command sequence in the same format (zero changes omitted).
+/// A command sequence in the same format (zero changes omitted).
 pub fn commands_to_csv(seq: &CommandSequence, structure: &Structure) -> String {
-    let mut s = COMMAND_HEADER.join(",") + "\n";
+    commands_table(seq, structure).as_str().to_string()
+}
+
+/// Writes a command file atomically.
+pub fn write_commands(
+    path: &Path,
+    seq: &CommandSequence,
+    structure: &Structure,
+) -> Result<(), FileError> {
+    commands_table(seq, structure).write(path)
+}
+
+fn commands_table(seq: &CommandSequence, structure: &Structure) -> CsvTable {
+    let mut table = CsvTable::new(&COMMAND_HEADER);
     for (label, row) in seq.step_labels.iter().zip(&seq.payout_change_m) {
         for (c, v) in row.iter().enumerate() {
             if *v != 0.0 {
-                s += &format!("{label},{},{v}\n", structure.continuous_cables[c].id);
+                table.row([
+                    label.to_string(),
+                    structure.continuous_cables[c].id.clone(),
+                    v.to_string(),
+                ]);
             }
         }
     }
-    s
+    table
 }

@@ -26,7 +26,8 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::{csv_records, csv_with_header, write_atomically, FileError};
+use super::toml_text::parse_toml;
+use super::{csv_records, csv_with_header, write_atomically, CsvTable, FileError};
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::Structure;
 use crate::sim::{Sensor, SensorTarget};
@@ -79,12 +80,7 @@ fn read_text(path: &Path) -> Result<String, FileError> {
 /// Reads and validates the log in folder `dir` against `structure`.
 pub fn read_log(dir: &Path, structure: &Structure) -> Result<MeasurementLog, FileError> {
     let meta_path = dir.join("log.toml");
-    let meta: LogMeta =
-        toml::from_str(&read_text(&meta_path)?).map_err(|e| FileError::Invalid {
-            path: meta_path.clone(),
-            entry: "log.toml".into(),
-            message: e.message().to_string(),
-        })?;
+    let meta: LogMeta = parse_toml(&read_text(&meta_path)?, &meta_path)?;
     let invalid = |entry: &str, message: String| FileError::Invalid {
         path: meta_path.clone(),
         entry: entry.into(),
@@ -304,22 +300,29 @@ pub fn write_log(dir: &Path, log: &MeasurementLog, structure: &Structure) -> Res
     })
     .expect("log metadata serialises");
     write_atomically(&dir.join("log.toml"), meta.as_bytes())?;
-    let mut sensors = SENSORS_HEADER.join(",") + "\n";
+    let mut sensors = CsvTable::new(&SENSORS_HEADER);
     for s in &log.sensors {
         let (kind, target) = s.kind_and_target(structure);
-        sensors += &format!("{},{kind},{target},{}\n", s.id, s.noise_sd);
+        sensors.row([
+            s.id.clone(),
+            kind.to_string(),
+            target,
+            s.noise_sd.to_string(),
+        ]);
     }
-    write_atomically(&dir.join("sensors.csv"), sensors.as_bytes())?;
-    let mut commands = LOG_COMMANDS_HEADER.join(",") + "\n";
-    let mut measurements = MEASUREMENTS_HEADER.join(",") + "\n";
+    sensors.write(&dir.join("sensors.csv"))?;
+    let mut commands = CsvTable::new(&LOG_COMMANDS_HEADER);
+    let mut measurements = CsvTable::new(&MEASUREMENTS_HEADER);
     for c in &log.cycles {
         for (step, row) in c.step_labels.iter().zip(&c.commands) {
             for (cable, v) in row.iter().enumerate() {
                 if *v != 0.0 {
-                    commands += &format!(
-                        "{},{step},{},{v}\n",
-                        c.label, structure.continuous_cables[cable].id
-                    );
+                    commands.row([
+                        c.label.to_string(),
+                        step.to_string(),
+                        structure.continuous_cables[cable].id.clone(),
+                        v.to_string(),
+                    ]);
                 }
             }
         }
@@ -327,12 +330,12 @@ pub fn write_log(dir: &Path, log: &MeasurementLog, structure: &Structure) -> Res
         for (step, readings) in steps.zip(&c.readings) {
             for (s, v) in log.sensors.iter().zip(readings) {
                 let value = v.map(|v| v.to_string()).unwrap_or_default();
-                measurements += &format!("{},{step},{},{value}\n", c.label, s.id);
+                measurements.row([c.label.to_string(), step.to_string(), s.id.clone(), value]);
             }
         }
     }
-    write_atomically(&dir.join("commands.csv"), commands.as_bytes())?;
-    write_atomically(&dir.join("measurements.csv"), measurements.as_bytes())?;
+    commands.write(&dir.join("commands.csv"))?;
+    measurements.write(&dir.join("measurements.csv"))?;
     Ok(())
 }
 
@@ -431,5 +434,25 @@ mod tests {
             e.contains("log.toml: structure: the log was made on"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_log_toml_syntax_error_keeps_its_line_and_column() {
+        let s = reference_bridge(&BridgeParameters::default()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        write_log(dir.path(), &sample(&s), &s).unwrap();
+        let meta = dir.path().join("log.toml");
+        let text = std::fs::read_to_string(&meta).unwrap();
+        std::fs::write(&meta, text.replacen("structure = ", "structure = = ", 1)).unwrap();
+        let e = read_log(dir.path(), &s).unwrap_err().to_string();
+        let line = 1 + text
+            .lines()
+            .position(|l| l.starts_with("structure"))
+            .unwrap();
+        assert!(
+            e.starts_with(&format!("{}:{line}:13: ", meta.display())),
+            "{e}"
+        );
+        assert_eq!(e.lines().count(), 1, "{e}");
     }
 }

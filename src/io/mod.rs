@@ -5,12 +5,20 @@
 //! (a temporary file in the same folder, then a rename), so a crash or a
 //! failed run never leaves a half-written file in place of a good one.
 
+pub mod bridge_params;
 pub mod commands;
+pub mod csv_table;
+pub mod experiment_file;
 pub mod friction_table;
 pub mod log;
 pub mod model_file;
+pub mod number_range;
 pub mod results;
 pub mod structure_file;
+mod toml_text;
+
+pub use csv_table::CsvTable;
+pub use number_range::NumberRange;
 
 use std::path::{Path, PathBuf};
 
@@ -150,6 +158,15 @@ pub(crate) fn csv_records<'a>(
             Err(FileError::field(path, line, "row", e.to_string()))
         }
     })
+}
+
+/// Writes `value` as pretty-printed JSON to `path`, atomically. Non-finite
+/// numbers (a standard error that could not be estimated) become `null`.
+pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), FileError> {
+    let mut bytes =
+        serde_json::to_vec_pretty(value).map_err(|e| FileError::write(path, e.into()))?;
+    bytes.push(b'\n');
+    write_atomically(path, &bytes)
 }
 
 /// Writes `bytes` to `path` atomically: a temporary sibling, flushed, then

@@ -45,9 +45,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::structure_file::read_structure;
+use super::toml_text::parse_toml;
 use super::{write_atomically, FileError};
 use crate::design::{reference_bridge, BridgeParameters};
 use crate::model::{Effects, Structure};
+use crate::sim::EffectModel;
 
 /// The `format` a model file must declare.
 pub const MODEL_FORMAT: &str = "tensegrity-deploy/model/1";
@@ -88,18 +90,7 @@ pub fn read_model(path: &Path) -> Result<ModelFile, FileError> {
 /// Parses a model file; `path` names it in errors and anchors a relative
 /// structure path.
 pub fn parse_model(text: &str, path: &Path) -> Result<ModelFile, FileError> {
-    let doc: ModelDoc = toml::from_str(text).map_err(|e| {
-        let (line, column) = e
-            .span()
-            .map(|span| line_column(text, span.start))
-            .unwrap_or((0, 0));
-        FileError::Syntax {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message: e.message().to_string(),
-        }
-    })?;
+    let doc: ModelDoc = parse_toml(text, path)?;
     let invalid = |entry: &str, message: String| FileError::Invalid {
         path: path.to_path_buf(),
         entry: entry.to_string(),
@@ -133,14 +124,6 @@ pub fn parse_model(text: &str, path: &Path) -> Result<ModelFile, FileError> {
     })
 }
 
-/// 1-based line and column of byte `offset` in `text`.
-fn line_column(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let column = before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1;
-    (line, column)
-}
-
 impl ModelFile {
     /// Loads the structure the model names (effects not yet applied).
     pub fn load_structure(&self) -> Result<Structure, FileError> {
@@ -154,6 +137,16 @@ impl ModelFile {
             }
             StructureSource::File(p) => read_structure(p),
         }
+    }
+
+    /// The model as every measurement command (`lab`, `compare`,
+    /// `diagnose`, `calibrate`) runs it: its structure and effects with
+    /// [`EffectModel::for_measurement`]'s solver settings and increment.
+    pub fn measurement_model(&self) -> Result<EffectModel, FileError> {
+        Ok(EffectModel::for_measurement(
+            self.load_structure()?,
+            self.effects,
+        ))
     }
 
     /// The model file's text. A structure file is written relative to

@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use super::{write_atomically, FileError};
+use super::{CsvTable, FileError};
 use crate::model::{CommandReport, DeploymentState, ForwardModel, MemberKind};
 
 /// One row of results: the state after a step and how the step went.
@@ -24,12 +24,6 @@ pub struct StepRecord {
     pub state: DeploymentState,
 }
 
-fn csv_bytes(rows: impl FnOnce(&mut csv::Writer<Vec<u8>>) -> csv::Result<()>) -> Vec<u8> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    rows(&mut w).expect("writing CSV to memory cannot fail");
-    w.into_inner().expect("in-memory writer flushes")
-}
-
 /// Writes the four result tables into `dir` (created if missing).
 pub fn write_simulation(
     dir: &Path,
@@ -38,110 +32,98 @@ pub fn write_simulation(
 ) -> Result<(), FileError> {
     std::fs::create_dir_all(dir).map_err(|e| FileError::write(dir, e))?;
     let s = &model.structure();
-    let steps = csv_bytes(|w| {
-        w.write_record([
-            "step",
-            "status",
-            "increments",
-            "iterations",
-            "max_residual_n",
-            "max_friction_residual_n",
-            "max_midspan_gap_m",
-        ])?;
-        for r in records {
-            let gap = r.state.max_midspan_gap_m(s);
-            w.write_record([
+    let mut steps = CsvTable::new(&[
+        "step",
+        "status",
+        "increments",
+        "iterations",
+        "max_residual_n",
+        "max_friction_residual_n",
+        "max_midspan_gap_m",
+    ]);
+    for r in records {
+        let gap = r.state.max_midspan_gap_m(s);
+        steps.row([
+            r.step.to_string(),
+            r.report.status.as_str().to_string(),
+            r.report.increments.to_string(),
+            r.report.iterations.to_string(),
+            format!("{:e}", r.report.max_residual_n),
+            format!("{:e}", r.report.max_friction_residual_n),
+            gap.map(|g| g.to_string()).unwrap_or_default(),
+        ]);
+    }
+    steps.write(&dir.join("steps.csv"))?;
+    let mut positions = CsvTable::new(&["step", "node", "x_m", "y_m", "z_m"]);
+    for r in records {
+        for (n, x) in s.nodes.iter().zip(&r.state.positions_m) {
+            positions.row([
                 r.step.to_string(),
-                r.report.status.as_str().to_string(),
-                r.report.increments.to_string(),
-                r.report.iterations.to_string(),
-                format!("{:e}", r.report.max_residual_n),
-                format!("{:e}", r.report.max_friction_residual_n),
-                gap.map(|g| g.to_string()).unwrap_or_default(),
-            ])?;
+                n.id.clone(),
+                x.x.to_string(),
+                x.y.to_string(),
+                x.z.to_string(),
+            ]);
         }
-        Ok(())
-    });
-    write_atomically(&dir.join("steps.csv"), &steps)?;
-    let positions = csv_bytes(|w| {
-        w.write_record(["step", "node", "x_m", "y_m", "z_m"])?;
-        for r in records {
-            for (n, x) in s.nodes.iter().zip(&r.state.positions_m) {
-                w.write_record([
-                    r.step.to_string(),
-                    n.id.clone(),
-                    x.x.to_string(),
-                    x.y.to_string(),
-                    x.z.to_string(),
-                ])?;
-            }
-        }
-        Ok(())
-    });
-    write_atomically(&dir.join("positions.csv"), &positions)?;
+    }
+    positions.write(&dir.join("positions.csv"))?;
     let forces: Vec<_> = records
         .iter()
         .map(|r| model.member_forces(&r.state))
         .collect();
-    let members = csv_bytes(|w| {
-        w.write_record([
-            "step",
-            "member",
-            "kind",
-            "force_n",
-            "length_m",
-            "buckling_utilisation",
-        ])?;
-        for (r, f) in records.iter().zip(&forces) {
-            for (k, m) in s.members.iter().enumerate() {
-                let util = match m.kind {
-                    MemberKind::Strut { ei_nm2, .. } => {
-                        let euler = std::f64::consts::PI.powi(2) * ei_nm2
-                            / (m.rest_length_m * m.rest_length_m);
-                        ((-f.member_n[k]).max(0.0) / euler).to_string()
-                    }
-                    _ => String::new(),
-                };
-                w.write_record([
-                    r.step.to_string(),
-                    m.id.clone(),
-                    m.kind.name().to_string(),
-                    f.member_n[k].to_string(),
-                    f.member_length_m[k].to_string(),
-                    util,
-                ])?;
-            }
-        }
-        Ok(())
-    });
-    write_atomically(&dir.join("member_forces.csv"), &members)?;
-    let segments = csv_bytes(|w| {
-        w.write_record([
-            "step",
-            "cable",
-            "segment",
-            "rest_length_m",
-            "length_m",
-            "tension_n",
-            "payout_m",
-        ])?;
-        for (r, f) in records.iter().zip(&forces) {
-            for (c, cable) in s.continuous_cables.iter().enumerate() {
-                let o = r.state.segment_offsets[c];
-                for j in 0..cable.segment_count() {
-                    w.write_record([
-                        r.step.to_string(),
-                        cable.id.clone(),
-                        j.to_string(),
-                        r.state.segment_rest_lengths_m[o + j].to_string(),
-                        f.segment_length_m[o + j].to_string(),
-                        f.segment_n[o + j].to_string(),
-                        r.state.payout_m[c].to_string(),
-                    ])?;
+    let mut members = CsvTable::new(&[
+        "step",
+        "member",
+        "kind",
+        "force_n",
+        "length_m",
+        "buckling_utilisation",
+    ]);
+    for (r, f) in records.iter().zip(&forces) {
+        for (k, m) in s.members.iter().enumerate() {
+            let util = match m.kind {
+                MemberKind::Strut { ei_nm2, .. } => {
+                    let euler =
+                        std::f64::consts::PI.powi(2) * ei_nm2 / (m.rest_length_m * m.rest_length_m);
+                    ((-f.member_n[k]).max(0.0) / euler).to_string()
                 }
+                _ => String::new(),
+            };
+            members.row([
+                r.step.to_string(),
+                m.id.clone(),
+                m.kind.name().to_string(),
+                f.member_n[k].to_string(),
+                f.member_length_m[k].to_string(),
+                util,
+            ]);
+        }
+    }
+    members.write(&dir.join("member_forces.csv"))?;
+    let mut segments = CsvTable::new(&[
+        "step",
+        "cable",
+        "segment",
+        "rest_length_m",
+        "length_m",
+        "tension_n",
+        "payout_m",
+    ]);
+    for (r, f) in records.iter().zip(&forces) {
+        for (c, cable) in s.continuous_cables.iter().enumerate() {
+            let o = r.state.segment_offsets[c];
+            for j in 0..cable.segment_count() {
+                segments.row([
+                    r.step.to_string(),
+                    cable.id.clone(),
+                    j.to_string(),
+                    r.state.segment_rest_lengths_m[o + j].to_string(),
+                    f.segment_length_m[o + j].to_string(),
+                    f.segment_n[o + j].to_string(),
+                    r.state.payout_m[c].to_string(),
+                ]);
             }
         }
-        Ok(())
-    });
-    write_atomically(&dir.join("segments.csv"), &segments)
+    }
+    segments.write(&dir.join("segments.csv"))
 }

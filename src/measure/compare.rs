@@ -5,13 +5,16 @@
 //! that sensors of different kinds compare: a model that explains the log
 //! leaves `z` with RMS about 1 and mean about 0 everywhere.
 
+use serde::{Deserialize, Serialize};
+
 use crate::measure::log::MeasurementLog;
 use crate::sim::SensorTarget;
 
 use crate::sim::{CycleSchedule, EffectModel, ReplayError, Run, StepFeatures};
 
 /// Which way the cables moved in a step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Direction {
     /// Step 0 of a cycle: no command yet.
     Start,
@@ -43,7 +46,7 @@ impl Direction {
 }
 
 /// One reading with its prediction.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Residual {
     /// Cycle index in the log.
     pub cycle: usize,
@@ -62,11 +65,23 @@ pub struct Residual {
     /// Direction of the step.
     pub direction: Direction,
     /// Model state features at the step.
+    #[serde(with = "StepFeaturesFields")]
     pub features: StepFeatures,
 }
 
+/// [`StepFeatures`]' fields for serde (the type lives in `sim`, which has
+/// no serde of its own).
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "StepFeatures")]
+struct StepFeaturesFields {
+    payout_m: f64,
+    command_m: f64,
+    joint_angle_rad: f64,
+    temperature_c: Option<f64>,
+}
+
 /// Statistics of a set of residuals.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Stats {
     /// Readings.
     pub count: usize,
@@ -104,7 +119,7 @@ impl Stats {
 }
 
 /// A comparison of a model with a log.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Comparison {
     /// Every reading with its prediction.
     pub residuals: Vec<Residual>,
@@ -197,6 +212,93 @@ impl Comparison {
 /// `n` standard normal draws has SD ≈ 1/√(2n)).
 pub fn noise_rms_limit(n: usize) -> f64 {
     1.0 + 4.0 / (2.0 * n.max(1) as f64).sqrt()
+}
+
+/// What a comparison says in the end: the residuals are sensor noise, or
+/// where the model fails.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "verdict")]
+pub enum ComparisonVerdict {
+    /// No reading could be compared.
+    NoReadings,
+    /// The overall RMS of `z` is within [`noise_rms_limit`].
+    Noise {
+        /// Overall RMS of `z`.
+        rms_z: f64,
+        /// The noise limit for this many readings.
+        limit: f64,
+    },
+    /// The residuals are larger than noise; where they are worst.
+    Fails(WhereItFails),
+}
+
+/// Where a model fails worst: the sensor, the direction of motion and the
+/// feature its residual goes with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WhereItFails {
+    /// The sensor with the largest RMS `z` (index in the log's layout).
+    pub sensor: usize,
+    /// Its RMS `z`.
+    pub sensor_rms_z: f64,
+    /// Its mean `z`.
+    pub sensor_mean_z: f64,
+    /// The direction with the largest RMS `z` over all sensors (`None`
+    /// where no direction has readings).
+    pub direction: Option<Direction>,
+    /// That direction's RMS `z`.
+    pub direction_rms_z: f64,
+    /// The feature of [`FEATURES`] the worst sensor's `z` correlates with
+    /// most, by name (`None` where no feature varies).
+    pub feature: Option<String>,
+    /// That Pearson correlation, −1 to 1.
+    pub correlation: f64,
+}
+
+/// The comparison's verdict: noise when the overall RMS of `z` is within
+/// [`noise_rms_limit`], else [`where_it_fails`].
+pub fn verdict(c: &Comparison) -> ComparisonVerdict {
+    let limit = noise_rms_limit(c.overall.count);
+    match where_it_fails(c) {
+        None => ComparisonVerdict::NoReadings,
+        Some(_) if c.overall.rms <= limit => ComparisonVerdict::Noise {
+            rms_z: c.overall.rms,
+            limit,
+        },
+        Some(w) => ComparisonVerdict::Fails(w),
+    }
+}
+
+/// Where the model fails worst (`None` if no reading was compared): the
+/// sensor with the largest RMS `z`, the direction with the largest RMS
+/// `z`, and the feature the sensor's residual correlates with most in
+/// magnitude.
+pub fn where_it_fails(c: &Comparison) -> Option<WhereItFails> {
+    let worst = c.worst_sensor()?;
+    let z = c.per_sensor[worst].1;
+    let (direction, direction_rms_z) = c
+        .per_direction
+        .iter()
+        .filter(|(_, s)| s.count > 0)
+        .max_by(|a, b| a.1.rms.total_cmp(&b.1.rms))
+        .map(|(d, s)| (Some(*d), s.rms))
+        .unwrap_or((None, 0.0));
+    let (feature, correlation) = c
+        .feature_correlations(worst)
+        .into_iter()
+        .enumerate()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .filter(|(_, r)| *r != 0.0)
+        .map(|(f, r)| (Some(FEATURES[f].to_string()), r))
+        .unwrap_or((None, 0.0));
+    Some(WhereItFails {
+        sensor: worst,
+        sensor_rms_z: z.rms,
+        sensor_mean_z: z.mean,
+        direction,
+        direction_rms_z,
+        feature,
+        correlation,
+    })
 }
 
 /// The log's cycles as a schedule for the model: its commands, and the
@@ -336,5 +438,122 @@ mod tests {
         assert!((s.rms - (11.0f64 / 3.0).sqrt()).abs() < 1e-15);
         assert!((s.sd - (8.0f64 / 3.0).sqrt()).abs() < 1e-15);
         assert_eq!(s.worst, 3.0);
+    }
+
+    /// A hand-made comparison: sensor 0 pure small noise, sensor 1 a
+    /// residual proportional to the payout, larger while deploying.
+    fn hand_made() -> Comparison {
+        let mut residuals = Vec::new();
+        for k in 0..20 {
+            let payout_m = 0.001 * k as f64;
+            let direction = if k < 10 {
+                Direction::Folding
+            } else {
+                Direction::Deploying
+            };
+            for sensor in 0..2 {
+                let z = if sensor == 0 {
+                    if k % 2 == 0 {
+                        0.5
+                    } else {
+                        -0.5
+                    }
+                } else {
+                    1000.0 * payout_m
+                };
+                residuals.push(Residual {
+                    cycle: 0,
+                    step: k + 1,
+                    sensor,
+                    measured: z,
+                    predicted: 0.0,
+                    residual: z,
+                    z,
+                    direction,
+                    features: StepFeatures {
+                        payout_m,
+                        command_m: 0.0,
+                        joint_angle_rad: 2.0,
+                        temperature_c: None,
+                    },
+                });
+            }
+        }
+        let per_sensor = (0..2)
+            .map(|s| {
+                let z = Stats::of(residuals.iter().filter(|r| r.sensor == s).map(|r| r.z));
+                (z, z)
+            })
+            .collect();
+        let per_direction = [Direction::Folding, Direction::Deploying]
+            .into_iter()
+            .map(|d| {
+                (
+                    d,
+                    Stats::of(residuals.iter().filter(|r| r.direction == d).map(|r| r.z)),
+                )
+            })
+            .collect();
+        let overall = Stats::of(residuals.iter().map(|r| r.z));
+        Comparison {
+            residuals,
+            per_sensor,
+            per_direction,
+            overall,
+        }
+    }
+
+    #[test]
+    fn where_it_fails_finds_the_sensor_direction_and_feature() {
+        let c = hand_made();
+        let w = where_it_fails(&c).unwrap();
+        assert_eq!(w.sensor, 1);
+        // Sensor 1's z is 0, 1, …, 19: RMS √(Σk²/20), mean 9.5.
+        let rms = ((0..20).map(|k| (k * k) as f64).sum::<f64>() / 20.0).sqrt();
+        assert!((w.sensor_rms_z - rms).abs() < 1e-12);
+        assert!((w.sensor_mean_z - 9.5).abs() < 1e-12);
+        assert_eq!(w.direction, Some(Direction::Deploying));
+        // z is an exact linear function of the payout: r = 1 (the other
+        // features do not vary, so their correlation is 0).
+        assert_eq!(w.feature.as_deref(), Some("payout_m"));
+        assert!((w.correlation - 1.0).abs() < 1e-12);
+        assert!(matches!(verdict(&c), ComparisonVerdict::Fails(_)));
+        let empty = Comparison {
+            residuals: vec![],
+            per_sensor: vec![(Stats::default(), Stats::default())],
+            per_direction: vec![],
+            overall: Stats::default(),
+        };
+        assert_eq!(verdict(&empty), ComparisonVerdict::NoReadings);
+    }
+
+    #[test]
+    fn residuals_within_the_noise_limit_are_noise() {
+        let mut c = hand_made();
+        c.residuals.retain(|r| r.sensor == 0);
+        c.per_sensor[1] = (Stats::default(), Stats::default());
+        c.overall = Stats::of(c.residuals.iter().map(|r| r.z));
+        // z = ±0.5: RMS 0.5, below the limit 1 + 4/√(2·20).
+        assert_eq!(
+            verdict(&c),
+            ComparisonVerdict::Noise {
+                rms_z: 0.5,
+                limit: noise_rms_limit(20)
+            }
+        );
+    }
+
+    #[test]
+    fn a_comparison_round_trips_through_json() {
+        let c = hand_made();
+        let text = serde_json::to_string(&c).unwrap();
+        let back: Comparison = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, c);
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(v["residuals"][0]["direction"], "folding");
+        assert_eq!(
+            v["residuals"][0]["features"]["temperature_c"],
+            serde_json::Value::Null
+        );
     }
 }

@@ -39,8 +39,14 @@
 //!   within [`EXPLAINED_RMS`] noise SDs, and either within the noise limit
 //!   or with at least [`EXPLAINED_SHARE`] of the excess over noise removed;
 //! - **structured residual**: otherwise, with where it is.
+//!
+//! # Reports
+//! The results serialise (serde) for JSON reports. They do not
+//! deserialise: a standard error or a screening gain that could not be
+//! estimated is NaN, which JSON writes as `null`.
 
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use crate::measure::log::MeasurementLog;
 use crate::model::{EffectKind, Effects};
@@ -62,7 +68,7 @@ pub const EXPLAINED_SHARE: f64 = 0.9;
 const DIFFERENCE_STEP: f64 = 1e-3;
 
 /// One candidate effect fitted to the log.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Candidate {
     /// The effect.
     pub kind: EffectKind,
@@ -86,7 +92,7 @@ pub struct Candidate {
 }
 
 /// One round of the search.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Round {
     /// The model's effects at the start of the round.
     pub base: Effects,
@@ -101,7 +107,7 @@ pub struct Round {
 }
 
 /// An effect screened at its neutral value (see the module notes).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Screened {
     /// The effect.
     pub kind: EffectKind,
@@ -120,7 +126,8 @@ impl Screened {
 }
 
 /// What the search concluded.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Verdict {
     /// The model explains the log to the noise.
     NothingMissing,
@@ -137,7 +144,7 @@ pub enum Verdict {
 }
 
 /// The whole diagnosis.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Diagnosis {
     /// Rounds of the greedy search.
     pub rounds: Vec<Round>,
@@ -148,7 +155,7 @@ pub struct Diagnosis {
 }
 
 /// Settings of the search.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DiagnoseSettings {
     /// Greedy rounds (effects to find at most). Default 2.
     pub max_rounds: usize,

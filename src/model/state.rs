@@ -10,7 +10,7 @@ use super::structure::Structure;
 /// Sliding only matters when static and kinetic μ differ: a sliding joint
 /// keeps its tension ratio on the kinetic bound. Every joint starts each
 /// command increment stuck.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum JointSlip {
     /// Held by static friction.
     #[default]
@@ -26,7 +26,7 @@ pub enum JointSlip {
 ///
 /// Cloning it is cheap (a few kilobytes for the reference bridge), which is
 /// what lets the planner branch from a saved equilibrium thousands of times.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DeploymentState {
     /// Node positions, m.
     pub positions_m: Vec<Vector3<f64>>,

@@ -40,6 +40,21 @@ pub struct EffectModel {
     pub increment_m: f64,
 }
 
+impl EffectModel {
+    /// The model as every measurement command (lab, compare, diagnose,
+    /// calibrate) runs it: default solver settings, and commands applied in
+    /// increments of at most 1 cm, the seed's actuation step (a larger step
+    /// is applied in several increments).
+    pub fn for_measurement(structure: Structure, effects: Effects) -> EffectModel {
+        EffectModel {
+            structure,
+            effects,
+            settings: RelaxSettings::default(),
+            increment_m: 0.01,
+        }
+    }
+}
+
 /// One cycle to run: commands per step, and the temperature at each step
 /// (step 0 first), °C, where known.
 #[derive(Debug, Clone, PartialEq)]

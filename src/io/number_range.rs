@@ -1,0 +1,86 @@
+//! The range a number in a file (or on the command line) must lie in,
+//! stated once so that the check and its message agree.
+
+use std::fmt;
+
+/// An interval of admissible values; every bound is inclusive unless
+/// `min_exclusive`. NaN and ±∞ never lie in a range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NumberRange {
+    /// Lower bound.
+    pub min: f64,
+    /// Whether the lower bound itself is excluded (`(0, …]`: positive).
+    pub min_exclusive: bool,
+    /// Upper bound (inclusive).
+    pub max: f64,
+}
+
+impl NumberRange {
+    /// `[min, max]`.
+    pub const fn closed(min: f64, max: f64) -> Self {
+        NumberRange {
+            min,
+            min_exclusive: false,
+            max,
+        }
+    }
+
+    /// `(0, max]`: a positive number up to `max`.
+    pub const fn positive_up_to(max: f64) -> Self {
+        NumberRange {
+            min: 0.0,
+            min_exclusive: true,
+            max,
+        }
+    }
+
+    /// `[0, max]`: a non-negative number up to `max`.
+    pub const fn non_negative_up_to(max: f64) -> Self {
+        NumberRange::closed(0.0, max)
+    }
+
+    /// Whether `value` is a finite number in the range.
+    pub fn contains(&self, value: f64) -> bool {
+        let above = if self.min_exclusive {
+            value > self.min
+        } else {
+            value >= self.min
+        };
+        value.is_finite() && above && value <= self.max
+    }
+
+    /// `Ok` if `value` lies in the range, else the sentence saying so, e.g.
+    /// `must be a finite number in (0, 0.1], got -1`.
+    pub fn check(&self, value: f64) -> Result<(), String> {
+        if self.contains(value) {
+            Ok(())
+        } else {
+            Err(format!("must be a finite number in {self}, got {value}"))
+        }
+    }
+}
+
+impl fmt::Display for NumberRange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let open = if self.min_exclusive { '(' } else { '[' };
+        write!(f, "{open}{}, {}]", self.min, self.max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_and_non_finite_values() {
+        let r = NumberRange::positive_up_to(0.1);
+        assert!(!r.contains(0.0) && r.contains(1e-300) && r.contains(0.1));
+        assert!(!r.contains(0.1 + 1e-12) && !r.contains(f64::NAN));
+        let c = NumberRange::closed(-1.0, f64::MAX);
+        assert!(c.contains(-1.0) && !c.contains(f64::INFINITY));
+        assert_eq!(
+            r.check(-1.0).unwrap_err(),
+            "must be a finite number in (0, 0.1], got -1"
+        );
+    }
+}
