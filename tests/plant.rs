@@ -35,7 +35,7 @@ fn the_plant_starts_folded() {
     let gap = plant.state().max_midspan_gap_m(s).unwrap();
     println!(
         "folded start ({FOLDED_PAYOUT_M} m on {n} motors, mu 0.2, 0.01 m increments): \
-         largest midspan gap {gap:.4} m (as built {gap_built:.4} m); Plant::new took {seconds:.2} s"
+         largest midspan gap {gap:.5} m (as built {gap_built:.4} m); Plant::new took {seconds:.2} s"
     );
     // The start payout is reached exactly (it does not go through the
     // motor model), up to the rounding of summing 40 increments.
