@@ -3,29 +3,21 @@
 //!
 //! The structure carries its history from cycle to cycle: the first cycle
 //! starts from the as-built state, every later one from where the previous
-//! one ended, as on the real bridge. Before each step the temperature of
-//! that step (if the schedule has one) sets the thermal strain; commands go
-//! through the motor model (slip, backlash) and are applied in increments.
-//! With joint eccentricity on, after each step the material the cable seats
-//! took up or gave back ([`crate::model::cable_seats`]) is moved out of or
-//! into the segments and the state solved again, until the arcs change by
-//! less than [`SEAT_TOLERANCE_M`].
+//! one ended, as on the real bridge. A [`Plant`] steps it: before each step
+//! the temperature of that step (if the schedule has one) sets the thermal
+//! strain; commands go through the motor model (slip, backlash) and are
+//! applied in increments; the cable-seat arcs are followed (see
+//! [`crate::sim::plant`]).
 
 use thiserror::Error;
 
 use crate::model::sliding::interior_angle;
 use crate::model::{
-    CommandError, DeploymentState, Effects, ForwardModel, RelaxSettings, RelaxStatus,
-    SettingsError, Structure, StructureError, Workspace,
+    CommandError, DeploymentState, Effects, RelaxSettings, RelaxStatus, SettingsError, Structure,
+    StructureError,
 };
-use crate::sim::{Sensor, SensorTarget};
-
-/// The seat arcs are followed until they change by less than this between
-/// two solves, m: a thousandth of the 1 mm position noise.
-pub const SEAT_TOLERANCE_M: f64 = 1e-6;
-/// Most re-solves per step for the seat arcs (each a warm, zero-payout
-/// increment; two or three are typical).
-const MAX_SEAT_SOLVES: usize = 20;
+use crate::sim::plant::Plant;
+use crate::sim::Sensor;
 
 /// A model with effects: what `compare`, `diagnose` and `lab` run.
 #[derive(Debug, Clone)]
@@ -147,82 +139,47 @@ impl EffectModel {
     }
 
     /// [`Self::run`], with the state features of every step.
+    ///
+    /// A [`Plant`] steps through the schedule: built (and settled) at the
+    /// first cycle's step-0 temperature, held at every later cycle's step 0,
+    /// one command per later step.
     pub fn run_with_features(
         &self,
         cycles: &[CycleSchedule],
         sensors: &[Sensor],
     ) -> Result<Run, ReplayError> {
-        let base = self.effects.apply_to_structure(&self.structure)?;
-        let friction = self.effects.joint_friction();
-        let mut strain = 0.0;
-        let mut model = ForwardModel::new(base.clone(), friction.clone(), self.settings.clone())?;
-        let mut state = model.reference_state();
-        let mut ws = Workspace::default();
-        let mut motor = self.effects.motor_model(base.continuous_cables.len());
-        // The as-built state has its arcs wrapped already.
-        let mut seats = self.effects.seat_material_m(&base, &state.positions_m);
+        let temperature =
+            |cycle: &CycleSchedule, step: usize| cycle.temperature_c.get(step).copied().flatten();
+        let start_c = cycles.first().and_then(|c| temperature(c, 0));
+        let mut plant = Plant::new(self, None, start_c)?;
         let mut out = Vec::with_capacity(cycles.len());
         let mut features = Vec::with_capacity(cycles.len());
         for (ci, cycle) in cycles.iter().enumerate() {
             let mut per_step = Vec::with_capacity(cycle.commands.len() + 1);
             let mut step_features = Vec::with_capacity(cycle.commands.len() + 1);
             for step in 0..=cycle.commands.len() {
-                let temperature = cycle.temperature_c.get(step).copied().flatten();
-                let new_strain = self.effects.thermal_strain(temperature);
-                if new_strain != strain {
-                    // Rest lengths of steel follow the temperature; the
-                    // material in the segments grows with them.
-                    let scale = (1.0 + new_strain) / (1.0 + strain);
-                    model = ForwardModel::new(
-                        self.effects.structure_at_strain(
-                            &base,
-                            new_strain,
-                            self.structure.members.len(),
-                        ),
-                        friction.clone(),
-                        self.settings.clone(),
-                    )?;
-                    for r in &mut state.segment_rest_lengths_m {
-                        *r *= scale;
-                    }
-                    strain = new_strain;
-                    if step == 0 {
-                        relax(&model, &mut state, &mut ws, ci, step)?;
-                    }
-                }
-                if step > 0 {
-                    let actual = motor.actual_payout(&cycle.commands[step - 1]);
-                    let r = model
-                        .apply_payout(&mut state, &mut ws, &actual, self.increment_m, &mut ())
-                        .map_err(|source| ReplayError::Command {
-                            cycle: ci,
-                            step,
-                            source,
-                        })?;
-                    if !r.status.is_converged() {
-                        return Err(ReplayError::Solver {
-                            cycle: ci,
-                            step,
-                            status: r.status,
-                        });
-                    }
-                }
-                if let Some(seats) = seats.as_mut() {
-                    self.follow_seats(&model, &mut state, &mut ws, seats)
-                        .map_err(|e| e.at(ci, step))?;
-                }
-                per_step.push(self.read(&model, &state, sensors, temperature));
+                let temperature_c = temperature(cycle, step);
                 let command_m = if step == 0 {
+                    // The first cycle starts where the plant was built.
+                    if ci > 0 {
+                        plant.hold(temperature_c).map_err(|e| e.at(ci, step))?;
+                    }
                     0.0
                 } else {
-                    cycle.commands[step - 1].iter().sum()
+                    let command = &cycle.commands[step - 1];
+                    plant
+                        .apply(command, temperature_c, &mut ())
+                        .map_err(|e| e.at(ci, step))?;
+                    command.iter().sum()
                 };
+                per_step.push(plant.read(sensors));
+                let state = plant.state();
                 step_features.push(StepFeatures {
                     payout_m: state.payout_m.iter().sum::<f64>()
                         / state.payout_m.len().max(1) as f64,
                     command_m,
-                    joint_angle_rad: mean_joint_angle(&model.structure(), &state),
-                    temperature_c: temperature,
+                    joint_angle_rad: mean_joint_angle(plant.model().structure(), state),
+                    temperature_c,
                 });
             }
             out.push(per_step);
@@ -233,90 +190,12 @@ impl EffectModel {
             features,
         })
     }
-
-    /// Moves the material the seats took up since `seats` (per segment) out
-    /// of the segments and re-solves, until the arcs settle; `seats` ends as
-    /// the arcs of the final state.
-    fn follow_seats(
-        &self,
-        model: &ForwardModel,
-        state: &mut DeploymentState,
-        ws: &mut Workspace,
-        seats: &mut [f64],
-    ) -> Result<(), ReplayError> {
-        let no_payout = vec![0.0; model.structure().continuous_cables.len()];
-        let mut change_m = f64::INFINITY;
-        for _ in 0..MAX_SEAT_SOLVES {
-            let now = self
-                .effects
-                .seat_material_m(&model.structure(), &state.positions_m)
-                .expect("seats are followed only with the effect on");
-            change_m = 0.0;
-            for ((rest, before), after) in state
-                .segment_rest_lengths_m
-                .iter_mut()
-                .zip(seats.iter_mut())
-                .zip(&now)
-            {
-                *rest -= after - *before;
-                change_m = change_m.max((after - *before).abs());
-                *before = *after;
-            }
-            if change_m < SEAT_TOLERANCE_M {
-                return Ok(());
-            }
-            // A zero payout is one friction-aware increment from here.
-            let r = model
-                .apply_payout(state, ws, &no_payout, self.increment_m, &mut ())
-                .map_err(|source| ReplayError::Command {
-                    cycle: 0,
-                    step: 0,
-                    source,
-                })?;
-            if !r.status.is_converged() {
-                return Err(ReplayError::Solver {
-                    cycle: 0,
-                    step: 0,
-                    status: r.status,
-                });
-            }
-        }
-        Err(ReplayError::SeatsUnsettled {
-            cycle: 0,
-            step: 0,
-            change_m,
-        })
-    }
-
-    /// What `sensors` read on `state` (noise-free).
-    fn read(
-        &self,
-        model: &ForwardModel,
-        state: &DeploymentState,
-        sensors: &[Sensor],
-        temperature_c: Option<f64>,
-    ) -> Vec<Option<f64>> {
-        let forces = model.member_forces(state);
-        sensors
-            .iter()
-            .map(|s| match s.target {
-                SensorTarget::SegmentTension { cable, segment } => {
-                    let t = forces.segment_n[state.segment_offsets[cable] + segment];
-                    Some(self.effects.load_cell_reading_n(t))
-                }
-                SensorTarget::MemberForce { member } => {
-                    Some(self.effects.load_cell_reading_n(forces.member_n[member]))
-                }
-                SensorTarget::Position { node, axis } => Some(state.positions_m[node][axis]),
-                SensorTarget::Temperature => temperature_c,
-            })
-            .collect()
-    }
 }
 
 impl ReplayError {
-    /// The same error, placed at `cycle` and `step`.
-    fn at(self, cycle: usize, step: usize) -> ReplayError {
+    /// The same error, placed at `cycle` and `step` (errors of a
+    /// [`Plant`] come at cycle 0 and the plant's own command count).
+    pub fn at(self, cycle: usize, step: usize) -> ReplayError {
         match self {
             ReplayError::Command { source, .. } => ReplayError::Command {
                 cycle,
@@ -357,31 +236,12 @@ fn mean_joint_angle(structure: &Structure, state: &DeploymentState) -> f64 {
     }
 }
 
-fn relax(
-    model: &ForwardModel,
-    state: &mut DeploymentState,
-    ws: &mut Workspace,
-    cycle: usize,
-    step: usize,
-) -> Result<(), ReplayError> {
-    state.stick_all_joints();
-    let r = model.relax(state, ws);
-    if r.status.is_converged() {
-        Ok(())
-    } else {
-        Err(ReplayError::Solver {
-            cycle,
-            step,
-            status: r.status,
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
     use crate::model::EffectKind;
+    use crate::sim::SensorTarget;
 
     fn schedule(n: usize) -> Vec<CycleSchedule> {
         let out_in = |d: f64| {
