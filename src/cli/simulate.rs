@@ -213,7 +213,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let (first, last) = (&records[0].state, &records[records.len() - 1].state);
     let (f0, f1) = (model.member_forces(first), model.member_forces(last));
     let svg = state_views_svg(
-        &model.structure(),
+        model.structure(),
         DrawnState {
             state: last,
             forces: &f1,
@@ -253,7 +253,7 @@ fn print_summary(model: &ForwardModel, records: &[StepRecord], out: &Path) {
     for r in records {
         let gap = r
             .state
-            .max_midspan_gap_m(&model.structure())
+            .max_midspan_gap_m(model.structure())
             .map(|g| format!("{:.3}", 1e3 * g))
             .unwrap_or_else(|| "-".into());
         say!(

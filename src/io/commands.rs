@@ -145,3 +145,32 @@ fn commands_table(seq: &CommandSequence, structure: &Structure) -> CsvTable {
     }
     table
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{reference_bridge, BridgeParameters};
+
+    #[test]
+    fn a_command_sequence_round_trips_through_its_file() {
+        let s = reference_bridge(&BridgeParameters::default()).unwrap();
+        let n = s.continuous_cables.len();
+        let mut first = vec![0.0; n];
+        first[0] = -0.01;
+        first[n - 1] = 0.1 + 0.2; // a value with no short decimal form
+        let mut second = vec![0.0; n];
+        second[3] = 0.005;
+        let seq = CommandSequence {
+            step_labels: vec![1, 4],
+            payout_change_m: vec![first, second],
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.csv");
+        write_commands(&path, &seq, &s).unwrap();
+        assert_eq!(read_commands(&path, &s).unwrap(), seq);
+        assert_eq!(
+            commands_to_csv(&seq, &s),
+            std::fs::read_to_string(&path).unwrap()
+        );
+    }
+}
