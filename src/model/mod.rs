@@ -16,8 +16,9 @@ pub mod structure;
 pub use effects::{EffectKind, Effects, MotorModel};
 pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFriction};
 pub use solver::{
-    CommandError, CommandReport, ForwardModel, IncrementObserver, MemberForces, RelaxReport,
-    RelaxSettings, RelaxStatus, SettingsError, SolveMode, Workspace,
+    CommandError, CommandReport, ForwardModel, IncrementObserver, MemberForces, MotorDirection,
+    MotorResponse, PayoutSensitivities, RelaxReport, RelaxSettings, RelaxStatus, SensitivityError,
+    SettingsError, SolveMode, Workspace,
 };
 pub use state::{DeploymentState, JointSlip};
 pub use stiffness::{min_stiffness_eigenvalue, tangent_stiffness, JointMode};

@@ -2,7 +2,8 @@
 //! the [`forward_model`] type, the two-node [`element`] force law, the
 //! [`residual`] with the friction return mapping, dynamic relaxation
 //! ([`relax`]), Newton with the consistent friction tangent ([`newton`]),
-//! and commands applied in increments ([`command`]).
+//! commands applied in increments ([`command`]), and the payout
+//! sensitivities of an equilibrium ([`sensitivity`]).
 
 pub mod command;
 pub(in crate::model) mod element;
@@ -10,6 +11,7 @@ pub mod forward_model;
 mod newton;
 pub mod relax;
 mod residual;
+pub mod sensitivity;
 pub mod settings;
 pub mod status;
 mod workspace;
@@ -17,6 +19,7 @@ mod workspace;
 pub use command::{CommandError, CommandReport, IncrementObserver};
 pub use forward_model::{ForwardModel, MemberForces};
 pub use relax::SolveMode;
+pub use sensitivity::{MotorDirection, MotorResponse, PayoutSensitivities, SensitivityError};
 pub use settings::{RelaxSettings, SettingsError};
 pub use status::{RelaxReport, RelaxStatus};
 pub use workspace::Workspace;
