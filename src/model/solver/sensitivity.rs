@@ -656,3 +656,89 @@ fn solve_complementarity(v0: &[f64], w: &DMatrix<f64>) -> Option<Vec<f64>> {
     }
     None
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::friction::JointFriction;
+    use crate::model::structure::{ContinuousCable, Node};
+    use crate::model::RelaxSettings;
+
+    /// `q ≥ 0`, `v = v0 + W·q ≤ 0`, `q·v = 0`, checked from the definition.
+    fn assert_complementary(v0: &[f64], w: &DMatrix<f64>, q: &[f64]) {
+        for i in 0..v0.len() {
+            let v = v0[i] + (0..q.len()).map(|j| w[(i, j)] * q[j]).sum::<f64>();
+            assert!(q[i] >= 0.0 && v <= 1e-12, "joint {i}: q {} v {v}", q[i]);
+            assert!((q[i] * v).abs() <= 1e-12, "joint {i}: q·v = {}", q[i] * v);
+        }
+    }
+
+    #[test]
+    fn complementarity_solutions_satisfy_the_conditions() {
+        // One joint loaded, its neighbour unloaded by its slide.
+        let w = DMatrix::from_row_slice(2, 2, &[-2.0, 1.0, 1.0, -2.0]);
+        let q = solve_complementarity(&[1.0, -1.0], &w).unwrap();
+        assert_complementary(&[1.0, -1.0], &w, &q);
+        assert!(q[0] > 0.0 && q[1] == 0.0);
+        // Both loaded, both slide.
+        let w = DMatrix::from_row_slice(2, 2, &[-1.0, 0.5, 0.5, -1.0]);
+        let q = solve_complementarity(&[1.0, 0.2], &w).unwrap();
+        assert_complementary(&[1.0, 0.2], &w, &q);
+        assert!(q.iter().all(|q| *q > 0.0));
+        // Both loaded at first, but the first one's slide unloads the
+        // second, which must stop sliding again.
+        let w = DMatrix::from_row_slice(2, 2, &[-1.0, 0.0, -3.0, -1.0]);
+        let q = solve_complementarity(&[1.0, 0.5], &w).unwrap();
+        assert_complementary(&[1.0, 0.5], &w, &q);
+        assert_eq!(q, vec![1.0, 0.0]);
+        // Nothing loaded.
+        assert_eq!(solve_complementarity(&[0.0, 0.0], &w), Some(vec![0.0; 2]));
+    }
+
+    #[test]
+    fn a_cable_without_tension_is_an_unstable_tangent() {
+        // A straight continuous cable between two supports over one free
+        // joint, exactly at its rest length: in equilibrium, but nothing
+        // holds the joint sideways, and reeling in loads it.
+        let node = |id: &str, x: f64, fixed: bool| Node {
+            id: id.into(),
+            position_m: Vector3::new(x, 0.0, 0.0),
+            mass_kg: 0.0,
+            fixed: [fixed; 3],
+            load_n: Vector3::zeros(),
+        };
+        let cable = ContinuousCable {
+            id: "c".into(),
+            path: vec![0, 1, 2],
+            ea_n: 1e5,
+            segment_rest_lengths_m: vec![1.0, 1.0],
+        };
+        let structure = Structure::new(
+            "straight",
+            vec![
+                node("a", 0.0, true),
+                node("j", 1.0, false),
+                node("b", 2.0, true),
+            ],
+            vec![],
+            vec![cable],
+            Vector3::zeros(),
+            vec![],
+        )
+        .unwrap();
+        let model = ForwardModel::new(
+            structure,
+            JointFriction::constant(0.2).unwrap(),
+            RelaxSettings::default(),
+        )
+        .unwrap();
+        let state = model.reference_state();
+        let err = model
+            .payout_sensitivities(&state, &mut Workspace::default())
+            .unwrap_err();
+        assert!(
+            matches!(err, SensitivityError::UnstableTangent { motor: 0, .. }),
+            "{err:?}"
+        );
+    }
+}

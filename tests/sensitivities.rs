@@ -1,0 +1,219 @@
+//! Payout sensitivities against one-sided finite differences of full
+//! re-solves, on the reference bridge after every cable has paid out 5 cm,
+//! without friction and with μ = 0.2.
+//!
+//! Reference: from a copy of the state, apply a payout of `+h` or `−h` on
+//! one motor in one increment of `h` (as a command would), relax to
+//! `tol_force_rel` = 1e-9, and difference. `h` = 1e-5 m.
+//!
+//! Tolerance, per quantity, relative to its largest entry: 1e-3.
+//! - Truncation: a one-sided difference is off by `h/2·|x''|`. The
+//!   differences shrink in proportion to `h` (worst position error 1.3e-3,
+//!   1.3e-4, 1.3e-5 m/m at h = 1e-4, 1e-5, 1e-6 m against derivatives of
+//!   1.5–2.5 m/m), so `|x''| ≈ 25/m·|x'|max` and the truncation is about
+//!   1.5e-4 of the largest entry at h = 1e-5 m; forces and tensions
+//!   likewise (at most 2.2e-4).
+//! - Solver noise: a residual of 1e-9 of the largest force (~1e-6 N) moves
+//!   positions by far less than the truncation (the error still halves
+//!   with `h` at 1e-6 m), so it is below 1e-5 of the largest entry.
+//! - Sensitivity rounding: central differences over 1 µm, ~1e-10 relative.
+//! So 1e-3 is 4.5× the worst expected error. A joint put in the wrong state
+//! changes responses by far more: paying out and reeling in differ by tens
+//! of percent at μ = 0.2 (checked below), and each is compared with its own
+//! one-sided difference.
+//!
+//! Floors for entries that are zero (fixed nodes, slack members): 1e-9 m/m
+//! and 1e-6 N/m.
+
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::model::{
+    DeploymentState, ForwardModel, JointFriction, MotorDirection, MotorResponse,
+    PayoutSensitivities, RelaxSettings, SensitivityError, Workspace,
+};
+
+const H_M: f64 = 1e-5;
+const REL_TOL: f64 = 1e-3;
+
+fn model(mu: f64) -> ForwardModel {
+    let settings = RelaxSettings {
+        tol_force_rel: 1e-9,
+        ..RelaxSettings::default()
+    };
+    ForwardModel::new(
+        reference_bridge(&BridgeParameters::default()).unwrap(),
+        JointFriction::constant(mu).unwrap(),
+        settings,
+    )
+    .unwrap()
+}
+
+/// The bridge after every cable has paid out 5 cm in 1 cm increments.
+fn moved_state(model: &ForwardModel, ws: &mut Workspace) -> DeploymentState {
+    let mut state = model.reference_state();
+    let n = model.structure().continuous_cables.len();
+    let r = model
+        .apply_payout(&mut state, ws, &vec![0.05; n], 0.01, &mut ())
+        .unwrap();
+    assert!(r.status.is_converged(), "{r:?}");
+    state
+}
+
+/// The flat entries of a response: positions (x, y, z per node), member
+/// forces, segment tensions.
+fn parts(r: &MotorResponse) -> [Vec<f64>; 3] {
+    [
+        r.positions_m_per_m
+            .iter()
+            .flat_map(|v| v.iter().copied())
+            .collect(),
+        r.member_force_n_per_m.clone(),
+        r.segment_tension_n_per_m.clone(),
+    ]
+}
+
+/// One-sided finite difference of a full re-solve: `motor` moved `h` in
+/// `direction`, as d/dp.
+fn finite_difference(
+    model: &ForwardModel,
+    state: &DeploymentState,
+    ws: &mut Workspace,
+    motor: usize,
+    direction: MotorDirection,
+) -> [Vec<f64>; 3] {
+    let dp = direction.sign() * H_M;
+    let mut cmd = vec![0.0; model.structure().continuous_cables.len()];
+    cmd[motor] = dp;
+    let mut moved = state.clone();
+    let r = model
+        .apply_payout(&mut moved, ws, &cmd, H_M, &mut ())
+        .unwrap();
+    assert!(r.status.is_converged(), "{r:?}");
+    let (f0, f1) = (model.member_forces(state), model.member_forces(&moved));
+    let diff =
+        |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(a, b)| (b - a) / dp).collect() };
+    let flat = |s: &DeploymentState| -> Vec<f64> {
+        s.positions_m
+            .iter()
+            .flat_map(|v| v.iter().copied())
+            .collect()
+    };
+    [
+        diff(&flat(state), &flat(&moved)),
+        diff(&f0.member_n, &f1.member_n),
+        diff(&f0.segment_n, &f1.segment_n),
+    ]
+}
+
+const NAMES: [&str; 3] = ["positions", "member forces", "segment tensions"];
+const FLOORS: [f64; 3] = [1e-9, 1e-6, 1e-6];
+
+/// Largest entry-wise difference over the allowance `REL_TOL·max|ours| +
+/// floor`, per part.
+fn error_ratio(ours: &[Vec<f64>; 3], reference: &[Vec<f64>; 3]) -> [f64; 3] {
+    let mut out = [0.0; 3];
+    for p in 0..3 {
+        let largest = ours[p].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let worst = ours[p]
+            .iter()
+            .zip(&reference[p])
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        out[p] = worst / (REL_TOL * largest + FLOORS[p]);
+    }
+    out
+}
+
+fn check_against_finite_differences(mu: f64) -> PayoutSensitivities {
+    let model = model(mu);
+    let mut ws = Workspace::default();
+    let state = moved_state(&model, &mut ws);
+    let sens = model.payout_sensitivities(&state, &mut ws).unwrap();
+    let n = model.structure().continuous_cables.len();
+    assert_eq!(sens.pay_out.len(), n);
+    assert_eq!(sens.reel_in.len(), n);
+    for motor in 0..n {
+        for direction in MotorDirection::BOTH {
+            let ours = parts(sens.response(motor, direction).unwrap());
+            let fd = finite_difference(&model, &state, &mut ws, motor, direction);
+            let ratio = error_ratio(&ours, &fd);
+            for p in 0..3 {
+                assert!(
+                    ratio[p] <= 1.0,
+                    "μ = {mu}, motor {motor} {direction:?}, {}: error {:.2} of the allowance",
+                    NAMES[p],
+                    ratio[p]
+                );
+            }
+        }
+    }
+    sens
+}
+
+#[test]
+fn frictionless_sensitivities_match_finite_differences_and_both_directions_agree() {
+    let sens = check_against_finite_differences(0.0);
+    // Without friction every joint slides either way: the one-sided
+    // derivatives are one derivative (here even computed alike; the finite
+    // differences above checked each side on its own).
+    for (out, inn) in sens.pay_out.iter().zip(&sens.reel_in) {
+        let ratio = error_ratio(&parts(out), &parts(inn));
+        assert!(ratio.iter().all(|r| *r <= 1.0), "{ratio:?}");
+        assert_eq!(out.sliding_joints, inn.sliding_joints);
+        // One half's 5 cables × 3 interior joints, all sliding.
+        assert_eq!(out.sliding_joints, 15);
+    }
+}
+
+#[test]
+fn sensitivities_with_friction_match_finite_differences_and_directions_differ() {
+    let sens = check_against_finite_differences(0.2);
+    // Paying out and reeling in are different derivatives with friction:
+    // different joints slide, and the responses differ by far more than
+    // the finite-difference tolerance (so each direction's check above
+    // would fail against the other's derivative).
+    let mut differing = 0;
+    for (out, inn) in sens.pay_out.iter().zip(&sens.reel_in) {
+        let ratio = error_ratio(&parts(out), &parts(inn));
+        if ratio.iter().any(|r| *r > 20.0) && out.sliding_joints != inn.sliding_joints {
+            differing += 1;
+        }
+    }
+    assert!(differing >= 1, "no motor responds differently by direction");
+}
+
+#[test]
+fn midspan_gap_response_is_the_difference_of_the_pair_responses() {
+    let model = model(0.2);
+    let mut ws = Workspace::default();
+    let state = moved_state(&model, &mut ws);
+    let sens = model.payout_sensitivities(&state, &mut ws).unwrap();
+    let s = model.structure();
+    for direction in MotorDirection::BOTH {
+        for motor in 0..s.continuous_cables.len() {
+            let gaps = sens.midspan_gap_response(s, motor, direction);
+            let dx = &sens.response(motor, direction).unwrap().positions_m_per_m;
+            assert_eq!(gaps.len(), s.midspan_pairs.len());
+            for (g, [a, b]) in gaps.iter().zip(&s.midspan_pairs) {
+                assert_eq!(*g, dx[*a] - dx[*b]);
+            }
+        }
+    }
+    assert!(sens
+        .midspan_gap_response(s, s.continuous_cables.len(), MotorDirection::PayOut)
+        .is_empty());
+}
+
+#[test]
+fn a_state_out_of_equilibrium_is_rejected() {
+    let model = model(0.2);
+    let mut ws = Workspace::default();
+    // The as-built geometry with one cable reeled in 1 cm and not relaxed.
+    let mut state = model.reference_state();
+    state.segment_rest_lengths_m[state.segment_offsets[0]] -= 0.01;
+    match model.payout_sensitivities(&state, &mut ws) {
+        Err(SensitivityError::NotConverged {
+            residual_n,
+            tolerance_n,
+        }) => assert!(residual_n > tolerance_n),
+        other => panic!("expected NotConverged, got {other:?}"),
+    }
+}
