@@ -28,6 +28,7 @@ mod compare;
 mod diagnose;
 mod experiment;
 mod lab;
+mod plan;
 mod simulate;
 
 use std::path::PathBuf;
@@ -112,6 +113,7 @@ pub fn command() -> Command {
                 .arg(Arg::new("add").long("add").required(true).help("Effect to add: joint_friction, motor, stiffness_error, thermal, joint_mass_error, load_cell_bias"))
                 .arg(Arg::new("out").long("out").short('o').required(true).value_parser(value_parser!(PathBuf)).help("New model file (must not exist)")),
         )
+        .subcommand(plan::command())
         .subcommand(
             Command::new("experiment")
                 .about("Run an experiment file from experiments/")
@@ -129,6 +131,10 @@ pub fn run(m: &ArgMatches) -> Result<()> {
         Some(("compare", a)) => compare::compare(a),
         Some(("diagnose", a)) => diagnose::diagnose(a),
         Some(("calibrate", a)) => calibrate::calibrate(a),
+        Some(("plan", a)) => match plan::run(a)? {
+            true => Ok(()),
+            false => Err(anyhow::anyhow!("the plan does not connect the halves")),
+        },
         _ => unreachable!("clap requires a subcommand"),
     }
 }

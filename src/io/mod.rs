@@ -9,6 +9,8 @@ pub mod commands;
 pub mod friction_table;
 pub mod log;
 pub mod model_file;
+pub mod policy_file;
+pub mod problem_file;
 pub mod results;
 pub mod structure_file;
 
