@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use super::outcome::PlanStatus;
 use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand, Trial};
-use crate::model::{DeploymentState, Workspace};
+use crate::model::DeploymentState;
 
 /// Even actuation back to the designed payout.
 #[derive(Debug, Clone)]
@@ -47,12 +47,7 @@ impl NominalPlanner {
 }
 
 impl CommandPlanner for NominalPlanner {
-    fn next_command(
-        &mut self,
-        context: &PlanContext,
-        state: &DeploymentState,
-        ws: &mut Workspace,
-    ) -> Decision {
+    fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
         if self.done >= self.steps {
             let worst = state
                 .max_midspan_gap_m(context.model.structure())
@@ -69,7 +64,7 @@ impl CommandPlanner for NominalPlanner {
                 reason: format!("nominal step {} leaves a motor's stroke", self.done + 1),
             });
         }
-        let trial = context.trial(state, &self.per_step_m, ws);
+        let trial = context.trial(state, &self.per_step_m);
         if !trial.admissible() {
             return Decision::Stop(PlanStatus::NotReachable {
                 reason: format!("nominal step {}: {}", self.done + 1, trial.failure()),
@@ -113,12 +108,7 @@ fn score(context: &PlanContext, state: &DeploymentState) -> (f64, f64) {
 const TIE_M: f64 = 1e-4;
 
 impl CommandPlanner for GreedyTreePlanner {
-    fn next_command(
-        &mut self,
-        context: &PlanContext,
-        state: &DeploymentState,
-        _ws: &mut Workspace,
-    ) -> Decision {
+    fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
         let n = state.payout_m.len();
         let (current, _) = score(context, state);
         let mut rejected = 0;
@@ -137,7 +127,7 @@ impl CommandPlanner for GreedyTreePlanner {
             // candidate order, so it does not depend on thread count.
             let trials: Vec<Trial> = candidates
                 .par_iter()
-                .map_init(Workspace::default, |ws, cmd| context.trial(state, cmd, ws))
+                .map(|cmd| context.trial(state, cmd))
                 .collect();
             let mut best: Option<(usize, (f64, f64))> = None;
             for (k, t) in trials.iter().enumerate() {

@@ -108,8 +108,11 @@ impl<'a> PlanContext<'a> {
     }
 
     /// Applies `command` to a copy of `state` on the model, checking every
-    /// limit at every increment.
-    pub fn trial(&self, state: &DeploymentState, command: &[f64], ws: &mut Workspace) -> Trial {
+    /// limit at every increment. Each trial starts from a fresh workspace,
+    /// so its result is a function of `state` and `command` alone (a
+    /// workspace carries the last solve's force scale into tolerances).
+    pub fn trial(&self, state: &DeploymentState, command: &[f64]) -> Trial {
+        let ws = &mut Workspace::default();
         let mut next = state.clone();
         let mut watch = LimitWatch {
             context: self,
@@ -224,12 +227,7 @@ pub enum Decision {
 /// The interface every planner implements.
 pub trait CommandPlanner {
     /// Decides the next command from `state` (on `context.model`).
-    fn next_command(
-        &mut self,
-        context: &PlanContext,
-        state: &DeploymentState,
-        ws: &mut Workspace,
-    ) -> Decision;
+    fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision;
 }
 
 /// The planner a policy names, starting from `start`.
@@ -278,7 +276,6 @@ pub fn plan_open_loop(
 ) -> Result<Plan, PlanError> {
     let context = PlanContext::new(model, problem, policy, start)?;
     let mut planner = planner_for(&context, start);
-    let mut ws = Workspace::default();
     let mut state = start.clone();
     let mut records = Vec::new();
     let status = loop {
@@ -289,7 +286,7 @@ pub fn plan_open_loop(
             break PlanStatus::CommandLimit;
         }
         let clock = Instant::now();
-        match planner.next_command(&context, &state, &mut ws) {
+        match planner.next_command(&context, &state) {
             Decision::Stop(status) => break status,
             Decision::Command(c) => {
                 let gaps_m = c.trial.state.midspan_gaps_m(model.structure());

@@ -356,6 +356,20 @@ pub struct QpStep {
     pub qp_solves: usize,
 }
 
+/// Solver settings for a step. The step's multipliers on weakly active
+/// bounds are as small as the split penalty κ (1e-6), and an interior
+/// point leaves a variable about `tol_gap / multiplier` from its bound, so
+/// the gap tolerance is 1e-13 rather than the default 1e-9 (which left
+/// idle motors moving by tens of micrometres). The QPs are small, so the
+/// extra iterations cost little.
+pub fn step_solver_settings() -> QpSettings {
+    QpSettings {
+        max_iter: 200,
+        tol_feas: 1e-10,
+        tol_gap: 1e-13,
+    }
+}
+
 /// Predicted gap vectors after net commands `command_m`, each motor with
 /// the slope of its own direction, m.
 pub fn predicted_gaps(data: &StepData, command_m: &[f64]) -> Vec<Vector3<f64>> {

@@ -58,25 +58,30 @@ pub enum ResponseError {
 
 impl PayoutResponse {
     /// Responses by one-sided finite differences of size `step_m`, each
-    /// probe one command of one increment from `state`. The probes are
-    /// independent and run in parallel; the result does not depend on the
-    /// thread count.
+    /// probe one command from `state` in increments of at most
+    /// `increment_m`. The probes are independent and run in parallel; the
+    /// result does not depend on the thread count.
     pub fn finite_difference(
         model: &ForwardModel,
         state: &DeploymentState,
         step_m: f64,
+        increment_m: f64,
     ) -> Result<Self, ResponseError> {
         let motors = state.payout_m.len();
         let base_forces = force_rows(model, state);
         let probes: Vec<Result<MotorEffect, ResponseError>> = (0..2 * motors)
             .into_par_iter()
-            .map_init(Workspace::default, |ws, k| {
+            // A fresh workspace per probe: a reused one carries the last
+            // solve's force scale into the next solve's tolerances, which
+            // would make the result depend on how rayon splits the work.
+            .map(|k| {
+                let ws = &mut Workspace::default();
                 let (motor, sign) = (k % motors, if k < motors { 1.0 } else { -1.0 });
                 let mut probe = state.clone();
                 let mut delta = vec![0.0; motors];
                 delta[motor] = sign * step_m;
                 let report = model
-                    .apply_payout(&mut probe, ws, &delta, step_m, &mut ())
+                    .apply_payout(&mut probe, ws, &delta, increment_m, &mut ())
                     .map_err(|source| ResponseError::Command { motor, source })?;
                 if !report.status.is_converged() {
                     return Err(ResponseError::Solver {

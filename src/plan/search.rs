@@ -15,10 +15,11 @@ use nalgebra::Vector3;
 use super::limits::{force_row_name, force_rows, strut_clearance};
 use super::outcome::PlanStatus;
 use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand};
-use super::qp_step::{solve_step, LinearLimit, QpStep, QpStepStatus, StepData, StepWeights};
+use super::qp_step::{
+    solve_step, step_solver_settings, LinearLimit, QpStep, QpStepStatus, StepData, StepWeights,
+};
 use super::response::PayoutResponse;
-use crate::model::{DeploymentState, Workspace};
-use crate::numerics::qp::QpSettings;
+use crate::model::DeploymentState;
 
 /// Scale of force rows in the QP, N.
 const FORCE_SCALE_N: f64 = 100.0;
@@ -168,17 +169,13 @@ fn norms(v: &[Vector3<f64>]) -> Vec<f64> {
 }
 
 impl CommandPlanner for QpPlanner {
-    fn next_command(
-        &mut self,
-        context: &PlanContext,
-        state: &DeploymentState,
-        ws: &mut Workspace,
-    ) -> Decision {
+    fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
         let tr = context.policy.trust_region;
         let response = match PayoutResponse::finite_difference(
             context.model,
             state,
             context.policy.sensitivity_step_m,
+            context.policy.increment_m,
         ) {
             Ok(r) => r,
             Err(e) => {
@@ -193,7 +190,7 @@ impl CommandPlanner for QpPlanner {
         let mut rejected = 0;
         loop {
             data.trust_region_m = self.trust_region_m;
-            let step: QpStep = solve_step(&data, &weights, &QpSettings::default());
+            let step: QpStep = solve_step(&data, &weights, &step_solver_settings());
             match step.status {
                 QpStepStatus::Infeasible => {
                     return Decision::Stop(PlanStatus::NotReachable {
@@ -229,7 +226,7 @@ impl CommandPlanner for QpPlanner {
                     reason: "the QP step breaks a motor limit".into(),
                 });
             }
-            let trial = context.trial(state, &step.command_m, ws);
+            let trial = context.trial(state, &step.command_m);
             let actual = merit0 - context.gap_merit(&context.gap_vectors(&trial.state));
             let ratio = actual / predicted;
             if trial.admissible() && ratio >= tr.acceptance_ratio {
