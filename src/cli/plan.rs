@@ -29,7 +29,7 @@ pub fn command() -> Command {
         .arg(Arg::new("model").value_parser(value_parser!(PathBuf)).help("Model file (TOML) planned on; its structure, stiffness and friction are used (motor, thermal and sensor effects are the truth's, not the plan's). Default: the reference bridge with μ = 0.2"))
         .arg(Arg::new("policy").long("policy").value_parser(value_parser!(PathBuf)).help("Policy file (default: policies/qp.toml's settings, built in)"))
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (default: fold 0.40 m, 30 mm connection, documented limits)"))
-        .arg(Arg::new("out").long("out").short('o').default_value("out/plan").value_parser(value_parser!(PathBuf)).help("Folder for commands.csv and plan.csv"))
+        .arg(Arg::new("out").long("out").short('o').default_value("out/plan").value_parser(value_parser!(PathBuf)).help("Folder for commands.csv (step 0: the fold from the designed state; steps 1…: the plan) and plan.csv (one row per planned command)"))
 }
 
 /// Runs `tdeploy plan`; `Ok(true)` when the plan connects the halves.
@@ -93,9 +93,14 @@ pub fn run(a: &ArgMatches) -> Result<bool> {
         );
     }
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+    // Step 0 is the fold itself (from the designed state, where `simulate`
+    // starts), so that `tdeploy simulate -c commands.csv` replays the plan.
+    let motors = problem.motor_limits(model.structure().continuous_cables.len())?;
+    let mut payout_change_m = vec![motors.start_payout_m];
+    payout_change_m.extend(plan.commands());
     let sequence = CommandSequence {
-        step_labels: (1..=plan.records.len() as u64).collect(),
-        payout_change_m: plan.commands(),
+        step_labels: (0..=plan.records.len() as u64).collect(),
+        payout_change_m,
     };
     write_atomically(
         &out.join("commands.csv"),
