@@ -12,7 +12,7 @@
 //!                                 │
 //!      command sequences ─► apply_payout in increments ─► states, forces
 //! ```
-//! (The planner, case memory and measurement tools build on this model.)
+//! (The planner, [`plan`], case memory and measurement tools build on this model.)
 //!
 //! ## Equations
 //! - Members: `T = k·(L − L0)` (struts both signs; cables and springs
@@ -36,6 +36,8 @@
 //! - [`sim`]: sensors, schedules, a model with effects replayed through
 //!   commands.
 //! - [`measure`]: logs in memory, the synthetic lab, compare, diagnose.
+//! - [`plan`]: the deployment planner: problem, limits, QP step, sequence
+//!   search, baselines, policies.
 //! - [`studies`]: what the experiments compute.
 //! - [`io`]: file formats; with the CLI, the only code that touches files.
 //! - [`report`]: SVG drawings and figures.
@@ -45,6 +47,7 @@ pub mod io;
 pub mod measure;
 pub mod model;
 pub mod numerics;
+pub mod plan;
 pub mod report;
 pub mod sim;
 pub mod studies;

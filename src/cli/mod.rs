@@ -42,6 +42,7 @@ mod compare;
 mod diagnose;
 mod experiment;
 mod lab;
+mod plan;
 mod simulate;
 mod structure;
 
@@ -83,6 +84,7 @@ pub fn command() -> Command {
         .subcommand(diagnose::command())
         .subcommand(calibrate::command())
         .subcommand(experiment::command())
+        .subcommand(plan::command())
 }
 
 /// The typed options of one subcommand.
@@ -102,6 +104,8 @@ pub enum Options {
     Calibrate(calibrate::Options),
     /// `tdeploy experiment`.
     Experiment(experiment::Options),
+    /// `tdeploy plan` (its flags are checked as it runs).
+    Plan(ArgMatches),
 }
 
 impl Options {
@@ -115,6 +119,7 @@ impl Options {
             Some(("diagnose", a)) => Options::Diagnose(diagnose::Options::from_matches(a)?),
             Some(("calibrate", a)) => Options::Calibrate(calibrate::Options::from_matches(a)?),
             Some(("experiment", a)) => Options::Experiment(experiment::Options::from_matches(a)?),
+            Some(("plan", a)) => Options::Plan(a.clone()),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -131,6 +136,11 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Diagnose(o) => diagnose::run(o),
         Options::Calibrate(o) => calibrate::run(o),
         Options::Experiment(o) => experiment::run(o),
+        Options::Plan(a) => Ok(if plan::run(a)? {
+            Outcome::GoalReached
+        } else {
+            Outcome::GoalMissed("the plan does not connect the halves".into())
+        }),
     }
 }
 

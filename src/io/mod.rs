@@ -13,6 +13,8 @@ pub mod friction_table;
 pub mod log;
 pub mod model_file;
 pub mod number_range;
+pub mod policy_file;
+pub mod problem_file;
 pub mod results;
 pub mod structure_file;
 mod toml_text;

@@ -1,0 +1,58 @@
+//! Speed of one planned command on the full reference bridge with μ = 0.2,
+//! at the third command of the QP plan from the 40 cm fold (joints
+//! sticking and slipping, the regime the planner spends its time in):
+//! sensitivities, QP and confirming re-solve together, and the QP alone.
+//!
+//!     cargo bench --bench planner
+
+use criterion::{criterion_group, criterion_main, Criterion};
+
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
+use tensegrity_deploy::plan::qp_step::step_solver_settings;
+use tensegrity_deploy::plan::search::{step_data, step_weights};
+use tensegrity_deploy::plan::{
+    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PlanContext, Policy,
+};
+
+fn bench(c: &mut Criterion) {
+    let model = ForwardModel::new(
+        reference_bridge(&BridgeParameters::default()).expect("reference bridge"),
+        JointFriction::constant(0.2).expect("valid mu"),
+        RelaxSettings::default(),
+    )
+    .expect("default settings");
+    let problem = DeploymentProblem::default();
+    let mut policy = Policy::default();
+    policy.max_commands = 2;
+    let start = folded_start(&model, &problem, policy.increment_m).expect("fold");
+    let plan =
+        tensegrity_deploy::plan::plan_open_loop(&model, &problem, &policy, &start).expect("plan");
+    let state = plan.final_state;
+    let context = PlanContext::new(&model, &problem, &policy, &start).expect("context");
+    let mut group = c.benchmark_group("planner");
+    group.sample_size(10);
+    group.bench_function("one_command_mu0.2", |b| {
+        b.iter(|| {
+            let mut planner = planner_for(&context, &start);
+            planner.next_command(&context, &state)
+        })
+    });
+    let response = PayoutResponse::finite_difference(
+        &model,
+        &state,
+        policy.sensitivity_step_m,
+        policy.increment_m,
+    )
+    .expect("responses");
+    let data = step_data(&context, &state, &response, policy.trust_region.initial_m);
+    let weights = step_weights(&context);
+    group.sample_size(50);
+    group.bench_function("qp_alone", |b| {
+        b.iter(|| solve_step(&data, &weights, &step_solver_settings()))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,185 @@
+//! Deployment-problem files (TOML): start, connection and limits.
+//!
+//! ```toml
+//! format = "tensegrity-deploy/problem/1"
+//! start_payout_m = 0.40           # or one value per motor: [0.4, 0.4, …]
+//! connection_tolerance_m = 0.030
+//! min_tension_n = 5.0
+//! max_tension_n = 3000.0
+//! max_strut_buckling_utilisation = 0.5
+//! min_payout_m = -0.10
+//! max_payout_m = 0.50
+//! max_step_m = 0.05
+//! min_strut_clearance_m = 0.0
+//! ```
+//! Every field may be left out (its documented default in
+//! [`crate::plan::DeploymentProblem`] applies); unknown keys are errors.
+//! Errors name the file, the line and the field.
+
+use std::path::Path;
+
+use serde::de::DeserializeOwned;
+
+use super::FileError;
+use crate::plan::DeploymentProblem;
+
+/// The `format` a problem file must declare.
+pub const PROBLEM_FORMAT: &str = "tensegrity-deploy/problem/1";
+
+/// Reads and validates a problem file. The per-motor lists are checked
+/// against the structure when a plan starts.
+pub fn read_problem(path: &Path) -> Result<DeploymentProblem, FileError> {
+    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    parse_problem(&text, path)
+}
+
+/// Parses a problem file; `path` names it in errors.
+pub fn parse_problem(text: &str, path: &Path) -> Result<DeploymentProblem, FileError> {
+    let problem: DeploymentProblem = parse_versioned(text, path, PROBLEM_FORMAT)?;
+    problem
+        .validate()
+        .map_err(|e| FileError::field(path, field_line(text, e.field), e.field, e.reason))?;
+    Ok(problem)
+}
+
+/// Parses TOML into `T` after checking and removing a `format = "…"` key;
+/// syntax and type errors name their line, column and message.
+pub(crate) fn parse_versioned<T: DeserializeOwned>(
+    text: &str,
+    path: &Path,
+    format: &str,
+) -> Result<T, FileError> {
+    let syntax = |e: toml::de::Error| {
+        let (line, column) = e
+            .span()
+            .map(|span| line_column(text, span.start))
+            .unwrap_or((0, 0));
+        FileError::Syntax {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message: e.message().to_string(),
+        }
+    };
+    let mut table: toml::Table = toml::from_str(text).map_err(syntax)?;
+    match table.remove("format") {
+        Some(toml::Value::String(f)) if f == format => {}
+        Some(other) => {
+            return Err(FileError::field(
+                path,
+                field_line(text, "format"),
+                "format",
+                format!("expected \"{format}\", found {other}"),
+            ))
+        }
+        None => {
+            return Err(FileError::field(
+                path,
+                1,
+                "format",
+                format!("missing; the file must start with format = \"{format}\""),
+            ))
+        }
+    }
+    // Deserialise from the text again (not the table) so that errors keep
+    // their spans; the `format` key is blanked, not removed, to keep lines.
+    let without_format: String = text
+        .lines()
+        .map(|l| {
+            if key_of(l) == Some("format") && !in_table(text, l) {
+                ""
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    toml::from_str(&without_format).map_err(|e| {
+        let (line, column) = e
+            .span()
+            .map(|span| line_column(&without_format, span.start))
+            .unwrap_or((0, 0));
+        FileError::Syntax {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message: e.message().to_string(),
+        }
+    })
+}
+
+/// `true` if line `l` (a slice of `text`) comes after a `[table]` header.
+fn in_table(text: &str, l: &str) -> bool {
+    let offset = l.as_ptr() as usize - text.as_ptr() as usize;
+    text[..offset]
+        .lines()
+        .any(|x| x.trim_start().starts_with('['))
+}
+
+/// The key a `key = value` line sets.
+fn key_of(line: &str) -> Option<&str> {
+    let code = line.split('#').next().unwrap_or("");
+    let (key, _) = code.split_once('=')?;
+    let key = key.trim();
+    (!key.is_empty() && !key.starts_with('[')).then_some(key)
+}
+
+/// 1-based line where `field` (`key` or `table.key`) is set; 1 when the
+/// file leaves it to its default.
+pub(crate) fn field_line(text: &str, field: &str) -> usize {
+    let (table, key) = match field.split_once('.') {
+        Some((t, k)) => (Some(t), k),
+        None => (None, field),
+    };
+    let mut current: Option<String> = None;
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.starts_with('[') {
+            current = Some(t.trim_matches(|c| c == '[' || c == ']').trim().to_string());
+            if table.is_some() && current.as_deref() == table && key.is_empty() {
+                return i + 1;
+            }
+            continue;
+        }
+        if key_of(line) == Some(key) && current.as_deref() == table {
+            return i + 1;
+        }
+    }
+    1
+}
+
+/// 1-based line and column of byte `offset` in `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1;
+    (line, column)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_a_full_file_and_names_line_and_field_of_a_bad_value() {
+        let good = "format = \"tensegrity-deploy/problem/1\"\nstart_payout_m = 0.3\nmax_step_m = [0.05, 0.05]\n";
+        let p = parse_problem(good, Path::new("p.toml")).unwrap();
+        assert_eq!(p.start_payout_m, crate::plan::PerMotor::All(0.3));
+        let bad =
+            "format = \"tensegrity-deploy/problem/1\"\n# comment\nconnection_tolerance_m = -0.03\n";
+        match parse_problem(bad, Path::new("p.toml")).unwrap_err() {
+            FileError::Field { line, field, .. } => {
+                assert_eq!((line, field.as_str()), (3, "connection_tolerance_m"))
+            }
+            e => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn finds_keys_inside_tables() {
+        let text = "a = 1\n[t]\nb = 2\n[u]\nb = 3\n";
+        assert_eq!(field_line(text, "t.b"), 3);
+        assert_eq!(field_line(text, "u.b"), 5);
+        assert_eq!(field_line(text, "a"), 1);
+    }
+}

@@ -1,0 +1,35 @@
+//! The deployment planner: brings the two halves of the bridge from the
+//! folded state to the midspan connection without overloading or
+//! slackening a member and within the motors' limits.
+//!
+//! - [`problem`]: the deployment problem (start, connection, limits);
+//! - [`limits`]: member forces, buckling and strut clearance on a state;
+//! - [`response`]: one-sided responses to each motor's payout;
+//! - [`qp_step`]: one step as a QP on those responses;
+//! - [`search`]: sequential convex programming with a trust region;
+//! - [`baselines`]: nominal even actuation and the greedy tree;
+//! - [`policy`]: policies as data;
+//! - [`planner`]: the planners' shared trait, trials and the open-loop
+//!   driver; [`outcome`]: plans and their status.
+//!
+//! Pure numerics: a plan is a function of (model, problem, policy, state).
+
+pub mod baselines;
+pub mod limits;
+pub mod outcome;
+pub mod planner;
+pub mod policy;
+pub mod problem;
+pub mod qp_step;
+pub mod response;
+pub mod search;
+
+pub use outcome::{CommandRecord, Plan, PlanError, PlanStatus};
+pub use planner::{
+    folded_start, plan_open_loop, planner_for, CommandPlanner, Decision, PlanContext,
+    PlannedCommand, Trial,
+};
+pub use policy::{Measurement, PlannerKind, Policy, PolicyError, TrustRegion, Weights};
+pub use problem::{DeploymentProblem, MotorLimits, PerMotor, ProblemError};
+pub use qp_step::{formulate, solve_step, QpStep, QpStepStatus, StepData, StepWeights};
+pub use response::PayoutResponse;

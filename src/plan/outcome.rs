@@ -1,0 +1,123 @@
+//! What a plan is: its status, and one record per command.
+
+use serde::Serialize;
+use thiserror::Error;
+
+use super::policy::PolicyError;
+use super::problem::ProblemError;
+use super::qp_step::QpStepStatus;
+use crate::model::{CommandError, DeploymentState, RelaxStatus, SettingsError};
+
+/// How a plan ended.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "status")]
+pub enum PlanStatus {
+    /// Every midspan pair is within the connection tolerance less the
+    /// policy's margin.
+    Connected,
+    /// No admissible command brings the bridge closer, or the planner's
+    /// own sequence is spent; the reason says which limit or why.
+    NotReachable {
+        /// Why, in words.
+        reason: String,
+    },
+    /// The policy's command budget is spent before connection.
+    CommandLimit,
+    /// The model or the QP solver failed.
+    SolverFailure {
+        /// What failed, in words.
+        reason: String,
+    },
+}
+
+impl PlanStatus {
+    /// `true` for [`PlanStatus::Connected`].
+    pub fn is_connected(&self) -> bool {
+        matches!(self, PlanStatus::Connected)
+    }
+
+    /// Plain words for the command line.
+    pub fn describe(&self) -> String {
+        match self {
+            PlanStatus::Connected => "connected: every midspan pair within tolerance".into(),
+            PlanStatus::NotReachable { reason } => format!("not reachable: {reason}"),
+            PlanStatus::CommandLimit => {
+                "command limit: the policy's largest number of commands is spent".into()
+            }
+            PlanStatus::SolverFailure { reason } => format!("solver failure: {reason}"),
+        }
+    }
+}
+
+/// One planned command and what it did on the model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommandRecord {
+    /// Payout change per motor, m (positive pays out).
+    pub command_m: Vec<f64>,
+    /// Gap per midspan pair the planner predicted, m (`None` for planners
+    /// that predict nothing).
+    pub predicted_gaps_m: Option<Vec<f64>>,
+    /// Gap per midspan pair after the command on the model, m.
+    pub gaps_m: Vec<f64>,
+    /// Worst member utilisation along the command's increments (tension
+    /// over maximum, strut compression over its admissible Euler part).
+    pub worst_utilisation: f64,
+    /// Smallest cable, spring or segment tension along the command, N.
+    pub min_tension_n: f64,
+    /// Smallest strut-to-strut clearance along the command, m.
+    pub min_clearance_m: f64,
+    /// Constraints active in the planning step (QP) or deciding it.
+    pub active_constraints: Vec<String>,
+    /// Status of the step's QP (QP planner only).
+    pub qp_status: Option<QpStepStatus>,
+    /// Trust-region radius the command was planned in, m (QP planner).
+    pub trust_region_m: Option<f64>,
+    /// Trials rejected before this command was accepted.
+    pub rejected_trials: usize,
+    /// Wall-clock planning time, s (the only value not a pure function of
+    /// the inputs).
+    pub planning_time_s: f64,
+}
+
+/// An open-loop plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// How it ended.
+    pub status: PlanStatus,
+    /// Gap per midspan pair at the start, m.
+    pub start_gaps_m: Vec<f64>,
+    /// One record per command, in order.
+    pub records: Vec<CommandRecord>,
+    /// The model state after the last command.
+    pub final_state: DeploymentState,
+}
+
+impl Plan {
+    /// The command sequence: payout change per command and motor, m.
+    pub fn commands(&self) -> Vec<Vec<f64>> {
+        self.records.iter().map(|r| r.command_m.clone()).collect()
+    }
+}
+
+/// Inputs a planner cannot work with.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum PlanError {
+    /// The problem is invalid for this structure.
+    #[error(transparent)]
+    Problem(#[from] ProblemError),
+    /// The policy is invalid for this structure.
+    #[error(transparent)]
+    Policy(#[from] PolicyError),
+    /// The solver settings are invalid.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// The structure has no midspan pairs to bring together.
+    #[error("the structure has no midspan pairs to connect")]
+    NoMidspanPairs,
+    /// The folded start could not be reached on the model.
+    #[error("folding to the start state: {}", .0.describe())]
+    Start(RelaxStatus),
+    /// A command the model refused (a planner bug or a bad start).
+    #[error(transparent)]
+    Command(#[from] CommandError),
+}

@@ -1,0 +1,316 @@
+//! What the planners share: the context they plan in, the one trait they
+//! implement, trial commands checked at every increment, and the open-loop
+//! driver.
+//!
+//! A plan is a pure function of (model, problem, policy, start state):
+//! planners hold only what they derive from those (a trust-region radius,
+//! a step counter), and every probe runs on clones of the state.
+
+use std::time::Instant;
+
+use super::limits::{LimitCheck, Limits};
+use super::outcome::{CommandRecord, Plan, PlanError, PlanStatus};
+use super::policy::{PlannerKind, Policy, PolicyError};
+use super::problem::{DeploymentProblem, MotorLimits};
+use super::qp_step::QpStepStatus;
+use crate::model::{
+    DeploymentState, ForwardModel, IncrementObserver, RelaxReport, RelaxStatus, Workspace,
+};
+
+/// Everything a planner plans with, checked once.
+#[derive(Debug, Clone)]
+pub struct PlanContext<'a> {
+    /// The model planned on.
+    pub model: &'a ForwardModel,
+    /// The problem.
+    pub problem: &'a DeploymentProblem,
+    /// The policy.
+    pub policy: &'a Policy,
+    /// Per-motor limits.
+    pub motors: MotorLimits,
+    /// Member and clearance limits, widened to what the start breaks.
+    pub limits: Limits,
+    /// Weight of each midspan pair's squared gap.
+    pub gap_weights: Vec<f64>,
+}
+
+impl<'a> PlanContext<'a> {
+    /// Validates problem and policy against the model's structure; the
+    /// limits are widened to what `start` already breaks.
+    pub fn new(
+        model: &'a ForwardModel,
+        problem: &'a DeploymentProblem,
+        policy: &'a Policy,
+        start: &DeploymentState,
+    ) -> Result<Self, PlanError> {
+        let s = model.structure();
+        if s.midspan_pairs.is_empty() {
+            return Err(PlanError::NoMidspanPairs);
+        }
+        policy.validate()?;
+        let motors = problem.motor_limits(s.continuous_cables.len())?;
+        let gap_weights = policy
+            .gap_weights(s.midspan_pairs.len())
+            .ok_or_else(|| PolicyError {
+                field: "weights.gap",
+                reason: format!(
+                    "give one weight or {} (one per midspan pair)",
+                    s.midspan_pairs.len()
+                ),
+            })?;
+        Ok(PlanContext {
+            model,
+            problem,
+            policy,
+            motors,
+            limits: Limits::new(model, problem, start),
+            gap_weights,
+        })
+    }
+
+    /// Gap vectors `x_a − x_b` of the midspan pairs, m.
+    pub fn gap_vectors(&self, state: &DeploymentState) -> Vec<nalgebra::Vector3<f64>> {
+        self.model
+            .structure()
+            .midspan_pairs
+            .iter()
+            .map(|[a, b]| state.positions_m[*a] - state.positions_m[*b])
+            .collect()
+    }
+
+    /// Weighted sum of squared gaps, m²: the merit the QP planner reduces.
+    pub fn gap_merit(&self, gaps: &[nalgebra::Vector3<f64>]) -> f64 {
+        gaps.iter()
+            .zip(&self.gap_weights)
+            .map(|(g, w)| w * g.norm_squared())
+            .sum()
+    }
+
+    /// `true` when every gap is within the tolerance less the margin.
+    pub fn connected(&self, state: &DeploymentState) -> bool {
+        let goal = self.problem.connection_tolerance_m - self.policy.connection_margin_m;
+        state
+            .midspan_gaps_m(self.model.structure())
+            .iter()
+            .all(|g| *g <= goal)
+    }
+
+    /// Whether `command` keeps every motor in its stroke and step limits
+    /// from `state`.
+    pub fn command_admissible(&self, state: &DeploymentState, command: &[f64]) -> bool {
+        let m = &self.motors;
+        command.iter().enumerate().all(|(c, d)| {
+            let p = state.payout_m[c] + d;
+            d.abs() <= m.max_step_m[c] * (1.0 + 1e-9)
+                && p >= m.min_payout_m[c] - 1e-9
+                && p <= m.max_payout_m[c] + 1e-9
+        })
+    }
+
+    /// Applies `command` to a copy of `state` on the model, checking every
+    /// limit at every increment. Each trial starts from a fresh workspace,
+    /// so its result is a function of `state` and `command` alone (a
+    /// workspace carries the last solve's force scale into tolerances).
+    pub fn trial(&self, state: &DeploymentState, command: &[f64]) -> Trial {
+        let ws = &mut Workspace::default();
+        let mut next = state.clone();
+        let mut watch = LimitWatch {
+            context: self,
+            worst: None,
+        };
+        let status = match self.model.apply_payout(
+            &mut next,
+            ws,
+            command,
+            self.policy.increment_m,
+            &mut watch,
+        ) {
+            Ok(r) => r.status,
+            // A command the model refuses (reeled through) counts as a
+            // diverged one: never accepted.
+            Err(_) => RelaxStatus::Diverged,
+        };
+        let check = watch
+            .worst
+            .unwrap_or_else(|| self.limits.check(self.model, &next, 0.0));
+        Trial {
+            state: next,
+            status,
+            check,
+        }
+    }
+}
+
+/// A command tried on the model.
+#[derive(Debug, Clone)]
+pub struct Trial {
+    /// The state reached.
+    pub state: DeploymentState,
+    /// The solver's status (the first non-converged increment stops it).
+    pub status: RelaxStatus,
+    /// Limits over all increments: worst values and every violation.
+    pub check: LimitCheck,
+}
+
+impl Trial {
+    /// Converged, and no limit broken at any increment.
+    pub fn admissible(&self) -> bool {
+        self.status.is_converged() && self.check.ok()
+    }
+
+    /// Why the trial is not admissible, in words.
+    pub fn failure(&self) -> String {
+        if !self.status.is_converged() {
+            format!("the model {}", self.status.describe())
+        } else {
+            self.check.violations.first().cloned().unwrap_or_default()
+        }
+    }
+}
+
+/// Collects the worst limit values over a command's increments.
+struct LimitWatch<'c, 'a> {
+    context: &'c PlanContext<'a>,
+    worst: Option<LimitCheck>,
+}
+
+impl IncrementObserver for LimitWatch<'_, '_> {
+    fn on_increment(&mut self, _: usize, _: usize, r: &RelaxReport, state: &DeploymentState) {
+        if !r.status.is_converged() {
+            return;
+        }
+        let c = self
+            .context
+            .limits
+            .check(self.context.model, state, r.tolerance_n);
+        self.worst = Some(match self.worst.take() {
+            None => c,
+            Some(mut w) => {
+                w.worst_utilisation = w.worst_utilisation.max(c.worst_utilisation);
+                w.min_tension_n = w.min_tension_n.min(c.min_tension_n);
+                w.min_clearance_m = w.min_clearance_m.min(c.min_clearance_m);
+                w.violations.extend(c.violations);
+                w
+            }
+        });
+    }
+}
+
+/// A command a planner decided on, already tried on the model.
+#[derive(Debug, Clone)]
+pub struct PlannedCommand {
+    /// Payout change per motor, m.
+    pub command_m: Vec<f64>,
+    /// Predicted gap per pair, m, where the planner predicts.
+    pub predicted_gaps_m: Option<Vec<f64>>,
+    /// The trial that confirmed it.
+    pub trial: Trial,
+    /// Constraints active in the decision.
+    pub active_constraints: Vec<String>,
+    /// QP status (QP planner).
+    pub qp_status: Option<QpStepStatus>,
+    /// Trust region, m (QP planner).
+    pub trust_region_m: Option<f64>,
+    /// Trials rejected first.
+    pub rejected_trials: usize,
+}
+
+/// What a planner does next.
+#[derive(Debug, Clone)]
+pub enum Decision {
+    /// Send this command.
+    Command(Box<PlannedCommand>),
+    /// Stop with this status.
+    Stop(PlanStatus),
+}
+
+/// The interface every planner implements.
+pub trait CommandPlanner {
+    /// Decides the next command from `state` (on `context.model`).
+    fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision;
+}
+
+/// The planner a policy names, starting from `start`.
+pub fn planner_for(context: &PlanContext, start: &DeploymentState) -> Box<dyn CommandPlanner> {
+    match context.policy.planner {
+        PlannerKind::Nominal => Box::new(super::baselines::NominalPlanner::new(context, start)),
+        PlannerKind::GreedyTree => Box::new(super::baselines::GreedyTreePlanner::new(context)),
+        PlannerKind::Qp => Box::new(super::search::QpPlanner::new(context)),
+    }
+}
+
+/// The folded start: the designed state relaxed, then every motor paid
+/// out by the problem's start payout through the model.
+pub fn folded_start(
+    model: &ForwardModel,
+    problem: &DeploymentProblem,
+    increment_m: f64,
+) -> Result<DeploymentState, PlanError> {
+    let motors = problem.motor_limits(model.structure().continuous_cables.len())?;
+    let mut ws = Workspace::default();
+    let mut state = model.reference_state();
+    let r = model.relax(&mut state, &mut ws);
+    if !r.status.is_converged() {
+        return Err(PlanError::Start(r.status));
+    }
+    let r = model.apply_payout(
+        &mut state,
+        &mut ws,
+        &motors.start_payout_m,
+        increment_m,
+        &mut (),
+    )?;
+    if !r.status.is_converged() {
+        return Err(PlanError::Start(r.status));
+    }
+    Ok(state)
+}
+
+/// Plans an open-loop command sequence on `model` from `start` (the model
+/// is its own truth): each command is the planner's confirmed trial.
+pub fn plan_open_loop(
+    model: &ForwardModel,
+    problem: &DeploymentProblem,
+    policy: &Policy,
+    start: &DeploymentState,
+) -> Result<Plan, PlanError> {
+    let context = PlanContext::new(model, problem, policy, start)?;
+    let mut planner = planner_for(&context, start);
+    let mut state = start.clone();
+    let mut records = Vec::new();
+    let status = loop {
+        if context.connected(&state) {
+            break PlanStatus::Connected;
+        }
+        if records.len() >= policy.max_commands {
+            break PlanStatus::CommandLimit;
+        }
+        let clock = Instant::now();
+        match planner.next_command(&context, &state) {
+            Decision::Stop(status) => break status,
+            Decision::Command(c) => {
+                let gaps_m = c.trial.state.midspan_gaps_m(model.structure());
+                records.push(CommandRecord {
+                    command_m: c.command_m,
+                    predicted_gaps_m: c.predicted_gaps_m,
+                    gaps_m,
+                    worst_utilisation: c.trial.check.worst_utilisation,
+                    min_tension_n: c.trial.check.min_tension_n,
+                    min_clearance_m: c.trial.check.min_clearance_m,
+                    active_constraints: c.active_constraints,
+                    qp_status: c.qp_status,
+                    trust_region_m: c.trust_region_m,
+                    rejected_trials: c.rejected_trials,
+                    planning_time_s: clock.elapsed().as_secs_f64(),
+                });
+                state = c.trial.state;
+            }
+        }
+    };
+    Ok(Plan {
+        status,
+        start_gaps_m: start.midspan_gaps_m(model.structure()),
+        records,
+        final_state: state,
+    })
+}

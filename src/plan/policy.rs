@@ -1,0 +1,345 @@
+//! Policies as data: which planner, its step sizes, trust region, weights
+//! and margins, how many commands it may use, and what the controller
+//! measures. Files in `policies/` hold them (read by `io::policy_file`).
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Which planner a policy runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlannerKind {
+    /// Even actuation: every motor reeled in by its fold payout in equal
+    /// steps of the largest step, the seed lab's predetermined commands.
+    Nominal,
+    /// Candidate moves of ±δ per motor, each simulated, the one that
+    /// reduces the largest gap most kept (Sychterz & Smith 2018).
+    GreedyTree,
+    /// Sequential convex programming: a QP on one-sided sensitivities in a
+    /// trust region, confirmed by a forward re-solve.
+    Qp,
+}
+
+impl PlannerKind {
+    /// Short name, as in policy files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PlannerKind::Nominal => "nominal",
+            PlannerKind::GreedyTree => "greedy_tree",
+            PlannerKind::Qp => "qp",
+        }
+    }
+}
+
+/// What the controller measures between commands (for closed-loop use;
+/// the open-loop planner reads its model's state).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Measurement {
+    /// Positions of the midspan nodes.
+    MidspanPositions,
+    /// Load cells on the continuous cables at the midspan joints.
+    LoadCells,
+}
+
+/// The QP planner's trust region on each motor's move, m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrustRegion {
+    /// Radius at the first command, m. Default 0.05 (one full step).
+    pub initial_m: f64,
+    /// Below this the region has collapsed: the linear model cannot be
+    /// trusted for any move the motors can make, m. Default 0.002.
+    pub min_m: f64,
+    /// Largest radius, m. Default 0.05.
+    pub max_m: f64,
+    /// Factor on a rejected step. Default 0.5.
+    pub shrink: f64,
+    /// Factor after a step that did as predicted (ratio ≥ `grow_ratio`)
+    /// on the region's edge. Default 2.
+    pub grow: f64,
+    /// Smallest ratio of actual to predicted reduction of the gap
+    /// objective for a step to be accepted (η). Default 0.1.
+    pub acceptance_ratio: f64,
+    /// Ratio above which the region grows. Default 0.75.
+    pub grow_ratio: f64,
+}
+
+impl Default for TrustRegion {
+    fn default() -> Self {
+        TrustRegion {
+            initial_m: 0.05,
+            min_m: 0.002,
+            max_m: 0.05,
+            shrink: 0.5,
+            grow: 2.0,
+            acceptance_ratio: 0.1,
+            grow_ratio: 0.75,
+        }
+    }
+}
+
+/// Weights of the QP step's objective.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Weights {
+    /// Weight of each midspan pair's squared gap: one value for all or one
+    /// per pair. Default 1.
+    pub gap: Vec<f64>,
+    /// ρ on ‖u‖², dimensionless. Default 1e-5: far below the squared gap
+    /// sensitivities (~1e-3), so it only settles motors that barely move
+    /// the gaps.
+    pub regularisation: f64,
+    /// κ on Σ(u⁺ + u⁻), m. Default 1e-6: enough to break ties towards
+    /// moving a motor one way only.
+    pub split_penalty: f64,
+    /// Cost of softening a linearised limit by one unit of its scale
+    /// (100 N, 10 mm), m². Default 10: a thousand times the gap objective
+    /// of the folded bridge, so limits soften only when no command meets
+    /// them. 0 disables the softened fallback (an infeasible step holds).
+    pub soft_limit_penalty: f64,
+}
+
+impl Default for Weights {
+    fn default() -> Self {
+        Weights {
+            gap: vec![1.0],
+            regularisation: 1e-5,
+            split_penalty: 1e-6,
+            soft_limit_penalty: 10.0,
+        }
+    }
+}
+
+/// A control policy.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Policy {
+    /// Name for reports.
+    pub name: String,
+    /// Which planner.
+    pub planner: PlannerKind,
+    /// Largest number of commands. Default 40: eight times the nominal
+    /// sequence's 8 steps for a 40 cm fold.
+    pub max_commands: usize,
+    /// Largest payout increment of a forward solve, m. Default 0.01: the
+    /// seed's 1 cm actuation step, as every model command uses.
+    pub increment_m: f64,
+    /// The planner stops when every gap is within the connection
+    /// tolerance less this margin, m. Default 0.005: room for the model
+    /// error a closed loop has to absorb.
+    pub connection_margin_m: f64,
+    /// Margin on the member-force limits in the QP, N. Default 5 N: the
+    /// linearisation error of a 5 cm step in the folded bridge's softest
+    /// cables.
+    pub force_margin_n: f64,
+    /// Margin on the strut clearance in the QP, m. Default 0.002.
+    pub clearance_margin_m: f64,
+    /// Struts closer than the clearance limit plus this enter the QP as
+    /// linearised constraints, m. Default 0.1 (twice the largest step's
+    /// node motion).
+    pub clearance_watch_m: f64,
+    /// One-sided finite-difference (secant) step of the sensitivities, m.
+    /// Default 0.05, the largest step: with friction the local slope is
+    /// not the response to a step. At the fold (μ = 0.2) every joint
+    /// sticks for a small reel-in, and 2 mm slopes say a reel-in *opens*
+    /// the gaps (the QP then finds no descent); over 5 cm the joints slip
+    /// and the secant slopes close them, as the model does.
+    pub sensitivity_step_m: f64,
+    /// The greedy tree's move size δ, m. Default 0.05 (one full step).
+    pub greedy_move_m: f64,
+    /// The greedy tree halves δ when no move helps, down to this, m.
+    /// Default 0.005.
+    pub greedy_min_move_m: f64,
+    /// Trust region (QP planner).
+    pub trust_region: TrustRegion,
+    /// Objective weights (QP planner).
+    pub weights: Weights,
+    /// What the controller measures.
+    pub measures: Vec<Measurement>,
+}
+
+impl Default for Policy {
+    fn default() -> Self {
+        Policy {
+            name: "qp".into(),
+            planner: PlannerKind::Qp,
+            max_commands: 40,
+            increment_m: 0.01,
+            connection_margin_m: 0.005,
+            force_margin_n: 5.0,
+            clearance_margin_m: 0.002,
+            clearance_watch_m: 0.1,
+            sensitivity_step_m: 0.05,
+            greedy_move_m: 0.05,
+            greedy_min_move_m: 0.005,
+            trust_region: TrustRegion::default(),
+            weights: Weights::default(),
+            measures: vec![Measurement::MidspanPositions, Measurement::LoadCells],
+        }
+    }
+}
+
+/// A policy field outside its range.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("policy field `{field}`: {reason}")]
+pub struct PolicyError {
+    /// Field path, e.g. `trust_region.shrink`.
+    pub field: &'static str,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl Policy {
+    /// Checks every field: finite and in range.
+    pub fn validate(&self) -> Result<(), PolicyError> {
+        let check = |field: &'static str, v: f64, ok: bool, expected: &str| {
+            if v.is_finite() && ok {
+                Ok(())
+            } else {
+                Err(PolicyError {
+                    field,
+                    reason: format!("{v} is not {expected}"),
+                })
+            }
+        };
+        let length = |field, v: f64| check(field, v, v > 0.0 && v <= 1.0, "a length in (0, 1] m");
+        check(
+            "max_commands",
+            self.max_commands as f64,
+            (1..=10_000).contains(&self.max_commands),
+            "a count from 1 to 10000",
+        )?;
+        length("increment_m", self.increment_m)?;
+        check(
+            "connection_margin_m",
+            self.connection_margin_m,
+            (0.0..1.0).contains(&self.connection_margin_m),
+            "a length in [0, 1) m",
+        )?;
+        check(
+            "force_margin_n",
+            self.force_margin_n,
+            self.force_margin_n >= 0.0,
+            "a non-negative force in N",
+        )?;
+        check(
+            "clearance_margin_m",
+            self.clearance_margin_m,
+            (0.0..1.0).contains(&self.clearance_margin_m),
+            "a length in [0, 1) m",
+        )?;
+        check(
+            "clearance_watch_m",
+            self.clearance_watch_m,
+            (0.0..=10.0).contains(&self.clearance_watch_m),
+            "a length in [0, 10] m",
+        )?;
+        length("sensitivity_step_m", self.sensitivity_step_m)?;
+        length("greedy_move_m", self.greedy_move_m)?;
+        length("greedy_min_move_m", self.greedy_min_move_m)?;
+        check(
+            "greedy_min_move_m",
+            self.greedy_min_move_m,
+            self.greedy_min_move_m <= self.greedy_move_m,
+            "at most greedy_move_m",
+        )?;
+        let t = &self.trust_region;
+        length("trust_region.min_m", t.min_m)?;
+        length("trust_region.max_m", t.max_m)?;
+        check(
+            "trust_region.initial_m",
+            t.initial_m,
+            t.min_m <= t.initial_m && t.initial_m <= t.max_m,
+            "between trust_region.min_m and trust_region.max_m",
+        )?;
+        check(
+            "trust_region.shrink",
+            t.shrink,
+            t.shrink > 0.0 && t.shrink < 1.0,
+            "a factor in (0, 1)",
+        )?;
+        check(
+            "trust_region.grow",
+            t.grow,
+            t.grow >= 1.0 && t.grow <= 10.0,
+            "a factor in [1, 10]",
+        )?;
+        check(
+            "trust_region.acceptance_ratio",
+            t.acceptance_ratio,
+            t.acceptance_ratio > 0.0 && t.acceptance_ratio < 1.0,
+            "a ratio in (0, 1)",
+        )?;
+        check(
+            "trust_region.grow_ratio",
+            t.grow_ratio,
+            t.grow_ratio >= t.acceptance_ratio && t.grow_ratio <= 1.0,
+            "a ratio in [acceptance_ratio, 1]",
+        )?;
+        let w = &self.weights;
+        if w.gap.is_empty() {
+            return Err(PolicyError {
+                field: "weights.gap",
+                reason: "an empty list; give one weight or one per midspan pair".into(),
+            });
+        }
+        for &g in &w.gap {
+            check("weights.gap", g, g >= 0.0, "a non-negative weight")?;
+        }
+        check(
+            "weights.gap",
+            w.gap.iter().sum(),
+            w.gap.iter().sum::<f64>() > 0.0,
+            "a list with a positive weight",
+        )?;
+        check(
+            "weights.regularisation",
+            w.regularisation,
+            w.regularisation > 0.0 && w.regularisation <= 1.0,
+            "a weight in (0, 1] (positive keeps the QP strictly convex)",
+        )?;
+        check(
+            "weights.split_penalty",
+            w.split_penalty,
+            w.split_penalty >= 0.0 && w.split_penalty <= 1.0,
+            "a weight in [0, 1] m",
+        )?;
+        check(
+            "weights.soft_limit_penalty",
+            w.soft_limit_penalty,
+            w.soft_limit_penalty >= 0.0,
+            "a non-negative weight",
+        )?;
+        Ok(())
+    }
+
+    /// Weight of each of `pairs` midspan pairs; `None` if the list has
+    /// neither one entry nor one per pair.
+    pub fn gap_weights(&self, pairs: usize) -> Option<Vec<f64>> {
+        match self.weights.gap.len() {
+            1 => Some(vec![self.weights.gap[0]; pairs]),
+            n if n == pairs => Some(self.weights.gap.clone()),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_policy_is_valid_and_bad_fields_are_named() {
+        Policy::default().validate().unwrap();
+        let mut p = Policy::default();
+        p.trust_region.shrink = 1.5;
+        assert_eq!(p.validate().unwrap_err().field, "trust_region.shrink");
+        let mut p = Policy::default();
+        p.trust_region.initial_m = 0.2;
+        assert_eq!(p.validate().unwrap_err().field, "trust_region.initial_m");
+        let mut p = Policy::default();
+        p.weights.gap = vec![1.0, 2.0];
+        assert_eq!(p.gap_weights(5), None);
+    }
+}

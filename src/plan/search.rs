@@ -1,0 +1,264 @@
+//! Sequential convex programming with a trust region: linearise at the
+//! state, solve the QP step, confirm it by a forward re-solve with
+//! friction, accept it only if it reduces the gaps as predicted and breaks
+//! no limit at any increment; otherwise shrink the region and plan again
+//! from the same linearisation. Re-linearise after every accepted step.
+//!
+//! Acceptance: with merit `m = Σ w‖g‖²`, the ratio ρ = (m₀ − m_actual) /
+//! (m₀ − m_predicted) must reach η (`trust_region.acceptance_ratio`); a
+//! step on the region's edge with ρ ≥ `grow_ratio` grows the region.
+//! The region collapsing below its minimum, or a step that predicts no
+//! reduction, ends the plan as not reachable, naming the active limits.
+
+use nalgebra::Vector3;
+
+use super::limits::{force_row_name, force_rows, strut_clearance};
+use super::outcome::PlanStatus;
+use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand};
+use super::qp_step::{
+    solve_step, step_solver_settings, LinearLimit, QpStep, QpStepStatus, StepData, StepWeights,
+};
+use super::response::PayoutResponse;
+use crate::model::DeploymentState;
+
+/// Scale of force rows in the QP, N.
+const FORCE_SCALE_N: f64 = 100.0;
+/// Scale of clearance rows in the QP, m.
+const CLEARANCE_SCALE_M: f64 = 0.01;
+/// A predicted merit reduction below this, m², is no reduction: (0.1 mm)².
+const NO_REDUCTION_M2: f64 = 1e-8;
+
+/// The QP planner's state between commands: its trust region.
+#[derive(Debug, Clone)]
+pub struct QpPlanner {
+    trust_region_m: f64,
+}
+
+impl QpPlanner {
+    /// A planner at the policy's initial trust region.
+    pub fn new(context: &PlanContext) -> Self {
+        QpPlanner {
+            trust_region_m: context.policy.trust_region.initial_m,
+        }
+    }
+}
+
+/// The step data at `state` from its responses, for a trust region
+/// `trust_region_m`. Limits enter only where the largest move the region
+/// allows could reach them (twice the linear estimate, for curvature);
+/// the others cannot become active and would only slow the solver.
+pub fn step_data(
+    context: &PlanContext,
+    state: &DeploymentState,
+    response: &PayoutResponse,
+    trust_region_m: f64,
+) -> StepData {
+    let s = context.model.structure();
+    let p = context.policy;
+    let motors = &context.motors;
+    let n = state.payout_m.len();
+    let reach: Vec<f64> = (0..n)
+        .map(|c| 2.0 * trust_region_m.min(motors.max_step_m[c]))
+        .collect();
+    let mut limits = Vec::new();
+    let forces = force_rows(context.model, state);
+    for (r, (&f, b)) in forces.iter().zip(&context.limits.force).enumerate() {
+        let out: Vec<f64> = response
+            .pay_out
+            .iter()
+            .map(|e| e.force_n_per_m[r])
+            .collect();
+        let inn: Vec<f64> = response
+            .reel_in
+            .iter()
+            .map(|e| e.force_n_per_m[r])
+            .collect();
+        let swing: f64 = (0..n)
+            .map(|c| out[c].abs().max(inn[c].abs()) * reach[c])
+            .sum();
+        // The QP keeps the policy's margin from each limit; a member
+        // already inside the margin band may close half its distance to
+        // the limit per step (a bound at the current value would freeze a
+        // stuck segment that any small move slackens a little).
+        let lower = b.lower_n + p.force_margin_n.min(0.5 * (f - b.lower_n).max(0.0));
+        let upper = b.upper_n - p.force_margin_n.min(0.5 * (b.upper_n - f).max(0.0));
+        let near_lower = f - lower <= swing + p.force_margin_n;
+        let near_upper = upper - f <= swing + p.force_margin_n;
+        if !(near_lower || near_upper) {
+            continue;
+        }
+        limits.push(LinearLimit {
+            name: force_row_name(s, r),
+            value: f,
+            pay_out: out,
+            reel_in: inn,
+            lower: if near_lower { lower } else { f64::NEG_INFINITY },
+            upper: if near_upper { upper } else { f64::INFINITY },
+            scale: FORCE_SCALE_N,
+        });
+    }
+    for (pair, &min) in context
+        .limits
+        .strut_pairs
+        .iter()
+        .zip(&context.limits.min_clearance_m)
+    {
+        let (d, sa, tb) = strut_clearance(s, &state.positions_m, *pair);
+        if d > min + p.clearance_watch_m || d <= 1e-9 {
+            continue;
+        }
+        let [a, b] = pair.map(|m| s.members[m].nodes);
+        let pa = state.positions_m[a[0]] * (1.0 - sa) + state.positions_m[a[1]] * sa;
+        let pb = state.positions_m[b[0]] * (1.0 - tb) + state.positions_m[b[1]] * tb;
+        let normal = (pa - pb) / d;
+        // d(distance) = n·(dpa − dpb) with the closest points held
+        // (envelope theorem).
+        let slope = |v: &[Vector3<f64>]| {
+            let dpa = v[a[0]] * (1.0 - sa) + v[a[1]] * sa;
+            let dpb = v[b[0]] * (1.0 - tb) + v[b[1]] * tb;
+            normal.dot(&(dpa - dpb))
+        };
+        limits.push(LinearLimit {
+            name: format!(
+                "clearance {}–{}",
+                s.members[pair[0]].id, s.members[pair[1]].id
+            ),
+            value: d,
+            pay_out: response
+                .pay_out
+                .iter()
+                .map(|e| slope(&e.positions_m_per_m))
+                .collect(),
+            reel_in: response
+                .reel_in
+                .iter()
+                .map(|e| slope(&e.positions_m_per_m))
+                .collect(),
+            lower: min + p.clearance_margin_m.min(0.5 * (d - min).max(0.0)),
+            upper: f64::INFINITY,
+            scale: CLEARANCE_SCALE_M,
+        });
+    }
+    StepData {
+        gaps_m: context.gap_vectors(state),
+        gap_weights: context.gap_weights.clone(),
+        gap_pay_out: response.pair_matrix(&s.midspan_pairs, true),
+        gap_reel_in: response.pair_matrix(&s.midspan_pairs, false),
+        limits,
+        payout_m: state.payout_m.clone(),
+        min_payout_m: motors.min_payout_m.clone(),
+        max_payout_m: motors.max_payout_m.clone(),
+        max_step_m: motors.max_step_m.clone(),
+        trust_region_m,
+        motor_names: s.continuous_cables.iter().map(|c| c.id.clone()).collect(),
+    }
+}
+
+/// The step weights of a policy.
+pub fn step_weights(context: &PlanContext) -> StepWeights {
+    let w = &context.policy.weights;
+    StepWeights {
+        regularisation: w.regularisation,
+        split_penalty: w.split_penalty,
+        soft_limit_penalty: (w.soft_limit_penalty > 0.0).then_some(w.soft_limit_penalty),
+    }
+}
+
+fn norms(v: &[Vector3<f64>]) -> Vec<f64> {
+    v.iter().map(|g| g.norm()).collect()
+}
+
+impl CommandPlanner for QpPlanner {
+    fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
+        let tr = context.policy.trust_region;
+        let response = match PayoutResponse::finite_difference(
+            context.model,
+            state,
+            context.policy.sensitivity_step_m,
+            context.policy.increment_m,
+        ) {
+            Ok(r) => r,
+            Err(e) => {
+                return Decision::Stop(PlanStatus::SolverFailure {
+                    reason: format!("sensitivities: {e}"),
+                })
+            }
+        };
+        let mut data = step_data(context, state, &response, self.trust_region_m);
+        let weights = step_weights(context);
+        let merit0 = context.gap_merit(&data.gaps_m);
+        let mut rejected = 0;
+        loop {
+            data.trust_region_m = self.trust_region_m;
+            let step: QpStep = solve_step(&data, &weights, &step_solver_settings());
+            match step.status {
+                QpStepStatus::Infeasible => {
+                    return Decision::Stop(PlanStatus::NotReachable {
+                        reason: "no command meets the linearised limits (QP infeasible)".into(),
+                    })
+                }
+                QpStepStatus::NumericalTrouble => {
+                    return Decision::Stop(PlanStatus::SolverFailure {
+                        reason: "the QP solver failed numerically".into(),
+                    })
+                }
+                _ => {}
+            }
+            let predicted = merit0 - context.gap_merit(&step.predicted_gaps_m);
+            let largest = step.command_m.iter().fold(0.0f64, |a, d| a.max(d.abs()));
+            if !(predicted > NO_REDUCTION_M2) || largest < 1e-6 {
+                let active = if step.active_constraints.is_empty() {
+                    "none".to_string()
+                } else {
+                    step.active_constraints.join(", ")
+                };
+                return Decision::Stop(PlanStatus::NotReachable {
+                    reason: format!(
+                        "no admissible command reduces the gaps (largest gap {:.1} mm); active: {active}",
+                        1e3 * norms(&data.gaps_m).iter().fold(0.0f64, |a, b| a.max(*b))
+                    ),
+                });
+            }
+            if !context.command_admissible(state, &step.command_m) {
+                // Cannot happen for a solved QP (its bounds are these
+                // limits); treat as numerical trouble, never send it.
+                return Decision::Stop(PlanStatus::SolverFailure {
+                    reason: "the QP step breaks a motor limit".into(),
+                });
+            }
+            let trial = context.trial(state, &step.command_m);
+            let actual = merit0 - context.gap_merit(&context.gap_vectors(&trial.state));
+            let ratio = actual / predicted;
+            if trial.admissible() && ratio >= tr.acceptance_ratio {
+                let radius = self.trust_region_m;
+                if ratio >= tr.grow_ratio && largest >= 0.99 * radius {
+                    self.trust_region_m = (radius * tr.grow).min(tr.max_m);
+                }
+                return Decision::Command(Box::new(PlannedCommand {
+                    command_m: step.command_m,
+                    predicted_gaps_m: Some(norms(&step.predicted_gaps_m)),
+                    trial,
+                    active_constraints: step.active_constraints,
+                    qp_status: Some(step.status),
+                    trust_region_m: Some(radius),
+                    rejected_trials: rejected,
+                }));
+            }
+            let last_failure = if trial.admissible() {
+                format!("reduction ratio {ratio:.2} below {}", tr.acceptance_ratio)
+            } else {
+                trial.failure()
+            };
+            rejected += 1;
+            self.trust_region_m *= tr.shrink;
+            if self.trust_region_m < tr.min_m {
+                return Decision::Stop(PlanStatus::NotReachable {
+                    reason: format!(
+                        "trust region collapsed below {:.1} mm (last trial: {last_failure})",
+                        1e3 * tr.min_m
+                    ),
+                });
+            }
+        }
+    }
+}
