@@ -20,6 +20,7 @@ use std::path::Path;
 
 use serde::de::DeserializeOwned;
 
+use super::toml_text::syntax_error;
 use super::FileError;
 use crate::plan::DeploymentProblem;
 
@@ -49,19 +50,7 @@ pub(crate) fn parse_versioned<T: DeserializeOwned>(
     path: &Path,
     format: &str,
 ) -> Result<T, FileError> {
-    let syntax = |e: toml::de::Error| {
-        let (line, column) = e
-            .span()
-            .map(|span| line_column(text, span.start))
-            .unwrap_or((0, 0));
-        FileError::Syntax {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message: e.message().to_string(),
-        }
-    };
-    let mut table: toml::Table = toml::from_str(text).map_err(syntax)?;
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| syntax_error(text, path, &e))?;
     match table.remove("format") {
         Some(toml::Value::String(f)) if f == format => {}
         Some(other) => {
@@ -94,18 +83,7 @@ pub(crate) fn parse_versioned<T: DeserializeOwned>(
         })
         .collect::<Vec<_>>()
         .join("\n");
-    toml::from_str(&without_format).map_err(|e| {
-        let (line, column) = e
-            .span()
-            .map(|span| line_column(&without_format, span.start))
-            .unwrap_or((0, 0));
-        FileError::Syntax {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message: e.message().to_string(),
-        }
-    })
+    toml::from_str(&without_format).map_err(|e| syntax_error(&without_format, path, &e))
 }
 
 /// `true` if line `l` (a slice of `text`) comes after a `[table]` header.
@@ -146,14 +124,6 @@ pub(crate) fn field_line(text: &str, field: &str) -> usize {
         }
     }
     1
-}
-
-/// 1-based line and column of byte `offset` in `text`.
-fn line_column(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let column = before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1;
-    (line, column)
 }
 
 #[cfg(test)]
