@@ -100,7 +100,7 @@ impl GreedyTreePlanner {
 
 /// Largest gap, then sum of gaps, m.
 fn score(context: &PlanContext, state: &DeploymentState) -> (f64, f64) {
-    let g = state.midspan_gaps_m(context.model.structure());
+    let g = context.gaps_m(state);
     (g.iter().fold(0.0f64, |a, b| a.max(*b)), g.iter().sum())
 }
 

@@ -225,14 +225,20 @@ impl Limits {
 
     /// Checks a state against every limit; `tolerance_n` absorbs the
     /// solver's force tolerance (a force within it of a bound is on it).
+    /// `force_offsets_n` are added to the model's force rows (measured −
+    /// predicted, see [`super::correction`]); missing rows count as zero.
     pub fn check(
         &self,
         model: &ForwardModel,
         state: &DeploymentState,
         tolerance_n: f64,
+        force_offsets_n: &[f64],
     ) -> LimitCheck {
         let s = model.structure();
-        let rows = force_rows(model, state);
+        let mut rows = force_rows(model, state);
+        for (f, o) in rows.iter_mut().zip(force_offsets_n) {
+            *f += o;
+        }
         let mut out = LimitCheck {
             worst_utilisation: 0.0,
             min_tension_n: f64::INFINITY,

@@ -9,12 +9,14 @@
 //! - [`search`]: sequential convex programming with a trust region;
 //! - [`baselines`]: nominal even actuation and the greedy tree;
 //! - [`policy`]: policies as data;
+//! - [`correction`]: how a measurement corrects the model's predictions;
 //! - [`planner`]: the planners' shared trait, trials and the open-loop
 //!   driver; [`outcome`]: plans and their status.
 //!
 //! Pure numerics: a plan is a function of (model, problem, policy, state).
 
 pub mod baselines;
+pub mod correction;
 pub mod limits;
 pub mod outcome;
 pub mod planner;
@@ -24,6 +26,7 @@ pub mod qp_step;
 pub mod response;
 pub mod search;
 
+pub use correction::ModelCorrection;
 pub use outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 pub use planner::{
     folded_start, plan_open_loop, planner_for, CommandPlanner, Decision, PlanContext,

@@ -8,6 +8,7 @@
 
 use std::time::Instant;
 
+use super::correction::ModelCorrection;
 use super::limits::{LimitCheck, Limits};
 use super::outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 use super::policy::{PlannerKind, Policy, PolicyError};
@@ -32,6 +33,9 @@ pub struct PlanContext<'a> {
     pub limits: Limits,
     /// Weight of each midspan pair's squared gap.
     pub gap_weights: Vec<f64>,
+    /// Offsets from the last measurement added to every prediction
+    /// (zeros open loop; see [`ModelCorrection`]).
+    pub correction: ModelCorrection,
 }
 
 impl<'a> PlanContext<'a> {
@@ -58,6 +62,8 @@ impl<'a> PlanContext<'a> {
                     s.midspan_pairs.len()
                 ),
             })?;
+        let correction =
+            ModelCorrection::none(s.midspan_pairs.len(), s.members.len() + s.segment_count());
         Ok(PlanContext {
             model,
             problem,
@@ -65,17 +71,27 @@ impl<'a> PlanContext<'a> {
             motors,
             limits: Limits::new(model, problem, start),
             gap_weights,
+            correction,
         })
     }
 
-    /// Gap vectors `x_a − x_b` of the midspan pairs, m.
+    /// Gap vectors `x_a − x_b` of the midspan pairs as the controller
+    /// predicts them: the model's, plus the measured offsets, m.
     pub fn gap_vectors(&self, state: &DeploymentState) -> Vec<nalgebra::Vector3<f64>> {
         self.model
             .structure()
             .midspan_pairs
             .iter()
-            .map(|[a, b]| state.positions_m[*a] - state.positions_m[*b])
+            .enumerate()
+            .map(|(p, [a, b])| {
+                state.positions_m[*a] - state.positions_m[*b] + self.correction.gap_offset_m(p)
+            })
             .collect()
+    }
+
+    /// Lengths of [`Self::gap_vectors`], m.
+    pub fn gaps_m(&self, state: &DeploymentState) -> Vec<f64> {
+        self.gap_vectors(state).iter().map(|g| g.norm()).collect()
     }
 
     /// Weighted sum of squared gaps, m²: the merit the QP planner reduces.
@@ -89,10 +105,7 @@ impl<'a> PlanContext<'a> {
     /// `true` when every gap is within the tolerance less the margin.
     pub fn connected(&self, state: &DeploymentState) -> bool {
         let goal = self.problem.connection_tolerance_m - self.policy.connection_margin_m;
-        state
-            .midspan_gaps_m(self.model.structure())
-            .iter()
-            .all(|g| *g <= goal)
+        self.gaps_m(state).iter().all(|g| *g <= goal)
     }
 
     /// Whether `command` keeps every motor in its stroke and step limits
@@ -130,9 +143,10 @@ impl<'a> PlanContext<'a> {
             // diverged one: never accepted.
             Err(_) => RelaxStatus::Diverged,
         };
-        let check = watch
-            .worst
-            .unwrap_or_else(|| self.limits.check(self.model, &next, 0.0));
+        let check = watch.worst.unwrap_or_else(|| {
+            self.limits
+                .check(self.model, &next, 0.0, &self.correction.force_offsets_n)
+        });
         Trial {
             state: next,
             status,
@@ -179,10 +193,12 @@ impl IncrementObserver for LimitWatch<'_, '_> {
         if !r.status.is_converged() {
             return;
         }
-        let c = self
-            .context
-            .limits
-            .check(self.context.model, state, r.tolerance_n);
+        let c = self.context.limits.check(
+            self.context.model,
+            state,
+            r.tolerance_n,
+            &self.context.correction.force_offsets_n,
+        );
         self.worst = Some(match self.worst.take() {
             None => c,
             Some(mut w) => {

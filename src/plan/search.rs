@@ -62,7 +62,8 @@ pub fn step_data(
         .collect();
     let mut limits = Vec::new();
     let forces = force_rows(context.model, state);
-    for (r, (&f, b)) in forces.iter().zip(&context.limits.force).enumerate() {
+    for (r, (&model_f, b)) in forces.iter().zip(&context.limits.force).enumerate() {
+        let f = model_f + context.correction.force_offset_n(r);
         let out: Vec<f64> = response
             .pay_out
             .iter()

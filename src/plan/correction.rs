@@ -1,0 +1,58 @@
+//! How the controller reconciles its model with a measurement: an
+//! output-bias correction, as offset-free model-predictive control does.
+//!
+//! After each command the controller holds two states: its model's
+//! prediction (the command applied to the model's previous state, with
+//! friction) and the plant's noisy measurement of some of it (midspan node
+//! positions, load cells). It does not move its model state onto the
+//! measurement (a set of node coordinates is no equilibrium of the model,
+//! and most of the structure is not measured). Instead it keeps its model
+//! state and records, for every measured quantity, the offset
+//!
+//! ```text
+//!     offset = measured − predicted
+//! ```
+//!
+//! and adds that offset to every prediction of the same quantity until the
+//! next measurement: to the midspan gap vectors the QP closes and the
+//! connection test reads, and to the force rows the member limits bound.
+//! The planner therefore closes the *measured* gaps and keeps the
+//! *measured* forces inside their limits, using the model only for how
+//! they change with a command (its sensitivities), which is what a model
+//! with missing effects still gets roughly right. Quantities that are not
+//! measured keep a zero offset.
+
+use nalgebra::Vector3;
+
+/// Offsets added to the model's predictions (measured − predicted at the
+/// last measurement); zeros when planning open loop.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ModelCorrection {
+    /// Offset of each midspan pair's gap vector `x_a − x_b`, m.
+    pub gap_offsets_m: Vec<Vector3<f64>>,
+    /// Offset of each force row (members, then segments), N.
+    pub force_offsets_n: Vec<f64>,
+}
+
+impl ModelCorrection {
+    /// No correction, for `pairs` midspan pairs and `force_rows` rows.
+    pub fn none(pairs: usize, force_rows: usize) -> Self {
+        ModelCorrection {
+            gap_offsets_m: vec![Vector3::zeros(); pairs],
+            force_offsets_n: vec![0.0; force_rows],
+        }
+    }
+
+    /// The offset of force row `row`, N (zero where none is recorded).
+    pub fn force_offset_n(&self, row: usize) -> f64 {
+        self.force_offsets_n.get(row).copied().unwrap_or(0.0)
+    }
+
+    /// The offset of midspan pair `pair`'s gap vector, m.
+    pub fn gap_offset_m(&self, pair: usize) -> Vector3<f64> {
+        self.gap_offsets_m
+            .get(pair)
+            .copied()
+            .unwrap_or_else(Vector3::zeros)
+    }
+}
