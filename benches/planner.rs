@@ -1,7 +1,12 @@
-//! Speed of one planned command on the full reference bridge with μ = 0.2,
-//! at the third command of the QP plan from the 40 cm fold (joints
-//! sticking and slipping, the regime the planner spends its time in):
-//! sensitivities, QP and confirming re-solve together, and the QP alone.
+//! Speed of the QP planner on the full reference bridge with μ = 0.2:
+//! - one planned command from a fresh planner (fresh secant
+//!   sensitivities, QP and confirming re-solve) at the third command of
+//!   the plan from the 40 cm fold, joints sticking and slipping;
+//! - the QP alone;
+//! - the whole open-loop plan from the fold to the connection, in which
+//!   most commands reuse the previous command's Broyden-updated responses
+//!   (the per-command times of one such plan are in `tdeploy plan`'s
+//!   plan.csv).
 //!
 //!     cargo bench --bench planner
 
@@ -50,6 +55,11 @@ fn bench(c: &mut Criterion) {
     group.sample_size(50);
     group.bench_function("qp_alone", |b| {
         b.iter(|| solve_step(&data, &weights, &step_solver_settings()))
+    });
+    let full = Policy::default();
+    group.sample_size(10);
+    group.bench_function("open_loop_plan_from_fold_mu0.2", |b| {
+        b.iter(|| tensegrity_deploy::plan::plan_open_loop(&model, &problem, &full, &start))
     });
     group.finish();
 }

@@ -217,3 +217,48 @@ fn a_state_out_of_equilibrium_is_rejected() {
         other => panic!("expected NotConverged, got {other:?}"),
     }
 }
+
+/// The planner's finite differences probe one motor of each bridge half in
+/// the same solve (the halves share no member or cable before connection)
+/// and credit each half's change to its own motor; with the reference's
+/// `h` and tolerance they must match the tangent motor by motor, to the
+/// same allowance as the single-motor differences above. A crediting
+/// error (a half's motion given to the other half's motor) would show as
+/// a response of the size of the derivatives themselves.
+#[test]
+fn grouped_probes_credit_each_half_to_its_own_motor() {
+    use tensegrity_deploy::plan::response::IndependentParts;
+    use tensegrity_deploy::plan::PayoutResponse;
+    for mu in [0.0, 0.2] {
+        let model = model(mu);
+        let mut ws = Workspace::default();
+        let state = moved_state(&model, &mut ws);
+        let parts = IndependentParts::of(&model);
+        let n = model.structure().continuous_cables.len();
+        let groups = parts.probe_groups(n);
+        assert_eq!(groups.len(), n / 2, "{groups:?}");
+        assert!(groups.iter().all(|g| g.len() == 2), "{groups:?}");
+        let tangent = PayoutResponse::tangent(&model, &state).unwrap();
+        let grouped = PayoutResponse::finite_difference(&model, &state, H_M, H_M).unwrap();
+        let split = |e: &tensegrity_deploy::plan::response::MotorEffect| {
+            let members = model.structure().members.len();
+            [
+                e.positions_m_per_m
+                    .iter()
+                    .flat_map(|v| v.iter().copied())
+                    .collect::<Vec<_>>(),
+                e.force_n_per_m[..members].to_vec(),
+                e.force_n_per_m[members..].to_vec(),
+            ]
+        };
+        for (ours, fd) in tangent
+            .pay_out
+            .iter()
+            .zip(&grouped.pay_out)
+            .chain(tangent.reel_in.iter().zip(&grouped.reel_in))
+        {
+            let ratio = error_ratio(&split(ours), &split(fd));
+            assert!(ratio.iter().all(|r| *r <= 1.0), "μ = {mu}: {ratio:?}");
+        }
+    }
+}

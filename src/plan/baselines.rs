@@ -79,6 +79,7 @@ impl CommandPlanner for NominalPlanner {
             qp_status: None,
             trust_region_m: None,
             rejected_trials: 0,
+            linearisations: 0,
         }))
     }
 }
@@ -160,6 +161,7 @@ impl CommandPlanner for GreedyTreePlanner {
                         qp_status: None,
                         trust_region_m: None,
                         rejected_trials: rejected,
+                        linearisations: 0,
                     }));
                 }
             }

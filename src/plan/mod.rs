@@ -32,7 +32,9 @@ pub use planner::{
     folded_start, plan_open_loop, planner_for, CommandPlanner, Decision, PlanContext,
     PlannedCommand, Trial,
 };
-pub use policy::{Measurement, PlannerKind, Policy, PolicyError, TrustRegion, Weights};
+pub use policy::{
+    Measurement, PlannerKind, Policy, PolicyError, SensitivityKind, TrustRegion, Weights,
+};
 pub use problem::{DeploymentProblem, MotorLimits, PerMotor, ProblemError};
 pub use qp_step::{formulate, solve_step, QpStep, QpStepStatus, StepData, StepWeights};
 pub use response::PayoutResponse;

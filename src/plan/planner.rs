@@ -229,6 +229,9 @@ pub struct PlannedCommand {
     pub trust_region_m: Option<f64>,
     /// Trials rejected first.
     pub rejected_trials: usize,
+    /// Linearisations computed for it (QP planner: 1 for the tangent
+    /// alone, 2 when the secants replaced it; 0 for the baselines).
+    pub linearisations: usize,
 }
 
 /// What a planner does next.

@@ -15,6 +15,7 @@ use nalgebra::Vector3;
 use super::limits::{force_row_name, force_rows, strut_clearance};
 use super::outcome::PlanStatus;
 use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand};
+use super::policy::SensitivityKind;
 use super::qp_step::{
     solve_step, step_solver_settings, LinearLimit, QpStep, QpStepStatus, StepData, StepWeights,
 };
@@ -32,6 +33,19 @@ const NO_REDUCTION_M2: f64 = 1e-8;
 #[derive(Debug, Clone)]
 pub struct QpPlanner {
     trust_region_m: f64,
+    /// The last command's responses, Broyden-updated to the state it
+    /// reached, while they predicted it well.
+    kept: Option<KeptResponse>,
+}
+
+/// Responses carried to the next command.
+#[derive(Debug, Clone)]
+struct KeptResponse {
+    response: PayoutResponse,
+    /// The state they are updated to (positions and payout): they are
+    /// used only for a command planned from exactly this state.
+    positions_m: Vec<Vector3<f64>>,
+    payout_m: Vec<f64>,
 }
 
 impl QpPlanner {
@@ -39,6 +53,7 @@ impl QpPlanner {
     pub fn new(context: &PlanContext) -> Self {
         QpPlanner {
             trust_region_m: context.policy.trust_region.initial_m,
+            kept: None,
         }
     }
 }
@@ -169,23 +184,107 @@ fn norms(v: &[Vector3<f64>]) -> Vec<f64> {
     v.iter().map(|g| g.norm()).collect()
 }
 
-impl CommandPlanner for QpPlanner {
-    fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
-        let tr = context.policy.trust_region;
-        let response = match PayoutResponse::finite_difference(
+/// The responses of `kind` at `state`.
+fn responses(
+    context: &PlanContext,
+    state: &DeploymentState,
+    kind: SensitivityKind,
+) -> Result<PayoutResponse, String> {
+    match kind {
+        SensitivityKind::Secant => PayoutResponse::finite_difference(
             context.model,
             state,
             context.policy.sensitivity_step_m,
             context.policy.increment_m,
-        ) {
-            Ok(r) => r,
-            Err(e) => {
-                return Decision::Stop(PlanStatus::SolverFailure {
-                    reason: format!("sensitivities: {e}"),
-                })
+        )
+        .map_err(|e| e.to_string()),
+        SensitivityKind::Tangent => {
+            PayoutResponse::tangent(context.model, state).map_err(|e| e.to_string())
+        }
+    }
+}
+
+/// Why a linearisation gave no command.
+enum StepFailure {
+    /// Stop with this status.
+    Stop(PlanStatus),
+    /// The model did not confirm the linearisation (no descent predicted,
+    /// or the trust region collapsed): another linearisation may do better.
+    Unconfirmed(PlanStatus),
+}
+
+/// Where a command's linearisation comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Linearisation {
+    /// The previous command's responses, updated by what it did.
+    Kept,
+    /// Computed afresh at the state.
+    Fresh(SensitivityKind),
+}
+
+impl CommandPlanner for QpPlanner {
+    fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
+        let policy = context.policy;
+        let kept = self
+            .kept
+            .take()
+            .filter(|k| k.payout_m == state.payout_m && k.positions_m == state.positions_m);
+        let mut order = Vec::new();
+        if kept.is_some() {
+            order.push(Linearisation::Kept);
+        }
+        order.push(Linearisation::Fresh(policy.sensitivities));
+        let radius = self.trust_region_m;
+        let mut kept = kept.map(|k| k.response);
+        let mut last = None;
+        for (n, source) in order.into_iter().enumerate() {
+            // Every linearisation starts from the radius the command
+            // started with.
+            self.trust_region_m = radius;
+            let response = match source {
+                Linearisation::Kept => kept.take(),
+                Linearisation::Fresh(kind) => match responses(context, state, kind) {
+                    Ok(r) => Some(r),
+                    Err(e) => {
+                        return Decision::Stop(PlanStatus::SolverFailure {
+                            reason: format!("sensitivities: {e}"),
+                        })
+                    }
+                },
+            };
+            let Some(response) = response else { continue };
+            // Kept responses get one trial: if the model does not confirm
+            // their first step they are stale, and fresh ones are cheaper
+            // than a ladder of shrinking trials.
+            let patience = (source == Linearisation::Kept).then_some(1);
+            match self.command_from(context, state, &response, n, patience) {
+                Ok((command, ratio)) => {
+                    self.keep(context, state, response, &command, ratio);
+                    return Decision::Command(command);
+                }
+                Err(StepFailure::Stop(s)) => return Decision::Stop(s),
+                Err(StepFailure::Unconfirmed(s)) => last = Some(s),
             }
-        };
-        let mut data = step_data(context, state, &response, self.trust_region_m);
+        }
+        Decision::Stop(last.unwrap_or(PlanStatus::NotReachable {
+            reason: "no linearisation gave a command".into(),
+        }))
+    }
+}
+
+impl QpPlanner {
+    /// One command from the linearisation `kind` at `state`, shrinking the
+    /// trust region until the model confirms a step.
+    fn command_from(
+        &mut self,
+        context: &PlanContext,
+        state: &DeploymentState,
+        response: &PayoutResponse,
+        linearisations_before: usize,
+        patience: Option<usize>,
+    ) -> Result<(Box<PlannedCommand>, f64), StepFailure> {
+        let tr = context.policy.trust_region;
+        let mut data = step_data(context, state, response, self.trust_region_m);
         let weights = step_weights(context);
         let merit0 = context.gap_merit(&data.gaps_m);
         let mut rejected = 0;
@@ -194,14 +293,14 @@ impl CommandPlanner for QpPlanner {
             let step: QpStep = solve_step(&data, &weights, &step_solver_settings());
             match step.status {
                 QpStepStatus::Infeasible => {
-                    return Decision::Stop(PlanStatus::NotReachable {
+                    return Err(StepFailure::Stop(PlanStatus::NotReachable {
                         reason: "no command meets the linearised limits (QP infeasible)".into(),
-                    })
+                    }))
                 }
                 QpStepStatus::NumericalTrouble => {
-                    return Decision::Stop(PlanStatus::SolverFailure {
+                    return Err(StepFailure::Stop(PlanStatus::SolverFailure {
                         reason: "the QP solver failed numerically".into(),
-                    })
+                    }))
                 }
                 _ => {}
             }
@@ -213,19 +312,19 @@ impl CommandPlanner for QpPlanner {
                 } else {
                     step.active_constraints.join(", ")
                 };
-                return Decision::Stop(PlanStatus::NotReachable {
+                return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
                     reason: format!(
                         "no admissible command reduces the gaps (largest gap {:.1} mm); active: {active}",
                         1e3 * norms(&data.gaps_m).iter().fold(0.0f64, |a, b| a.max(*b))
                     ),
-                });
+                }));
             }
             if !context.command_admissible(state, &step.command_m) {
                 // Cannot happen for a solved QP (its bounds are these
                 // limits); treat as numerical trouble, never send it.
-                return Decision::Stop(PlanStatus::SolverFailure {
+                return Err(StepFailure::Stop(PlanStatus::SolverFailure {
                     reason: "the QP step breaks a motor limit".into(),
-                });
+                }));
             }
             let trial = context.trial(state, &step.command_m);
             let actual = merit0 - context.gap_merit(&context.gap_vectors(&trial.state));
@@ -235,7 +334,7 @@ impl CommandPlanner for QpPlanner {
                 if ratio >= tr.grow_ratio && largest >= 0.99 * radius {
                     self.trust_region_m = (radius * tr.grow).min(tr.max_m);
                 }
-                return Decision::Command(Box::new(PlannedCommand {
+                let command = Box::new(PlannedCommand {
                     command_m: step.command_m,
                     predicted_gaps_m: Some(norms(&step.predicted_gaps_m)),
                     trial,
@@ -243,7 +342,9 @@ impl CommandPlanner for QpPlanner {
                     qp_status: Some(step.status),
                     trust_region_m: Some(radius),
                     rejected_trials: rejected,
-                }));
+                    linearisations: linearisations_before + 1,
+                });
+                return Ok((command, ratio));
             }
             let last_failure = if trial.admissible() {
                 format!("reduction ratio {ratio:.2} below {}", tr.acceptance_ratio)
@@ -252,14 +353,55 @@ impl CommandPlanner for QpPlanner {
             };
             rejected += 1;
             self.trust_region_m *= tr.shrink;
+            if patience.is_some_and(|p| rejected >= p) {
+                return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
+                    reason: format!("kept sensitivities not confirmed ({last_failure})"),
+                }));
+            }
             if self.trust_region_m < tr.min_m {
-                return Decision::Stop(PlanStatus::NotReachable {
+                return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
                     reason: format!(
                         "trust region collapsed below {:.1} mm (last trial: {last_failure})",
                         1e3 * tr.min_m
                     ),
-                });
+                }));
             }
         }
+    }
+}
+
+impl QpPlanner {
+    /// Keeps `response`, updated by what `command` did on the model, for
+    /// the next command if its reduction ratio was within the policy's
+    /// `sensitivity_reuse_tolerance` of 1.
+    fn keep(
+        &mut self,
+        context: &PlanContext,
+        state: &DeploymentState,
+        mut response: PayoutResponse,
+        command: &PlannedCommand,
+        ratio: f64,
+    ) {
+        if !((ratio - 1.0).abs() <= context.policy.sensitivity_reuse_tolerance) {
+            return;
+        }
+        let after = &command.trial.state;
+        let dx: Vec<Vector3<f64>> = after
+            .positions_m
+            .iter()
+            .zip(&state.positions_m)
+            .map(|(a, b)| a - b)
+            .collect();
+        let df: Vec<f64> = force_rows(context.model, after)
+            .iter()
+            .zip(force_rows(context.model, state))
+            .map(|(a, b)| a - b)
+            .collect();
+        response.broyden_update(&command.command_m, &dx, &df);
+        self.kept = Some(KeptResponse {
+            response,
+            positions_m: after.positions_m.clone(),
+            payout_m: after.payout_m.clone(),
+        });
     }
 }

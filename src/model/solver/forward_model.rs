@@ -155,8 +155,10 @@ impl ForwardModel {
         &self.free_dofs
     }
 
-    /// Free DOFs in blocks that no member couples (see [`BlockLu`]).
-    pub(super) fn dof_blocks(&self) -> &[Vec<usize>] {
+    /// Free DOFs (numbered as [`Self::free_dofs`]) in blocks that no
+    /// member or cable couples: parts of the structure that move
+    /// independently (see [`BlockLu`]).
+    pub fn dof_blocks(&self) -> &[Vec<usize>] {
         &self.dof_blocks
     }
 
