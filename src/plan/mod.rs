@@ -11,11 +11,15 @@
 //! - [`policy`]: policies as data;
 //! - [`correction`]: how a measurement corrects the model's predictions;
 //! - [`planner`]: the planners' shared trait, trials and the open-loop
-//!   driver; [`outcome`]: plans and their status.
+//!   driver; [`outcome`]: plans and their status;
+//! - [`closed_loop`]: a deployment of a truth plant, planned on the model
+//!   and corrected by measurements after every command.
 //!
-//! Pure numerics: a plan is a function of (model, problem, policy, state).
+//! Pure numerics: a plan is a function of (model, problem, policy, state);
+//! a closed-loop deployment also of the truth and the noise seed.
 
 pub mod baselines;
+pub mod closed_loop;
 pub mod correction;
 pub mod limits;
 pub mod outcome;
@@ -26,11 +30,15 @@ pub mod qp_step;
 pub mod response;
 pub mod search;
 
+pub use closed_loop::{
+    deploy_closed_loop, model_correction, ClosedLoopSetup, DeployError, DeployObserver,
+    DeployRecord, DeployStart, Deployment, TruthWatch,
+};
 pub use correction::ModelCorrection;
 pub use outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 pub use planner::{
-    folded_start, plan_open_loop, planner_for, CommandPlanner, Decision, PlanContext,
-    PlannedCommand, Trial,
+    folded_start, plan_open_loop, planner_for, worst_along_path, CommandPlanner, Decision,
+    PlanContext, PlannedCommand, Trial,
 };
 pub use policy::{
     Measurement, PlannerKind, Policy, PolicyError, SensitivityKind, TrustRegion, Weights,

@@ -199,16 +199,23 @@ impl IncrementObserver for LimitWatch<'_, '_> {
             r.tolerance_n,
             &self.context.correction.force_offsets_n,
         );
-        self.worst = Some(match self.worst.take() {
-            None => c,
-            Some(mut w) => {
-                w.worst_utilisation = w.worst_utilisation.max(c.worst_utilisation);
-                w.min_tension_n = w.min_tension_n.min(c.min_tension_n);
-                w.min_clearance_m = w.min_clearance_m.min(c.min_clearance_m);
-                w.violations.extend(c.violations);
-                w
-            }
-        });
+        self.worst = Some(worst_along_path(self.worst.take(), c));
+    }
+}
+
+/// The limit check of a path so far (`worst`, `None` before its first
+/// state) extended by the check `next` of its next state: the larger
+/// utilisation, the smaller tension and clearance, every violation.
+pub fn worst_along_path(worst: Option<LimitCheck>, next: LimitCheck) -> LimitCheck {
+    match worst {
+        None => next,
+        Some(mut w) => {
+            w.worst_utilisation = w.worst_utilisation.max(next.worst_utilisation);
+            w.min_tension_n = w.min_tension_n.min(next.min_tension_n);
+            w.min_clearance_m = w.min_clearance_m.min(next.min_clearance_m);
+            w.violations.extend(next.violations);
+            w
+        }
     }
 }
 
