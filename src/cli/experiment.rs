@@ -10,13 +10,19 @@ use clap::{value_parser, Arg, ArgMatches, Command};
 use tensegrity_deploy::design::friction_rig::modelled_slip_ratio;
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::experiment_file::{
-    read_experiment, Experiment, FrictionEffectExperiment, FrictionRigExperiment,
-    FrictionVsMeasurementExperiment,
+    read_experiment, DeploymentExperiment, Experiment, FrictionEffectExperiment,
+    FrictionRigExperiment, FrictionVsMeasurementExperiment,
 };
+use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::{write_atomically, CsvTable};
+use tensegrity_deploy::model::ForwardModel;
 use tensegrity_deploy::model::{FrictionCoefficient, JointFriction, RelaxSettings};
+use tensegrity_deploy::plan::{DeploymentProblem, PlanStatus};
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 use tensegrity_deploy::report::figures::grouped_bars_svg;
+use tensegrity_deploy::studies::deployment::{
+    run_deployment_study, summarise, DeploymentStudySettings,
+};
 use tensegrity_deploy::studies::friction_study::{
     friction_study, CellComparison, FrictionStudySettings,
 };
@@ -57,6 +63,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Experiment::FrictionRig(e) => friction_rig(&e),
         Experiment::FrictionEffect(e) => friction_effect_experiment(&e),
         Experiment::FrictionVsMeasurement(e) => friction_vs_measurement(&e),
+        Experiment::Deployment(e) => deployment_experiment(&e),
     }
 }
 
@@ -364,5 +371,219 @@ fn friction_vs_measurement(e: &FrictionVsMeasurementExperiment) -> Result<Outcom
     csv.write(&e.out.join("tensions.csv"))?;
     write_atomically(&e.out.join("average_tension.svg"), svg.as_bytes())?;
     say!("results in {}", e.out.display());
+    Ok(Outcome::GoalReached)
+}
+
+/// Milliseconds of an optional duration in seconds, for tables.
+fn ms(v: Option<f64>) -> String {
+    v.map_or("-".into(), |s| format!("{:.1}", 1e3 * s))
+}
+
+/// An optional number with `digits` decimals, for tables.
+fn num(v: Option<f64>, digits: usize) -> String {
+    v.map_or("-".into(), |x| format!("{x:.digits$}"))
+}
+
+fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
+    let policies = e
+        .policies
+        .iter()
+        .map(|p| read_policy(p).map_err(anyhow::Error::from))
+        .collect::<Result<Vec<_>>>()?;
+    let structure = reference_bridge(&BridgeParameters::default())?;
+    let model = ForwardModel::new(
+        structure,
+        JointFriction::constant(e.model_mu)?,
+        RelaxSettings::default(),
+    )?;
+    let settings = DeploymentStudySettings {
+        scenarios: e.scenarios,
+        seed: e.seed,
+        hidden_effects: e.hidden_effects.clone(),
+        problem: DeploymentProblem::default(),
+    };
+    say!(
+        "deployment: {} policies × {} scenarios (seed {}), hidden effects {:?}, controller model μ = {}",
+        policies.len(),
+        e.scenarios,
+        e.seed,
+        e.hidden_effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
+        e.model_mu
+    );
+    let (scenarios, runs) = run_deployment_study(&model, &policies, &settings);
+
+    let mut header = vec!["scenario".to_string(), "seed".into()];
+    for kind in &e.hidden_effects {
+        for p in kind.parameters() {
+            header.push(format!("{}.{}", kind.name(), p.name));
+        }
+    }
+    for h in [
+        "policy",
+        "status",
+        "commands",
+        "corrective_commands",
+        "final_measured_gap_m",
+        "final_true_gap_m",
+        "cable_travel_m",
+        "truth_worst_utilisation",
+        "truth_violations",
+    ] {
+        header.push(h.into());
+    }
+    let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut csv = CsvTable::new(&header_refs);
+    let mut timing = CsvTable::new(&["scenario", "policy", "median_planning_time_s"]);
+    for r in &runs {
+        let s = &scenarios[r.scenario];
+        let mut row = vec![s.index.to_string(), s.seed.to_string()];
+        for kind in &e.hidden_effects {
+            for v in s.effects.parameters(*kind).unwrap_or_default() {
+                row.push(v.to_string());
+            }
+        }
+        row.push(policies[r.policy].name.clone());
+        match &r.outcome {
+            Ok(d) => {
+                let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
+                row.push(
+                    match d.status {
+                        PlanStatus::Connected => "connected",
+                        PlanStatus::NotReachable { .. } => "not_reachable",
+                        PlanStatus::CommandLimit => "command_limit",
+                        PlanStatus::SolverFailure { .. } => "solver_failure",
+                    }
+                    .into(),
+                );
+                row.push(d.records.len().to_string());
+                row.push(
+                    d.corrective_commands
+                        .map_or(String::new(), |c| c.to_string()),
+                );
+                row.push(opt(d.final_measured_gap_m()));
+                row.push(opt(d.final_true_gap_m()));
+                row.push(opt(r.cable_travel_m()));
+                row.push(opt(r.worst_utilisation()));
+                row.push(d.truth_limit_violations.to_string());
+            }
+            Err(why) => {
+                row.push(format!("not started: {why}"));
+                row.extend(std::iter::repeat(String::new()).take(7));
+            }
+        }
+        csv.row(row);
+        timing.row([
+            s.index.to_string(),
+            policies[r.policy].name.clone(),
+            r.median_planning_time_s()
+                .map_or(String::new(), |t| t.to_string()),
+        ]);
+    }
+
+    say!(
+        "{:<12} {:>9} {:>15} {:>9} {:>9} {:>11} {:>10} {:>10} {:>9} {:>9} {:>6} {:>9}",
+        "policy",
+        "success",
+        "Wilson 95 %",
+        "cmds med",
+        "cmds p95",
+        "corrective",
+        "gap med",
+        "gap p95",
+        "travel",
+        "worst use",
+        "viol.",
+        "ms/cmd"
+    );
+    let mut summary = CsvTable::new(&[
+        "policy",
+        "runs",
+        "successes",
+        "success_rate",
+        "wilson_low",
+        "wilson_high",
+        "commands_median",
+        "commands_p95",
+        "corrective_median",
+        "final_gap_median_m",
+        "final_gap_p95_m",
+        "cable_travel_median_m",
+        "worst_utilisation",
+        "violations",
+    ]);
+    let mut bars: Vec<(&str, Vec<f64>)> = Vec::new();
+    for (p, policy) in policies.iter().enumerate() {
+        let s = summarise(&runs, p, settings.problem.connection_tolerance_m);
+        let rate = s.successes as f64 / s.runs.max(1) as f64;
+        say!(
+            "{:<12} {:>8.0}% {:>7.0}–{:>3.0} % {:>9} {:>9} {:>11} {:>7} mm {:>7} mm {:>7} m {:>9.2} {:>6} {:>9}",
+            policy.name,
+            100.0 * rate,
+            100.0 * s.success_interval.0,
+            100.0 * s.success_interval.1,
+            num(s.commands_median, 1),
+            num(s.commands_p95, 1),
+            num(s.corrective_median, 1),
+            num(s.final_gap_median_m.map(|g| 1e3 * g), 1),
+            num(s.final_gap_p95_m.map(|g| 1e3 * g), 1),
+            num(s.travel_median_m, 2),
+            s.worst_utilisation,
+            s.violations,
+            ms(s.planning_time_median_s)
+        );
+        let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
+        summary.row([
+            policy.name.clone(),
+            s.runs.to_string(),
+            s.successes.to_string(),
+            rate.to_string(),
+            s.success_interval.0.to_string(),
+            s.success_interval.1.to_string(),
+            opt(s.commands_median),
+            opt(s.commands_p95),
+            opt(s.corrective_median),
+            opt(s.final_gap_median_m),
+            opt(s.final_gap_p95_m),
+            opt(s.travel_median_m),
+            s.worst_utilisation.to_string(),
+            s.violations.to_string(),
+        ]);
+        bars.push((
+            policy.name.as_str(),
+            vec![
+                100.0 * rate,
+                s.commands_median.unwrap_or(0.0),
+                s.corrective_median.unwrap_or(0.0),
+                s.final_gap_median_m.map_or(0.0, |g| 1e3 * g),
+            ],
+        ));
+    }
+    say!(
+        "seed lab practice: predetermined 5 cm commands of every cable, no feedback (the nominal policy); connection judged by eye, success rate not reported"
+    );
+    let svg = grouped_bars_svg(
+        &format!(
+            "{} policies on {} scenarios (median over successes; gap over all runs)",
+            policies.len(),
+            e.scenarios
+        ),
+        "value",
+        &[
+            "success rate, %".to_string(),
+            "commands to connection".into(),
+            "corrective commands".into(),
+            "final largest gap, mm".into(),
+        ],
+        &bars,
+    )?;
+    results_folder(&e.out)?;
+    csv.write(&e.out.join("runs.csv"))?;
+    summary.write(&e.out.join("summary.csv"))?;
+    timing.write(&e.out.join("timing.csv"))?;
+    write_atomically(&e.out.join("deployment.svg"), svg.as_bytes())?;
+    say!(
+        "results in {} (runs.csv, summary.csv, deployment.svg; planning times in timing.csv)",
+        e.out.display()
+    );
     Ok(Outcome::GoalReached)
 }

@@ -43,6 +43,19 @@
 //! [truth.joint_friction] # the truth's effects, as in a model file
 //! mu = 0.1
 //! ```
+//!
+//! # `kind = "deployment"`
+//! Policies deploying the same seeded scenarios in closed loop
+//! ([`DeploymentExperiment`]; see [`crate::studies::deployment`]):
+//! ```toml
+//! kind = "deployment"
+//! policies = ["../policies/qp.toml", "../policies/nominal.toml"]  # relative to this file
+//! scenarios = 50                  # 1 to 100000
+//! seed = 1                        # of the scenario draws and the sensor noise
+//! hidden_effects = ["joint_friction", "motor", "stiffness_error"]  # drawn per scenario
+//! model_mu = 0.0                  # the controller model's friction, [0, 2]
+//! out = "out/deployment"
+//! ```
 //! `out` is a folder, relative to the working directory.
 
 use std::path::{Path, PathBuf};
@@ -51,7 +64,7 @@ use serde::Deserialize;
 
 use super::toml_text::{field_error, parse_toml};
 use super::{FileError, NumberRange};
-use crate::model::{AngleConvention, Effects};
+use crate::model::{AngleConvention, EffectKind, Effects};
 
 /// Range of a friction coefficient μ: beyond 2 no cable seat is plausible.
 pub const MU_RANGE: NumberRange = NumberRange::non_negative_up_to(2.0);
@@ -74,7 +87,14 @@ pub const FORCE_FLOOR_RANGE_N: NumberRange = NumberRange::non_negative_up_to(1e6
 pub const MAX_STEPS: usize = 1000;
 
 /// The experiments an experiment file can name.
-pub const KINDS: [&str; 3] = ["friction-rig", "friction-effect", "friction-vs-measurement"];
+pub const KINDS: [&str; 4] = [
+    "friction-rig",
+    "friction-effect",
+    "friction-vs-measurement",
+    "deployment",
+];
+/// Most scenarios of a deployment experiment.
+pub const MAX_SCENARIOS: usize = 100_000;
 
 /// A validated experiment file.
 #[derive(Debug, Clone, PartialEq)]
@@ -85,6 +105,8 @@ pub enum Experiment {
     FrictionEffect(FrictionEffectExperiment),
     /// `kind = "friction-vs-measurement"`.
     FrictionVsMeasurement(FrictionVsMeasurementExperiment),
+    /// `kind = "deployment"`.
+    Deployment(DeploymentExperiment),
 }
 
 /// The seed's friction-rig test matrix: for a true μ, the load ratio at
@@ -123,6 +145,23 @@ pub struct FrictionEffectExperiment {
     pub out: PathBuf,
 }
 
+/// Policies on the same seeded deployment scenarios.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeploymentExperiment {
+    /// Policy files, resolved against the experiment file's folder.
+    pub policies: Vec<PathBuf>,
+    /// Number of scenarios.
+    pub scenarios: usize,
+    /// Seed of the scenario draws.
+    pub seed: u64,
+    /// Effects hidden in the truths.
+    pub hidden_effects: Vec<EffectKind>,
+    /// Friction coefficient of the controller's model.
+    pub model_mu: f64,
+    /// Results folder.
+    pub out: PathBuf,
+}
+
 /// A synthetic measurement with friction hidden in the truth, against
 /// simulations with and without friction.
 #[derive(Debug, Clone, PartialEq)]
@@ -141,6 +180,19 @@ pub struct FrictionVsMeasurementExperiment {
     pub truth: Effects,
     /// Results folder.
     pub out: PathBuf,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DeploymentDoc {
+    #[allow(dead_code)]
+    kind: String,
+    policies: Vec<PathBuf>,
+    scenarios: usize,
+    seed: u64,
+    hidden_effects: Vec<String>,
+    model_mu: f64,
+    out: PathBuf,
 }
 
 #[derive(Deserialize)]
@@ -257,6 +309,48 @@ pub fn parse_experiment(text: &str, path: &Path) -> Result<Experiment, FileError
                 out: d.out,
             }))
         }
+        Some("deployment") => {
+            let d: DeploymentDoc = parse_toml(text, path)?;
+            if d.policies.is_empty() {
+                return Err(field_error(
+                    text,
+                    path,
+                    "policies",
+                    "names no policy file".into(),
+                ));
+            }
+            if !(1..=MAX_SCENARIOS).contains(&d.scenarios) {
+                return Err(field_error(
+                    text,
+                    path,
+                    "scenarios",
+                    format!("must be 1 to {MAX_SCENARIOS}, got {}", d.scenarios),
+                ));
+            }
+            check("model_mu", d.model_mu, MU_RANGE)?;
+            let mut hidden_effects = Vec::new();
+            for (i, name) in d.hidden_effects.iter().enumerate() {
+                let Some(kind) = EffectKind::ALL.iter().find(|k| k.name() == name) else {
+                    let names: Vec<&str> = EffectKind::ALL.iter().map(|k| k.name()).collect();
+                    return Err(field_error(
+                        text,
+                        path,
+                        &format!("hidden_effects[{i}]"),
+                        format!("unknown effect `{name}`; known: {}", names.join(", ")),
+                    ));
+                };
+                hidden_effects.push(*kind);
+            }
+            let folder = path.parent().unwrap_or(Path::new(""));
+            Ok(Experiment::Deployment(DeploymentExperiment {
+                policies: d.policies.iter().map(|p| folder.join(p)).collect(),
+                scenarios: d.scenarios,
+                seed: d.seed,
+                hidden_effects,
+                model_mu: d.model_mu,
+                out: d.out,
+            }))
+        }
         Some("friction-vs-measurement") => {
             let d: MeasurementDoc = parse_toml(text, path)?;
             check(
@@ -340,15 +434,36 @@ mod tests {
             ("friction-rig.toml", "friction-rig"),
             ("friction-effect.toml", "friction-effect"),
             ("friction-vs-measurement.toml", "friction-vs-measurement"),
+            ("deployment.toml", "deployment"),
         ] {
             let e = read_experiment(&dir.join(name)).unwrap();
             let got = match e {
                 Experiment::FrictionRig(_) => KINDS[0],
                 Experiment::FrictionEffect(_) => KINDS[1],
                 Experiment::FrictionVsMeasurement(_) => KINDS[2],
+                Experiment::Deployment(_) => KINDS[3],
             };
             assert_eq!(got, kind);
         }
+    }
+
+    #[test]
+    fn deployment_experiments_name_bad_fields() {
+        let good = "kind = \"deployment\"\npolicies = [\"p.toml\"]\nscenarios = 5\nseed = 1\nhidden_effects = [\"motor\"]\nmodel_mu = 0\nout = \"o\"\n";
+        match parse_experiment(good, Path::new("d/e.toml")).unwrap() {
+            Experiment::Deployment(d) => {
+                assert_eq!(d.policies, vec![Path::new("d/p.toml").to_path_buf()]);
+                assert_eq!(d.hidden_effects, vec![EffectKind::Motor]);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(
+            error(&good.replace("\"motor\"", "\"gremlins\"")).contains("unknown effect `gremlins`")
+        );
+        assert!(error(&good.replace("scenarios = 5", "scenarios = 0"))
+            .starts_with("e.toml: line 3, field `scenarios`"));
+        assert!(error(&good.replace("model_mu = 0", "model_mu = -1"))
+            .starts_with("e.toml: line 6, field `model_mu`"));
     }
 
     #[test]
@@ -373,7 +488,7 @@ mod tests {
     fn kind_and_truth_errors_name_the_field() {
         assert_eq!(
             error("kind = \"warp\"\n"),
-            "e.toml: line 1, field `kind`: unknown experiment \"warp\" (known: friction-rig, friction-effect, friction-vs-measurement)"
+            "e.toml: line 1, field `kind`: unknown experiment \"warp\" (known: friction-rig, friction-effect, friction-vs-measurement, deployment)"
         );
         assert!(error("mu = 1\n").contains("field `kind`: missing"));
         let text = std::fs::read_to_string(
