@@ -104,8 +104,8 @@ pub enum Options {
     Calibrate(calibrate::Options),
     /// `tdeploy experiment`.
     Experiment(experiment::Options),
-    /// `tdeploy plan` (its flags are checked as it runs).
-    Plan(ArgMatches),
+    /// `tdeploy plan`.
+    Plan(plan::Options),
 }
 
 impl Options {
@@ -119,7 +119,7 @@ impl Options {
             Some(("diagnose", a)) => Options::Diagnose(diagnose::Options::from_matches(a)?),
             Some(("calibrate", a)) => Options::Calibrate(calibrate::Options::from_matches(a)?),
             Some(("experiment", a)) => Options::Experiment(experiment::Options::from_matches(a)?),
-            Some(("plan", a)) => Options::Plan(a.clone()),
+            Some(("plan", a)) => Options::Plan(plan::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -136,11 +136,7 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Diagnose(o) => diagnose::run(o),
         Options::Calibrate(o) => calibrate::run(o),
         Options::Experiment(o) => experiment::run(o),
-        Options::Plan(a) => Ok(if plan::run(a)? {
-            Outcome::GoalReached
-        } else {
-            Outcome::GoalMissed("the plan does not connect the halves".into())
-        }),
+        Options::Plan(o) => plan::run(o),
     }
 }
 
