@@ -87,6 +87,9 @@ fn gaps_chart(
         .configure_mesh()
         .x_desc("command (0: folded start)")
         .y_desc("gap (mm)")
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|y| format!("{y:.0}"))
+        .light_line_style(WHITE)
         .draw()
         .map_err(err)?;
     chart
