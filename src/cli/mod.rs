@@ -11,13 +11,14 @@
 //!
 //! Subcommands: `structure` ([`structure`]), `simulate` ([`simulate`]),
 //! `experiment` ([`experiment`]), `lab` ([`lab`]), `compare` ([`compare`]),
-//! `diagnose` ([`diagnose`]), `calibrate` ([`calibrate`]).
+//! `diagnose` ([`diagnose`]), `calibrate` ([`calibrate`]), `plan`
+//! ([`plan`]), `deploy` ([`deploy`]).
 //!
 //! # Exit codes
 //! | code | meaning |
 //! |------|---------|
 //! | 0 | done: the command reached its goal |
-//! | 1 | it ran but did not reach its goal ([`Outcome::GoalMissed`]): a solve did not converge, a replay or a fit stopped on a solver failure (later: a plan or a deployment that did not connect) |
+//! | 1 | it ran but did not reach its goal ([`Outcome::GoalMissed`]): a solve did not converge, a replay or a fit stopped on a solver failure, a plan or a deployment did not connect |
 //! | 2 | bad input or an I/O error: a file that does not parse or validate, a bad flag value, a file that cannot be read or written; clap's own usage errors exit 2 too |
 //!
 //! Either failure prints one line on stderr (`error: …` for 2, `goal not
@@ -39,6 +40,7 @@ macro_rules! say {
 
 mod calibrate;
 mod compare;
+mod deploy;
 mod diagnose;
 mod experiment;
 mod lab;
@@ -85,6 +87,7 @@ pub fn command() -> Command {
         .subcommand(calibrate::command())
         .subcommand(experiment::command())
         .subcommand(plan::command())
+        .subcommand(deploy::command())
 }
 
 /// The typed options of one subcommand.
@@ -104,8 +107,10 @@ pub enum Options {
     Calibrate(calibrate::Options),
     /// `tdeploy experiment`.
     Experiment(experiment::Options),
-    /// `tdeploy plan` (its flags are checked as it runs).
-    Plan(ArgMatches),
+    /// `tdeploy plan`.
+    Plan(plan::Options),
+    /// `tdeploy deploy`.
+    Deploy(deploy::Options),
 }
 
 impl Options {
@@ -119,7 +124,8 @@ impl Options {
             Some(("diagnose", a)) => Options::Diagnose(diagnose::Options::from_matches(a)?),
             Some(("calibrate", a)) => Options::Calibrate(calibrate::Options::from_matches(a)?),
             Some(("experiment", a)) => Options::Experiment(experiment::Options::from_matches(a)?),
-            Some(("plan", a)) => Options::Plan(a.clone()),
+            Some(("plan", a)) => Options::Plan(plan::Options::from_matches(a)?),
+            Some(("deploy", a)) => Options::Deploy(deploy::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -136,11 +142,8 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Diagnose(o) => diagnose::run(o),
         Options::Calibrate(o) => calibrate::run(o),
         Options::Experiment(o) => experiment::run(o),
-        Options::Plan(a) => Ok(if plan::run(a)? {
-            Outcome::GoalReached
-        } else {
-            Outcome::GoalMissed("the plan does not connect the halves".into())
-        }),
+        Options::Plan(o) => plan::run(o),
+        Options::Deploy(o) => deploy::run(o),
     }
 }
 

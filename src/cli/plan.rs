@@ -2,21 +2,21 @@
 //! deployment command sequence planned on a model, from the folded state
 //! to the midspan connection.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::io::commands::{commands_to_csv, CommandSequence};
+use tensegrity_deploy::io::commands::{write_commands, CommandSequence};
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::problem_file::read_problem;
-use tensegrity_deploy::io::write_atomically;
-use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
-use tensegrity_deploy::plan::{
-    folded_start, plan_open_loop, DeploymentProblem, Plan, PlanStatus, Policy,
-};
+use tensegrity_deploy::io::CsvTable;
+use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Structure};
+use tensegrity_deploy::plan::{folded_start, plan_open_loop, DeploymentProblem, Plan, Policy};
+
+use super::{value, Outcome};
 
 /// Friction of the built-in default model (the seed's joints are of order
 /// 0.1–0.3; 0.2 is the middle).
@@ -32,9 +32,40 @@ pub fn command() -> Command {
         .arg(Arg::new("out").long("out").short('o').default_value("out/plan").value_parser(value_parser!(PathBuf)).help("Folder for commands.csv (step 0: the fold from the designed state; steps 1…: the plan) and plan.csv (one row per planned command)"))
 }
 
-/// Runs `tdeploy plan`; `Ok(true)` when the plan connects the halves.
-pub fn run(a: &ArgMatches) -> Result<bool> {
-    let model = match a.get_one::<PathBuf>("model") {
+/// Options of `tdeploy plan`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Model file planned on; `None`: the reference bridge with μ = 0.2.
+    pub model: Option<PathBuf>,
+    /// Policy file; `None`: the built-in default (`policies/qp.toml`).
+    pub policy: Option<PathBuf>,
+    /// Problem file; `None`: the documented default problem.
+    pub problem: Option<PathBuf>,
+    /// Results folder.
+    pub out: PathBuf,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        Ok(Options {
+            model: m.get_one::<PathBuf>("model").cloned(),
+            policy: m.get_one::<PathBuf>("policy").cloned(),
+            problem: m.get_one::<PathBuf>("problem").cloned(),
+            out: value(m, "out")?,
+        })
+    }
+}
+
+/// The model a controller plans on: a model file's structure with its
+/// structural effects and joint friction (motor, thermal and sensor
+/// effects belong to a truth, not to a plan), or, without a file, the
+/// reference bridge with `default_friction`.
+pub(super) fn planning_model(
+    path: Option<&Path>,
+    default_friction: JointFriction,
+) -> Result<ForwardModel> {
+    Ok(match path {
         Some(p) => {
             let file = read_model(p)?;
             let structure = file
@@ -49,19 +80,53 @@ pub fn run(a: &ArgMatches) -> Result<bool> {
         }
         None => ForwardModel::new(
             reference_bridge(&BridgeParameters::default())?,
-            JointFriction::constant(DEFAULT_MU)?,
+            default_friction,
             RelaxSettings::default(),
         )?,
-    };
-    let policy = match a.get_one::<PathBuf>("policy") {
+    })
+}
+
+/// The policy file's policy, or the built-in default.
+pub(super) fn policy_or_default(path: Option<&Path>) -> Result<Policy> {
+    Ok(match path {
         Some(p) => read_policy(p)?,
         None => Policy::default(),
-    };
-    let problem = match a.get_one::<PathBuf>("problem") {
+    })
+}
+
+/// The problem file's problem, or the documented default.
+pub(super) fn problem_or_default(path: Option<&Path>) -> Result<DeploymentProblem> {
+    Ok(match path {
         Some(p) => read_problem(p)?,
         None => DeploymentProblem::default(),
+    })
+}
+
+/// Writes `commands` as a command file whose step 0 is the fold from the
+/// designed state (where `simulate` starts), so that `tdeploy simulate
+/// -c FILE` replays the whole deployment; steps 1… are the commands.
+pub(super) fn write_fold_and_commands(
+    path: &Path,
+    structure: &Structure,
+    start_payout_m: Vec<f64>,
+    commands: Vec<Vec<f64>>,
+) -> Result<()> {
+    let mut payout_change_m = vec![start_payout_m];
+    payout_change_m.extend(commands);
+    let sequence = CommandSequence {
+        step_labels: (0..payout_change_m.len() as u64).collect(),
+        payout_change_m,
     };
-    let out = a.get_one::<PathBuf>("out").expect("has a default");
+    write_commands(path, &sequence, structure)?;
+    Ok(())
+}
+
+/// Runs `tdeploy plan`: the goal is a plan that connects the halves.
+pub fn run(o: &Options) -> Result<Outcome> {
+    let model = planning_model(o.model.as_deref(), JointFriction::constant(DEFAULT_MU)?)?;
+    let policy = policy_or_default(o.policy.as_deref())?;
+    let problem = problem_or_default(o.problem.as_deref())?;
+    let out = &o.out;
     let start = folded_start(&model, &problem, policy.increment_m)?;
     say!(
         "plan: policy {} ({}), start gaps {} mm",
@@ -93,20 +158,14 @@ pub fn run(a: &ArgMatches) -> Result<bool> {
         );
     }
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
-    // Step 0 is the fold itself (from the designed state, where `simulate`
-    // starts), so that `tdeploy simulate -c commands.csv` replays the plan.
     let motors = problem.motor_limits(model.structure().continuous_cables.len())?;
-    let mut payout_change_m = vec![motors.start_payout_m];
-    payout_change_m.extend(plan.commands());
-    let sequence = CommandSequence {
-        step_labels: (0..=plan.records.len() as u64).collect(),
-        payout_change_m,
-    };
-    write_atomically(
+    write_fold_and_commands(
         &out.join("commands.csv"),
-        commands_to_csv(&sequence, model.structure()).as_bytes(),
+        model.structure(),
+        motors.start_payout_m,
+        plan.commands(),
     )?;
-    write_atomically(&out.join("plan.csv"), plan_table(&plan)?.as_bytes())?;
+    plan_table(&plan).write(&out.join("plan.csv"))?;
     say!("{}", plan.status.describe());
     say!(
         "{} commands; final gaps {} mm; commands in {}, per-command table in {}",
@@ -115,10 +174,18 @@ pub fn run(a: &ArgMatches) -> Result<bool> {
         out.join("commands.csv").display(),
         out.join("plan.csv").display()
     );
-    Ok(matches!(plan.status, PlanStatus::Connected))
+    Ok(if plan.status.is_connected() {
+        Outcome::GoalReached
+    } else {
+        Outcome::GoalMissed(format!(
+            "the plan does not connect the halves: {}",
+            plan.status.describe()
+        ))
+    })
 }
 
-fn mm_list(v: &[f64]) -> String {
+/// Values in m as a list in mm, one decimal.
+pub(super) fn mm_list(v: &[f64]) -> String {
     v.iter()
         .map(|g| format!("{:.1}", 1e3 * g))
         .collect::<Vec<_>>()
@@ -126,9 +193,8 @@ fn mm_list(v: &[f64]) -> String {
 }
 
 /// `plan.csv`: one row per command.
-fn plan_table(plan: &Plan) -> Result<String> {
+fn plan_table(plan: &Plan) -> CsvTable {
     let pairs = plan.start_gaps_m.len();
-    let mut w = csv::Writer::from_writer(Vec::new());
     let mut header = vec!["step".to_string()];
     header.extend((0..pairs).map(|p| format!("gap_{p}_m")));
     header.extend((0..pairs).map(|p| format!("predicted_gap_{p}_m")));
@@ -145,7 +211,7 @@ fn plan_table(plan: &Plan) -> Result<String> {
         ]
         .map(String::from),
     );
-    w.write_record(&header)?;
+    let mut table = CsvTable::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
     for (k, r) in plan.records.iter().enumerate() {
         let mut row = vec![(k + 1).to_string()];
         row.extend(r.gaps_m.iter().map(|g| g.to_string()));
@@ -169,7 +235,7 @@ fn plan_table(plan: &Plan) -> Result<String> {
         row.push(r.rejected_trials.to_string());
         row.push(format!("{:.4}", r.planning_time_s));
         row.push(r.active_constraints.join("; "));
-        w.write_record(&row)?;
+        table.row(row);
     }
-    Ok(String::from_utf8(w.into_inner()?)?)
+    table
 }

@@ -171,6 +171,8 @@ pub struct Deployment {
     /// Sensor readings per step (step 0: the start; step k: after command
     /// k), one `Option` per sensor in the setup's order.
     pub readings: Vec<Vec<Option<f64>>>,
+    /// The truth's state at the start (folded).
+    pub start_true_state: DeploymentState,
     /// The truth's state at the end.
     pub final_true_state: DeploymentState,
     /// The controller's model state at the end.
@@ -439,6 +441,7 @@ pub fn deploy_closed_loop(
     };
     observer.on_start(&start);
     let mut readings = vec![first];
+    let start_true_state = plant.state().clone();
 
     let mut planner = planner_for(&context, &model_state);
     let mut records: Vec<DeployRecord> = Vec::new();
@@ -524,6 +527,7 @@ pub fn deploy_closed_loop(
         start,
         records,
         readings,
+        start_true_state,
         final_true_state: plant.state().clone(),
         final_model_state: model_state,
     })

@@ -184,6 +184,25 @@ pub fn state_views_svg(
     overlay: Option<DrawnState<'_>>,
     title: &str,
 ) -> Result<String, DrawingError> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1200, 980)).into_drawing_area();
+        draw_state_views(&root, structure, primary, overlay, title)?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// Draws the three views of `primary` (and `overlay`, in grey beneath it)
+/// with their legend into `area` (1200 × 980 pixels suit it), so that a
+/// figure can put them beside its own charts.
+pub fn draw_state_views(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    structure: &Structure,
+    primary: DrawnState<'_>,
+    overlay: Option<DrawnState<'_>>,
+    title: &str,
+) -> Result<(), DrawingError> {
     let max_force = primary
         .forces
         .member_n
@@ -198,38 +217,33 @@ pub fn state_views_svg(
     }
     sets.push(&coloured);
 
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (1200, 980)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        let legend = match overlay {
-            Some(o) => format!(
-                "{title} — coloured: {}; grey: {}. Struts red, cables blue, springs green, continuous cables purple; width ∝ |force| (max {:.0} N); dotted = slack",
-                primary.label, o.label, max_force
-            ),
-            None => format!(
-                "{title} — {}. Struts red, cables blue, springs green, continuous cables purple; width ∝ |force| (max {:.0} N); dotted = slack",
-                primary.label, max_force
-            ),
-        };
-        let (head, body) = root.split_vertically(30);
-        head.draw(&Text::new(legend, (10, 8), ("sans-serif", 13)))
-            .map_err(err)?;
-        let (elevation, rest) = body.split_vertically(330);
-        let (plan, section) = rest.split_vertically(330);
-        view(&elevation, "Elevation", (0, 2), ("x (m)", "z (m)"), &sets)?;
-        view(&plan, "Plan", (0, 1), ("x (m)", "y (m)"), &sets)?;
-        let (section, _) = section.split_horizontally(420);
-        view(
-            &section,
-            "Cross-section (looking along x)",
-            (1, 2),
-            ("y (m)", "z (m)"),
-            &sets,
-        )?;
-        root.present().map_err(err)?;
-    }
-    Ok(svg)
+    area.fill(&WHITE).map_err(err)?;
+    let legend = match overlay {
+        Some(o) => format!(
+            "{title} — coloured: {}; grey: {}. Struts red, cables blue, springs green, continuous cables purple; width ∝ |force| (max {:.0} N); dotted = slack",
+            primary.label, o.label, max_force
+        ),
+        None => format!(
+            "{title} — {}. Struts red, cables blue, springs green, continuous cables purple; width ∝ |force| (max {:.0} N); dotted = slack",
+            primary.label, max_force
+        ),
+    };
+    let (head, body) = area.split_vertically(30);
+    head.draw(&Text::new(legend, (10, 8), ("sans-serif", 13)))
+        .map_err(err)?;
+    let (elevation, rest) = body.split_vertically(330);
+    let (plan, section) = rest.split_vertically(330);
+    view(&elevation, "Elevation", (0, 2), ("x (m)", "z (m)"), &sets)?;
+    view(&plan, "Plan", (0, 1), ("x (m)", "y (m)"), &sets)?;
+    let (section, _) = section.split_horizontally(420);
+    view(
+        &section,
+        "Cross-section (looking along x)",
+        (1, 2),
+        ("y (m)", "z (m)"),
+        &sets,
+    )?;
+    Ok(())
 }
 
 #[cfg(test)]
