@@ -288,6 +288,11 @@ struct Summary<'a> {
     corrective_commands: Option<usize>,
 }
 
+/// `n command(s)`.
+fn commands_count(n: usize) -> String {
+    format!("{n} command{}", if n == 1 { "" } else { "s" })
+}
+
 /// The verdict line.
 fn verdict(d: &Deployment) -> String {
     let gaps = format!(
@@ -295,13 +300,10 @@ fn verdict(d: &Deployment) -> String {
         gap_mm(d.final_measured_gap_m()),
         gap_mm(d.final_true_gap_m())
     );
+    let n = commands_count(d.records.len());
     match &d.status {
-        PlanStatus::Connected => format!("connected after {} commands ({gaps})", d.records.len()),
-        other => format!(
-            "not connected: {} (after {} commands; {gaps})",
-            other.describe(),
-            d.records.len()
-        ),
+        PlanStatus::Connected => format!("connected after {n} ({gaps})"),
+        other => format!("not connected: {} (after {n}; {gaps})", other.describe()),
     }
 }
 
@@ -591,7 +593,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
         say!("{verdict}");
         match (d.first_below_corrective_gap, d.corrective_commands) {
             (Some(k), Some(n)) => say!(
-                "largest measured gap below 60 mm after command {k}; {n} corrective commands after it"
+                "largest measured gap below 60 mm after command {k}; {} after it (corrective)",
+                commands_count(n)
             ),
             _ => say!("the largest measured gap never came below 60 mm"),
         }

@@ -1,0 +1,417 @@
+//! The closed-loop deployment (`plan::closed_loop`) and `tdeploy deploy`:
+//! the default truth (μ = 0.2 and 3 mm backlash) deployed by a
+//! frictionless controller connects without breaking a limit of the truth
+//! at any increment; measurements reach the controller as they should;
+//! a problem that cannot connect exits 1; the output files are the same
+//! bytes for a seed at any thread count; bad files exit 2 naming file,
+//! line and field; the log replays through `compare`.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::io::log::read_log;
+use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
+use tensegrity_deploy::plan::closed_loop::CORRECTIVE_PHASE_GAP_M;
+use tensegrity_deploy::plan::{
+    deploy_closed_loop, ClosedLoopSetup, DeployObserver, DeployRecord, DeployStart, Deployment,
+    DeploymentProblem, PlanStatus, Policy,
+};
+use tensegrity_deploy::sim::{default_truth, standard_sensors, CycleSchedule, Sensor};
+
+/// Counts what the observer is shown.
+#[derive(Default)]
+struct Seen {
+    starts: usize,
+    commands: Vec<usize>,
+}
+
+impl DeployObserver for Seen {
+    fn on_start(&mut self, _: &DeployStart) {
+        self.starts += 1;
+    }
+    fn on_command(&mut self, r: &DeployRecord) {
+        self.commands.push(r.index);
+    }
+}
+
+/// The default deployment: reference bridge, default truth, frictionless
+/// controller, default problem and policy, with `sensors` (the standard
+/// layout when `None`).
+fn deploy(sensors: Option<Vec<Sensor>>, observer: &mut dyn DeployObserver) -> Deployment {
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let model = ForwardModel::new(
+        structure.clone(),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .unwrap();
+    let truth = default_truth(structure);
+    let sensors = sensors.unwrap_or_else(|| standard_sensors(&truth.structure));
+    let (problem, policy) = (DeploymentProblem::default(), Policy::default());
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy: &policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: 1,
+    };
+    deploy_closed_loop(&setup, observer).unwrap()
+}
+
+#[test]
+fn the_default_truth_connects_in_closed_loop_within_its_limits_at_every_increment() {
+    let mut seen = Seen::default();
+    let d = deploy(None, &mut seen);
+    assert_eq!(d.status, PlanStatus::Connected, "{}", d.status.describe());
+    let n = d.records.len();
+    assert!(n >= 2, "{n} commands");
+    assert_eq!(seen.starts, 1);
+    assert_eq!(seen.commands, (1..=n).collect::<Vec<_>>());
+    // One measurement per step.
+    assert_eq!(d.readings.len(), n + 1);
+
+    // The truth's limits: every increment was seen and checked, and none
+    // broke a limit.
+    for r in &d.records {
+        assert!(r.truth_increments >= 1, "command {}", r.index);
+        assert_eq!(r.truth_increments_checked, r.truth_increments);
+        assert!(r.truth_violations.is_empty(), "{:?}", r.truth_violations);
+        assert!(r.truth_worst_utilisation > 0.0 && r.truth_worst_utilisation <= 1.0);
+    }
+    assert_eq!(d.truth_limit_violations, 0);
+
+    // Connected as measured (goal: 30 mm less the 5 mm margin), and truly:
+    // the measured gap vectors carry ~1.4 mm of noise per component, well
+    // inside the margin.
+    let goal = 0.030 - 0.005;
+    let last = d.records.last().unwrap();
+    for g in &last.measured_gaps_m {
+        assert!(g.unwrap() <= goal + 1e-12, "{g:?}");
+    }
+    for g in &last.true_gaps_m {
+        assert!(*g < 0.030, "true gap {g}");
+    }
+    // ...from a fold about 140 mm apart.
+    assert!(d.start.true_gaps_m.iter().all(|g| *g > 0.12));
+
+    // The corrective phase: the first command whose largest measured gap
+    // is below 60 mm, and every command after it.
+    let k = d.first_below_corrective_gap.unwrap();
+    assert!(k >= 1);
+    let largest = |r: &DeployRecord| r.largest_measured_gap_m().unwrap();
+    assert!(largest(&d.records[k - 1]) < CORRECTIVE_PHASE_GAP_M);
+    assert!(d.records[..k - 1]
+        .iter()
+        .all(|r| largest(r) >= CORRECTIVE_PHASE_GAP_M));
+    assert_eq!(d.corrective_commands, Some(n - k));
+
+    // The truth did what the commands say: replaying the fold and the
+    // commands through the same truth reproduces its final state exactly
+    // (the plant and the replay share their code; no noise is involved).
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let truth = default_truth(structure);
+    let positions: Vec<Sensor> = standard_sensors(&truth.structure)
+        .into_iter()
+        .filter(|s| s.id.ends_with("_x") || s.id.ends_with("_y") || s.id.ends_with("_z"))
+        .collect();
+    let mut commands = vec![d.start.start_payout_m.clone()];
+    commands.extend(d.commands());
+    let replay = truth
+        .run(
+            &[CycleSchedule {
+                commands,
+                temperature_c: vec![],
+            }],
+            &positions,
+        )
+        .unwrap();
+    let end = replay[0].last().unwrap();
+    for (s, v) in positions.iter().zip(end) {
+        let tensegrity_deploy::sim::SensorTarget::Position { node, axis } = s.target else {
+            unreachable!()
+        };
+        assert_eq!(
+            *v,
+            Some(d.final_true_state.positions_m[node][axis]),
+            "{}",
+            s.id
+        );
+    }
+}
+
+#[test]
+fn with_noise_free_sensors_the_controller_sees_the_truths_gaps() {
+    // Every sensor exact: each measured gap must be the truth's gap (to
+    // the rounding of coordinates of a few metres), at the start and
+    // after every command.
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let exact: Vec<Sensor> = standard_sensors(&structure)
+        .into_iter()
+        .map(|s| Sensor { noise_sd: 0.0, ..s })
+        .collect();
+    let d = deploy(Some(exact), &mut ());
+    assert_eq!(d.status, PlanStatus::Connected, "{}", d.status.describe());
+    let pairs = std::iter::once((&d.start.measured_gaps_m, &d.start.true_gaps_m)).chain(
+        d.records
+            .iter()
+            .map(|r| (&r.measured_gaps_m, &r.true_gaps_m)),
+    );
+    for (measured, truth) in pairs {
+        for (m, t) in measured.iter().zip(truth) {
+            assert!((m.unwrap() - t).abs() < 1e-12, "{m:?} vs {t}");
+        }
+    }
+    // And the controller's model is not the truth: it predicted other
+    // gaps for some command than the truth reached (the correction had
+    // work to do).
+    let worst = d
+        .records
+        .iter()
+        .flat_map(|r| r.predicted_gaps_m.iter().zip(&r.true_gaps_m))
+        .map(|(p, t)| (p - t).abs())
+        .fold(0.0, f64::max);
+    assert!(worst > 1e-3, "largest prediction error {worst} m");
+}
+
+// --- the command line ---------------------------------------------------
+
+fn tdeploy(args: &[&str], dir: &Path, threads: Option<&str>) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tdeploy"));
+    c.args(args).current_dir(dir);
+    if let Some(t) = threads {
+        c.env("RAYON_NUM_THREADS", t);
+    }
+    c.output().unwrap()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).to_string()
+}
+
+/// Checks `out` failed with `code` and one line on stderr; returns it.
+fn failed_with(out: &Output, code: i32) -> String {
+    let e = stderr(out);
+    assert_eq!(out.status.code(), Some(code), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+    e
+}
+
+/// Every file under `dir` (relative path, bytes), sorted.
+fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let name = p.strip_prefix(dir).unwrap().display().to_string();
+                out.push((name, std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn the_same_seed_gives_the_same_bytes_at_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |out: &str, seed: &str, flags: &[&str], env: Option<&str>| {
+        let mut args = vec!["deploy", "-o", out, "--seed", seed];
+        args.extend(flags);
+        let o = tdeploy(&args, dir.path(), env);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        o
+    };
+    let one = run("one", "1", &["--threads", "1"], None);
+    run("two", "1", &["--threads", "2"], None);
+    run("env", "1", &[], Some("2"));
+    let other = run("other", "2", &["--json"], None);
+
+    let without_timing = |d: &str| -> Vec<(String, Vec<u8>)> {
+        files(&dir.path().join(d))
+            .into_iter()
+            .filter(|(name, _)| name != "timing.csv")
+            .collect()
+    };
+    let a = without_timing("one");
+    let names: Vec<&str> = a.iter().map(|(n, _)| n.as_str()).collect();
+    for expected in [
+        "commands.csv",
+        "deployment.csv",
+        "deployment.svg",
+        "log/commands.csv",
+        "log/log.toml",
+        "log/measurements.csv",
+        "log/sensors.csv",
+        "model.toml",
+        "summary.json",
+        "truth.toml",
+    ] {
+        assert!(names.contains(&expected), "{expected} missing: {names:?}");
+    }
+    assert!(dir.path().join("one/timing.csv").exists());
+    assert_eq!(a, without_timing("two"));
+    assert_eq!(a, without_timing("env"));
+    // Another seed: other noise, so another log.
+    let measurements = |d: &str| std::fs::read(dir.path().join(d).join("log/measurements.csv"));
+    assert_ne!(measurements("one").unwrap(), measurements("other").unwrap());
+
+    // The lines: one per command, and the verdict.
+    let text = String::from_utf8_lossy(&one.stdout).to_string();
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("one/summary.json")).unwrap())
+            .unwrap();
+    let commands = summary["commands"].as_u64().unwrap() as usize;
+    let command_lines = text.lines().filter(|l| l.contains(": command ")).count();
+    assert_eq!(command_lines, commands, "{text}");
+    assert!(
+        text.contains(&format!("connected after {commands} commands")),
+        "{text}"
+    );
+    assert_eq!(summary["connected"], true);
+    assert_eq!(summary["truth_limit_violations"], 0);
+    // --json prints summary.json itself.
+    let printed: serde_json::Value = serde_json::from_slice(&other.stdout).unwrap();
+    let written: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("other/summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(printed, written);
+
+    // The log replays through `compare`: with the truth it was made with,
+    // the residuals are the sensor noise alone. Over ~400 readings the RMS
+    // of N(0, 1) residuals is 1 ± 0.04 (SD 1/√(2N)); ±0.15 is 4 SDs.
+    let c = tdeploy(
+        &[
+            "compare",
+            "one/truth.toml",
+            "one/log",
+            "-o",
+            "cmp",
+            "--json",
+            "cmp.json",
+        ],
+        dir.path(),
+        None,
+    );
+    assert_eq!(c.status.code(), Some(0), "{}", stderr(&c));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cmp.json")).unwrap()).unwrap();
+    let overall = &report["comparison"]["overall"];
+    let count = overall["count"].as_u64().unwrap();
+    let rms = overall["rms"].as_f64().unwrap();
+    assert!(count >= 300, "{count} readings");
+    assert!((rms - 1.0).abs() < 0.15, "RMS {rms} σ over {count}");
+    // And the library reads it back: the fold and every command, one
+    // reading per sensor at every measured step.
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let log = read_log(&dir.path().join("one/log"), &structure).unwrap();
+    assert_eq!(log.cycles.len(), 1);
+    assert_eq!(log.cycles[0].commands.len(), commands + 1);
+    assert!(log.cycles[0].readings[0].iter().all(|r| r.is_none()));
+    assert!(log.cycles[0].readings[1..].iter().all(|step| step
+        .iter()
+        .filter(|r| r.is_some())
+        .count()
+        == log.sensors.len() - 1));
+
+    // The command file replays in `simulate`.
+    let s = tdeploy(
+        &[
+            "simulate",
+            "-q",
+            "-c",
+            "one/commands.csv",
+            "--increment",
+            "0.01",
+            "-o",
+            "sim",
+        ],
+        dir.path(),
+        None,
+    );
+    assert_eq!(s.status.code(), Some(0), "{}", stderr(&s));
+
+    // Writing again into a deployment's folder is fine; into someone
+    // else's non-empty folder is not.
+    run("one", "1", &[], None);
+    std::fs::create_dir(dir.path().join("mine")).unwrap();
+    std::fs::write(dir.path().join("mine/notes.txt"), "keep").unwrap();
+    let e = failed_with(&tdeploy(&["deploy", "-o", "mine"], dir.path(), None), 2);
+    assert!(e.contains("mine: the folder is not empty"), "{e}");
+}
+
+#[test]
+fn a_fold_the_motors_cannot_reel_in_is_not_reachable_and_exits_1() {
+    // The motors may reel in only 5 cm of the 40 cm fold: the halves stay
+    // far apart, and the planner says so.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("short.toml"),
+        "format = \"tensegrity-deploy/problem/1\"\nmin_payout_m = 0.35\n",
+    )
+    .unwrap();
+    let out = tdeploy(
+        &["deploy", "--problem", "short.toml", "-o", "o"],
+        dir.path(),
+        None,
+    );
+    let e = failed_with(&out, 1);
+    assert!(e.starts_with("goal not reached: not connected: "), "{e}");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("o/summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["connected"], false);
+    let status = summary["status"]["status"].as_str().unwrap();
+    assert!(
+        status == "not_reachable" || status == "command_limit",
+        "{status}"
+    );
+    assert!(summary["largest_final_true_gap_m"].as_f64().unwrap() > 0.06);
+    assert_eq!(summary["truth_limit_violations"], 0);
+}
+
+#[test]
+fn bad_policy_and_problem_files_exit_2_naming_file_line_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("p.toml"),
+        "format = \"tensegrity-deploy/policy/1\"\nname = \"bad\"\nmax_commands = 0\n",
+    )
+    .unwrap();
+    let e = failed_with(
+        &tdeploy(
+            &["deploy", "--policy", "p.toml", "-o", "o"],
+            dir.path(),
+            None,
+        ),
+        2,
+    );
+    assert!(e.contains("p.toml: line 3, field `max_commands`"), "{e}");
+    std::fs::write(
+        dir.path().join("f.toml"),
+        "format = \"tensegrity-deploy/problem/1\"\n\nconnection_tolerance_m = -0.03\n",
+    )
+    .unwrap();
+    let e = failed_with(
+        &tdeploy(
+            &["deploy", "--problem", "f.toml", "-o", "o"],
+            dir.path(),
+            None,
+        ),
+        2,
+    );
+    assert!(
+        e.contains("f.toml: line 3, field `connection_tolerance_m`"),
+        "{e}"
+    );
+    // Nothing was written for a run that never started.
+    assert!(!dir.path().join("o").exists());
+    let e = failed_with(&tdeploy(&["deploy", "--threads", "0"], dir.path(), None), 2);
+    assert!(e.contains("--threads"), "{e}");
+}
