@@ -689,4 +689,39 @@ mod tests {
             ModelCorrection::none(s.midspan_pairs.len(), predicted.len())
         );
     }
+
+    #[test]
+    fn a_truth_that_cannot_fold_or_is_another_bridge_is_an_error_not_a_panic() {
+        let model = frictionless_model();
+        let problem = short_fold();
+        let policy = Policy::default();
+        let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+        let sensors = standard_sensors(&structure);
+        let setup = |truth| ClosedLoopSetup {
+            model: &model,
+            problem: &problem,
+            policy: &policy,
+            truth,
+            sensors: &sensors,
+            temperature_c: None,
+            seed: 1,
+        };
+        // One DR iteration per solve: the as-built state is an
+        // equilibrium, the fold is not reached.
+        let mut stiff = default_truth(structure.clone());
+        stiff.settings.max_iter = 1;
+        let e = deploy_closed_loop(&setup(&stiff), &mut ()).unwrap_err();
+        assert!(
+            matches!(e, DeployError::TruthStart(ReplayError::Solver { .. })),
+            "{e:?}"
+        );
+        let mut other = default_truth(structure);
+        other.structure.midspan_pairs.swap(0, 1);
+        let e = deploy_closed_loop(&setup(&other), &mut ()).unwrap_err();
+        assert_eq!(
+            e,
+            DeployError::Mismatch("the midspan pairs differ".into()),
+            "{e}"
+        );
+    }
 }
