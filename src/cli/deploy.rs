@@ -205,10 +205,6 @@ fn gap_mm(g: Option<f64>) -> String {
         .unwrap_or_else(|| "-".into())
 }
 
-fn largest(gaps: &[Option<f64>]) -> Option<f64> {
-    gaps.iter().flatten().copied().reduce(f64::max)
-}
-
 /// The per-command lines and progress bar.
 struct Printer {
     bar: ProgressBar,
@@ -339,7 +335,7 @@ fn deployment_table(d: &Deployment) -> CsvTable {
     row.extend((0..pairs).map(|_| String::new()));
     row.extend(d.start.measured_gaps_m.iter().map(opt));
     row.extend(d.start.true_gaps_m.iter().map(|g| g.to_string()));
-    row.push(opt(&largest(&d.start.measured_gaps_m)));
+    row.push(opt(&d.start.largest_measured_gap_m()));
     row.push(true_largest(&d.start.true_gaps_m));
     // The truth's path and the planner's columns have no start value.
     row.resize(header.len(), String::new());

@@ -17,7 +17,7 @@ use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::{write_atomically, CsvTable};
 use tensegrity_deploy::model::ForwardModel;
 use tensegrity_deploy::model::{FrictionCoefficient, JointFriction, RelaxSettings};
-use tensegrity_deploy::plan::{DeploymentProblem, PlanStatus};
+use tensegrity_deploy::plan::DeploymentProblem;
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 use tensegrity_deploy::report::figures::grouped_bars_svg;
 use tensegrity_deploy::studies::deployment::{
@@ -446,15 +446,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         match &r.outcome {
             Ok(d) => {
                 let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
-                row.push(
-                    match d.status {
-                        PlanStatus::Connected => "connected",
-                        PlanStatus::NotReachable { .. } => "not_reachable",
-                        PlanStatus::CommandLimit => "command_limit",
-                        PlanStatus::SolverFailure { .. } => "solver_failure",
-                    }
-                    .into(),
-                );
+                row.push(d.status.label().into());
                 row.push(d.records.len().to_string());
                 row.push(
                     d.corrective_commands

@@ -99,6 +99,14 @@ pub struct DeployStart {
     pub max_commands: usize,
 }
 
+impl DeployStart {
+    /// Largest measured gap at the start, m (`None` when no pair was
+    /// measured).
+    pub fn largest_measured_gap_m(&self) -> Option<f64> {
+        largest(&self.measured_gaps_m)
+    }
+}
+
 /// One command of a deployment: what was planned, what the truth did,
 /// what the sensors saw.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -196,7 +204,7 @@ impl Deployment {
     pub fn final_measured_gap_m(&self) -> Option<f64> {
         match self.records.last() {
             Some(r) => r.largest_measured_gap_m(),
-            None => largest(&self.start.measured_gaps_m),
+            None => self.start.largest_measured_gap_m(),
         }
     }
 

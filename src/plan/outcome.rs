@@ -36,6 +36,17 @@ impl PlanStatus {
         matches!(self, PlanStatus::Connected)
     }
 
+    /// Short name, as the `status` tag of its JSON form (`connected`,
+    /// `not_reachable`, `command_limit`, `solver_failure`).
+    pub fn label(&self) -> &'static str {
+        match self {
+            PlanStatus::Connected => "connected",
+            PlanStatus::NotReachable { .. } => "not_reachable",
+            PlanStatus::CommandLimit => "command_limit",
+            PlanStatus::SolverFailure { .. } => "solver_failure",
+        }
+    }
+
     /// Plain words for the command line.
     pub fn describe(&self) -> String {
         match self {
@@ -120,4 +131,22 @@ pub enum PlanError {
     /// A command the model refused (a planner bug or a bad start).
     #[error(transparent)]
     Command(#[from] CommandError),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn status_labels_are_the_json_tags() {
+        for s in [
+            PlanStatus::Connected,
+            PlanStatus::NotReachable { reason: "r".into() },
+            PlanStatus::CommandLimit,
+            PlanStatus::SolverFailure { reason: "r".into() },
+        ] {
+            let json = serde_json::to_value(&s).unwrap();
+            assert_eq!(json["status"], s.label(), "{s:?}");
+        }
+    }
 }
