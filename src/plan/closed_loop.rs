@@ -32,7 +32,8 @@ use rand::SeedableRng;
 use serde::Serialize;
 use thiserror::Error;
 
-use super::correction::ModelCorrection;
+use super::correction::{ForceOffsetFilter, ModelCorrection};
+use super::estimation::PayoutScaleEstimator;
 use super::limits::{force_rows, LimitCheck, Limits};
 use super::outcome::{PlanError, PlanStatus};
 use super::planner::{folded_start, planner_for, worst_along_path, Decision, PlanContext};
@@ -371,6 +372,30 @@ pub fn model_correction(
     correction
 }
 
+/// Filters `correction`'s load-cell offsets through `filter`: the rows
+/// read this time carry their sensor's noise.
+fn filter_force_offsets(
+    filter: &mut ForceOffsetFilter,
+    correction: &mut ModelCorrection,
+    model: &ForwardModel,
+    state: &DeploymentState,
+    sensors: &[Sensor],
+    readings: &[Option<f64>],
+) {
+    let predicted = force_rows(model, state);
+    let mut noise_sd_n = vec![None; predicted.len()];
+    for (sensor, reading) in sensors.iter().zip(readings) {
+        if let (Some(row), Some(_)) = (load_cell_row(model, state, sensor.target), reading) {
+            // Rows without a load-cell offset (load cells not measured by
+            // the policy) have a zero raw offset: nothing to filter.
+            if correction.force_offsets_n[row] != 0.0 {
+                noise_sd_n[row] = Some(sensor.noise_sd);
+            }
+        }
+    }
+    filter.filter(correction, &predicted, &noise_sd_n);
+}
+
 /// Refuses a truth that is not the controller's bridge: the same nodes,
 /// continuous cables (segment for segment) and midspan pairs, so that
 /// commands, sensors and gaps mean the same on both.
@@ -432,8 +457,20 @@ pub fn deploy_closed_loop(
 
     let mut rng = StdRng::seed_from_u64(setup.seed);
     let first = plant.measure(setup.sensors, &mut rng);
+    let mut force_filter = ForceOffsetFilter::new(
+        s.members.len() + s.segment_count(),
+        policy.force_model_error_fraction,
+    );
     context.correction =
         model_correction(model, &model_state, setup.sensors, &first, &policy.measures);
+    filter_force_offsets(
+        &mut force_filter,
+        &mut context.correction,
+        model,
+        &model_state,
+        setup.sensors,
+        &first,
+    );
     let gaps = |readings: &[Option<f64>]| -> Vec<Option<f64>> {
         measured_gap_vectors(truth_structure, setup.sensors, readings)
             .iter()
@@ -451,6 +488,15 @@ pub fn deploy_closed_loop(
     let mut readings = vec![first];
     let start_true_state = plant.state().clone();
 
+    let mut estimator = (policy.payout_scale_prior_sd > 0.0
+        && policy.measures.contains(&Measurement::MidspanPositions))
+    .then(|| {
+        PayoutScaleEstimator::new(
+            model,
+            policy.payout_scale_prior_sd,
+            policy.payout_scale_drift_sd,
+        )
+    });
     let mut planner = planner_for(&context, &model_state);
     let mut records: Vec<DeployRecord> = Vec::new();
     let status = loop {
@@ -470,7 +516,20 @@ pub fn deploy_closed_loop(
         let index = records.len() + 1;
         let predicted_gaps_m = context.gaps_m(&c.trial.state);
         let mut watch = TruthWatch::new(&truth_model, &truth_limits);
-        let report = plant.apply(&c.command_m, setup.temperature_c, &mut watch);
+        // The planner plans cable motion; the drums are sent what should
+        // make it, as far as the estimate knows.
+        // The step limit binds the drum, which the planner's check (on
+        // cable motion) does not see.
+        let sent_m = match &estimator {
+            Some(e) => e
+                .motor_command(&c.command_m)
+                .iter()
+                .zip(&motors.max_step_m)
+                .map(|(u, max)| u.clamp(-max, *max))
+                .collect(),
+            None => c.command_m.clone(),
+        };
+        let report = plant.apply(&sent_m, setup.temperature_c, &mut watch);
         if let Err(e) = report {
             break PlanStatus::SolverFailure {
                 reason: format!("the truth plant failed on command {index}: {e}"),
@@ -484,7 +543,30 @@ pub fn deploy_closed_loop(
             violations: Vec::new(),
         });
         let reading = plant.measure(setup.sensors, &mut rng);
-        model_state = c.trial.state;
+        let previous_state = std::mem::replace(&mut model_state, c.trial.state);
+        if let (Some(e), Some(before)) = (estimator.as_mut(), readings.last()) {
+            let update = e.update(
+                setup.sensors,
+                before,
+                &reading,
+                &previous_state,
+                &model_state,
+            );
+            if update.command_correction.iter().any(|x| *x != 0.0) {
+                let made: Vec<f64> = c
+                    .command_m
+                    .iter()
+                    .zip(&update.command_correction)
+                    .map(|(u, x)| u * (1.0 + x))
+                    .collect();
+                // Where the command really took the bridge; if the model
+                // cannot follow, its own prediction stands.
+                let followed = context.trial(&previous_state, &made);
+                if followed.status.is_converged() {
+                    model_state = followed.state;
+                }
+            }
+        }
         context.correction = model_correction(
             model,
             &model_state,
@@ -492,9 +574,17 @@ pub fn deploy_closed_loop(
             &reading,
             &policy.measures,
         );
+        filter_force_offsets(
+            &mut force_filter,
+            &mut context.correction,
+            model,
+            &model_state,
+            setup.sensors,
+            &reading,
+        );
         let record = DeployRecord {
             index,
-            command_m: c.command_m,
+            command_m: sent_m,
             predicted_gaps_m,
             measured_gaps_m: gaps(&reading),
             true_gaps_m: plant.state().midspan_gaps_m(truth_structure),

@@ -10,6 +10,8 @@
 //! - [`baselines`]: nominal even actuation and the greedy tree;
 //! - [`policy`]: policies as data;
 //! - [`correction`]: how a measurement corrects the model's predictions;
+//! - [`estimation`]: how far the cables really moved (payout scale per
+//!   bridge half, from the measured motion);
 //! - [`planner`]: the planners' shared trait, trials and the open-loop
 //!   driver; [`outcome`]: plans and their status;
 //! - [`closed_loop`]: a deployment of a truth plant, planned on the model
@@ -21,6 +23,7 @@
 pub mod baselines;
 pub mod closed_loop;
 pub mod correction;
+pub mod estimation;
 pub mod limits;
 pub mod outcome;
 pub mod planner;
@@ -35,6 +38,7 @@ pub use closed_loop::{
     DeployRecord, DeployStart, Deployment, TruthWatch,
 };
 pub use correction::ModelCorrection;
+pub use estimation::PayoutScaleEstimator;
 pub use outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 pub use planner::{
     folded_start, plan_open_loop, planner_for, worst_along_path, CommandPlanner, Decision,

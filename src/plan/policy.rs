@@ -184,6 +184,25 @@ pub struct Policy {
     pub weights: Weights,
     /// What the controller measures.
     pub measures: Vec<Measurement>,
+    /// Prior standard deviation of each bridge half's payout scale (how
+    /// much more or less the cables move than commanded), 1; the closed
+    /// loop estimates it from the measured midspan motion and compensates
+    /// the commands (see [`super::estimation`]). Default 0.05: drum slip
+    /// of up to ±5 % plus the payout a softer or heavier bridge needs for
+    /// the same motion. 0 switches the estimate off (the model state then
+    /// moves exactly as commanded). Needs `midspan_positions` measured.
+    pub payout_scale_prior_sd: f64,
+    /// Random-walk standard deviation of the payout scale per command, 1.
+    /// Default 0.02: the scale a stiffness error is equivalent to changes
+    /// along the deployment, so old commands count for less.
+    pub payout_scale_drift_sd: f64,
+    /// How far the model's member forces may be from the bridge's, as a
+    /// fraction of the predicted force (plus 1 N), per measurement: the
+    /// closed loop filters the load-cell offsets with it (see
+    /// [`super::correction::ForceOffsetFilter`]). Default 0.2: stiffness
+    /// and mass errors of the plausible ranges move forces by up to about
+    /// a fifth. Larger trusts each reading more.
+    pub force_model_error_fraction: f64,
 }
 
 impl Default for Policy {
@@ -205,6 +224,9 @@ impl Default for Policy {
             trust_region: TrustRegion::default(),
             weights: Weights::default(),
             measures: vec![Measurement::MidspanPositions, Measurement::LoadCells],
+            payout_scale_prior_sd: 0.05,
+            payout_scale_drift_sd: 0.02,
+            force_model_error_fraction: 0.2,
         }
     }
 }
@@ -270,6 +292,23 @@ impl Policy {
             self.sensitivity_reuse_tolerance,
             (0.0..=1.0).contains(&self.sensitivity_reuse_tolerance),
             "a tolerance in [0, 1]",
+        )?;
+        for (field, v) in [
+            ("payout_scale_prior_sd", self.payout_scale_prior_sd),
+            ("payout_scale_drift_sd", self.payout_scale_drift_sd),
+        ] {
+            check(
+                field,
+                v,
+                (0.0..=0.5).contains(&v),
+                "a standard deviation in [0, 0.5]",
+            )?;
+        }
+        check(
+            "force_model_error_fraction",
+            self.force_model_error_fraction,
+            (0.0..=100.0).contains(&self.force_model_error_fraction),
+            "a fraction in [0, 100]",
         )?;
         length("greedy_move_m", self.greedy_move_m)?;
         length("greedy_min_move_m", self.greedy_min_move_m)?;
