@@ -198,7 +198,7 @@ fn responses(
             context.policy.increment_m,
         )
         .map_err(|e| e.to_string()),
-        SensitivityKind::Tangent => {
+        SensitivityKind::Tangent | SensitivityKind::Auto => {
             PayoutResponse::tangent(context.model, state).map_err(|e| e.to_string())
         }
     }
@@ -233,7 +233,15 @@ impl CommandPlanner for QpPlanner {
         if kept.is_some() {
             order.push(Linearisation::Kept);
         }
-        order.push(Linearisation::Fresh(policy.sensitivities));
+        let first = policy
+            .sensitivities
+            .resolve(!context.model.friction().static_mu.is_zero());
+        order.push(Linearisation::Fresh(first));
+        // The other kind is the last resort: the tangent sees nothing at a
+        // fold where every joint sticks, secants over 5 cm of single
+        // motors miss how the cables of a half act together near the
+        // design; where one kind gives no confirmed step the other may.
+        order.push(Linearisation::Fresh(first.other()));
         let radius = self.trust_region_m;
         let mut kept = kept.map(|k| k.response);
         let mut last = None;
@@ -297,8 +305,11 @@ impl QpPlanner {
                         reason: "no command meets the linearised limits (QP infeasible)".into(),
                     }))
                 }
+                // Degenerate responses (a tangent where every joint
+                // sticks) can defeat the solver; another linearisation
+                // may not.
                 QpStepStatus::NumericalTrouble => {
-                    return Err(StepFailure::Stop(PlanStatus::SolverFailure {
+                    return Err(StepFailure::Unconfirmed(PlanStatus::SolverFailure {
                         reason: "the QP solver failed numerically".into(),
                     }))
                 }
