@@ -138,32 +138,32 @@ fn print_tables(log: &MeasurementLog, c: &Comparison, v: &ComparisonVerdict) {
             continue;
         }
         say!(
-            "{:<22} {:>5} {:>11.4} {:>11.4} {:>11.4} {:>11.4} {:>8.2}",
+            "{:<22} {:>5} {:>11} {:>11} {:>11} {:>11} {:>8}",
             s.id,
             stats.count,
-            stats.mean,
-            stats.sd,
-            stats.rms,
-            stats.worst,
-            z.rms
+            number(stats.mean, 4),
+            number(stats.sd, 4),
+            number(stats.rms, 4),
+            number(stats.worst, 4),
+            number(z.rms, 2)
         );
     }
     say!("residuals in noise SDs (z) by direction:");
     for (d, z) in &c.per_direction {
         if z.count > 0 {
             say!(
-                "  {:<10} n {:>5}  mean {:>7.2}  sd {:>6.2}  rms {:>6.2}",
+                "  {:<10} n {:>5}  mean {:>7}  sd {:>6}  rms {:>6}",
                 d.as_str(),
                 z.count,
-                z.mean,
-                z.sd,
-                z.rms
+                number(z.mean, 2),
+                number(z.sd, 2),
+                number(z.rms, 2)
             );
         }
     }
     say!(
-        "overall: rms {:.2} noise SDs over {} readings (about 1 if the model explains the log)",
-        c.overall.rms,
+        "overall: rms {} noise SDs over {} readings (about 1 if the model explains the log)",
+        number(c.overall.rms, 2),
         c.overall.count
     );
     say!("{}", verdict_in_words(log, v));
@@ -196,9 +196,34 @@ pub(super) fn where_it_fails_in_words(log: &MeasurementLog, w: &WhereItFails) ->
         None => "its residual correlates with no feature".into(),
     };
     format!(
-        "the model fails worst at {sensor} (RMS {:.1} σ, mean {:+.1} σ), most in the {direction} direction (RMS {:.1} σ); {feature}",
-        w.sensor_rms_z, w.sensor_mean_z, w.direction_rms_z
+        "the model fails worst at {sensor} (RMS {} σ, mean {} σ), most in the {direction} direction (RMS {} σ); {feature}",
+        number(w.sensor_rms_z, 1),
+        signed_number(w.sensor_mean_z, 1),
+        number(w.direction_rms_z, 1)
     )
+}
+
+/// `x` with `decimals` decimals, or in scientific notation (four
+/// significant figures) where that would print more than ten digits or
+/// show nothing but zeros: a sensor with a bad noise SD must not print a
+/// number hundreds of digits long.
+pub(super) fn number(x: f64, decimals: usize) -> String {
+    let small = x != 0.0 && x.abs() < 0.5 * 10f64.powi(-(decimals as i32));
+    if x.is_finite() && x.abs() < 1e5 && !small {
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+/// [`number`] with its sign always shown.
+pub(super) fn signed_number(x: f64, decimals: usize) -> String {
+    let text = number(x, decimals);
+    if text.starts_with('-') || x.is_nan() {
+        text
+    } else {
+        format!("+{text}")
+    }
 }
 
 fn residuals_csv(log: &MeasurementLog, c: &Comparison) -> CsvTable {
@@ -263,4 +288,21 @@ fn sensors_csv(log: &MeasurementLog, c: &Comparison) -> CsvTable {
         }
     }
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn large_and_tiny_numbers_print_in_scientific_notation() {
+        assert_eq!(number(4.23991, 4), "4.2399");
+        assert_eq!(number(-0.0001, 4), "-0.0001");
+        assert_eq!(number(0.0, 2), "0.00");
+        assert_eq!(number(1.0e300, 2), "1.000e300");
+        assert_eq!(number(-3.0e-7, 4), "-3.000e-7");
+        assert_eq!(number(f64::INFINITY, 2), "inf");
+        assert_eq!(signed_number(1.25, 1), "+1.2");
+        assert_eq!(signed_number(-1.0e9, 1), "-1.000e9");
+    }
 }

@@ -19,7 +19,7 @@ use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_json;
 use tensegrity_deploy::measure::compare::{where_it_fails, WhereItFails};
 use tensegrity_deploy::measure::diagnose::{
-    diagnose, Candidate, DiagnoseSettings, Diagnosis, Verdict,
+    diagnose, Candidate, DiagnoseError, DiagnoseSettings, Diagnosis, Verdict,
 };
 use tensegrity_deploy::model::EffectKind;
 
@@ -93,7 +93,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let start = std::time::Instant::now();
     let d = match diagnose(&model, &log, &o.settings) {
         Ok(d) => d,
-        Err(e) => return replay_stopped(e, format!("diagnosing {}", o.log.display())),
+        Err(DiagnoseError::Replay(e)) => {
+            return replay_stopped(e, format!("diagnosing {}", o.log.display()))
+        }
+        Err(DiagnoseError::Log(e)) => anyhow::bail!("{}: {e}", o.log.display()),
     };
     for (i, round) in d.rounds.iter().enumerate() {
         say!(

@@ -48,11 +48,22 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::measure::log::MeasurementLog;
+use crate::measure::log::{LogProblem, MeasurementLog};
 use crate::model::{EffectKind, Effects};
 
 use super::compare::{compare, noise_rms_limit, Comparison};
 use crate::sim::{EffectModel, ReplayError};
+
+/// Why a diagnosis could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DiagnoseError {
+    /// The log cannot be compared with a model.
+    #[error("{0}")]
+    Log(#[from] LogProblem),
+    /// A replay of the log through the model stopped.
+    #[error("{0}")]
+    Replay(#[from] ReplayError),
+}
 
 /// Levenberg–Marquardt iterations per fit.
 const MAX_LM_ITERATIONS: usize = 30;
@@ -501,7 +512,8 @@ pub fn diagnose(
     model: &EffectModel,
     log: &MeasurementLog,
     settings: &DiagnoseSettings,
-) -> Result<Diagnosis, ReplayError> {
+) -> Result<Diagnosis, DiagnoseError> {
+    log.check_comparable()?;
     let cycles = log.cycles.len();
     let mut effects = model.effects;
     let mut found: Vec<Candidate> = Vec::new();
