@@ -747,3 +747,73 @@ pub fn effects_found(base: Effects, verdict: &Verdict) -> Effects {
         .iter()
         .fold(base, |e, c| e.with_parameters(c.kind, &c.values))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_search_range_holds_the_neutral_value() {
+        // Thermal expansion's plausible range (1.0e-5 to 1.4e-5 /K) does
+        // not reach 0: without the rule every thermal fit sat on a bound.
+        for kind in EffectKind::ALL {
+            let b = SearchBox::of(kind);
+            for (i, p) in kind.parameters().iter().enumerate() {
+                if p.neutral >= p.admissible.0 && p.neutral <= p.admissible.1 {
+                    assert!(
+                        b.lower[i] <= p.neutral && p.neutral <= b.upper[i],
+                        "{}.{}",
+                        kind.name(),
+                        p.name
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn fits_at_a_bound_or_implausible_are_flagged_and_not_trusted() {
+        let kind = EffectKind::Thermal;
+        let b = SearchBox::of(kind);
+        let p = kind.parameters()[0];
+        let se = 1e-7;
+        // At the lower bound (the neutral 0).
+        let flags = parameter_flags(kind, &b, &[b.lower[0]], &[se]);
+        assert!(
+            matches!(
+                flags[..],
+                [
+                    ParameterFlag::AtSearchBound { .. },
+                    ParameterFlag::OutsidePlausible { .. }
+                ]
+            ),
+            "{flags:?}"
+        );
+        // Inside the plausible range: no flag.
+        let mid = 0.5 * (p.plausible.0 + p.plausible.1);
+        assert!(parameter_flags(kind, &b, &[mid], &[se]).is_empty());
+        // Just outside, by less than two standard errors: sampling, no flag.
+        let near = p.plausible.1 + 1.5 * se;
+        assert!(parameter_flags(kind, &b, &[near], &[se]).is_empty());
+        // A standard error wider than the plausible range: not identified,
+        // and nothing else said about its value.
+        let wide = parameter_flags(kind, &b, &[b.lower[0]], &[1.0]);
+        assert!(matches!(wide[..], [ParameterFlag::NotIdentified { .. }]));
+        let candidate = |flags: Vec<ParameterFlag>| Candidate {
+            kind,
+            values: vec![mid],
+            std_errors: vec![se],
+            condition: 1.0,
+            held_out_rms: 1.0,
+            held_out_gain: 10.0,
+            bic: 0.0,
+            explained: 1.0,
+            converged: true,
+            flags,
+        };
+        assert!(candidate(vec![]).trusted());
+        assert!(!candidate(flags).trusted());
+        // Its only parameter unidentified: nothing to trust.
+        assert!(!candidate(wide).trusted());
+    }
+}
