@@ -48,7 +48,7 @@ fn main() {
         d.rounds.len(),
         fitted,
         match &d.verdict {
-            tensegrity_deploy::measure::diagnose::Verdict::Missing(f) =>
+            tensegrity_deploy::measure::diagnose::Verdict::Missing { found: f, .. } =>
                 f.iter().map(|c| format!("{} {:?}", c.kind.name(), c.values)).collect::<Vec<_>>().join(", "),
             v => format!("{v:?}"),
         }

@@ -113,7 +113,7 @@ fn hidden_effect_is_found(kind: EffectKind, seed: u64) {
         );
     }
     assert!(
-        matches!(&d.verdict, Verdict::Missing(f) if f.len() == 1 && f[0].kind == kind),
+        matches!(&d.verdict, Verdict::Missing { found, confident: true } if found.len() == 1 && found[0].kind == kind),
         "{:?}",
         d.verdict
     );
@@ -177,7 +177,7 @@ fn two_hidden_effects_are_found_in_two_rounds() {
         &DiagnoseSettings::default(),
     )
     .unwrap();
-    let Verdict::Missing(found) = &d.verdict else {
+    let Verdict::Missing { found, .. } = &d.verdict else {
         panic!("{:?}", d.verdict);
     };
     let mut kinds: Vec<_> = found.iter().map(|c| c.kind).collect();

@@ -22,6 +22,7 @@ use tensegrity_deploy::io::{write_atomically, write_json, CsvTable};
 use tensegrity_deploy::measure::compare::{
     compare as compare_runs, verdict, Comparison, ComparisonVerdict, WhereItFails,
 };
+use tensegrity_deploy::measure::evidence::{evidence, Evidence, NoiseTest, Statistic, Subject};
 use tensegrity_deploy::measure::log::MeasurementLog;
 use tensegrity_deploy::report::figures::{
     measured_vs_predicted_svg, residuals_over_steps_svg, residuals_vs_features_svg,
@@ -71,6 +72,7 @@ struct CompareReport<'a> {
     log: &'a Path,
     sensors: Vec<&'a str>,
     comparison: &'a Comparison,
+    evidence: &'a Evidence,
     verdict: &'a ComparisonVerdict,
 }
 
@@ -89,12 +91,13 @@ pub fn run(o: &Options) -> Result<Outcome> {
             return replay_stopped(e, context);
         }
     };
-    let v = verdict(&c);
-    print_tables(&log, &c, &v);
+    let e = evidence(&c, &log.sensors);
+    let v = verdict(&c, &e);
+    print_tables(&log, &c, &e, &v);
     let out = &o.out;
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
     residuals_csv(&log, &c).write(&out.join("residuals.csv"))?;
-    sensors_csv(&log, &c).write(&out.join("sensors.csv"))?;
+    sensors_csv(&log, &c, &e).write(&out.join("sensors.csv"))?;
     write_atomically(
         &out.join("measured_vs_predicted.svg"),
         measured_vs_predicted_svg(&log, &c)?.as_bytes(),
@@ -113,6 +116,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             log: &o.log,
             sensors: log.sensors.iter().map(|s| s.id.as_str()).collect(),
             comparison: &c,
+            evidence: &e,
             verdict: &v,
         };
         write_json(json, &report)?;
@@ -122,48 +126,93 @@ pub fn run(o: &Options) -> Result<Outcome> {
     Ok(Outcome::GoalReached)
 }
 
-fn print_tables(log: &MeasurementLog, c: &Comparison, v: &ComparisonVerdict) {
+/// The test of `statistic` about `subject` in `e`.
+fn test_of(e: &Evidence, subject: Subject, statistic: Statistic) -> Option<&NoiseTest> {
+    e.tests
+        .iter()
+        .find(|t| t.subject == subject && t.statistic == statistic)
+}
+
+/// `value (p)` of a test, starred where it rejects noise.
+fn test_cell(t: Option<&NoiseTest>, signed: bool) -> String {
+    match t {
+        Some(t) => format!(
+            "{}{}",
+            if signed {
+                signed_number(t.value, 1)
+            } else {
+                number(t.value, 2)
+            },
+            if t.significant { "*" } else { "" }
+        ),
+        None => "-".into(),
+    }
+}
+
+fn print_tables(log: &MeasurementLog, c: &Comparison, e: &Evidence, v: &ComparisonVerdict) {
     say!(
-        "{:<22} {:>5} {:>11} {:>11} {:>11} {:>11} {:>8}",
+        "{:<22} {:>5} {:>11} {:>11} {:>11} {:>11} {:>8} {:>9} {:>8}",
         "sensor",
         "n",
         "mean",
         "sd",
         "rms",
         "worst",
-        "rms/σ"
+        "rms/σ",
+        "mean/SE",
+        "sd/σ"
     );
-    for (s, (stats, z)) in log.sensors.iter().zip(&c.per_sensor) {
+    for (i, (s, (stats, z))) in log.sensors.iter().zip(&c.per_sensor).enumerate() {
         if stats.count == 0 {
             continue;
         }
         say!(
-            "{:<22} {:>5} {:>11.4} {:>11.4} {:>11.4} {:>11.4} {:>8.2}",
+            "{:<22} {:>5} {:>11} {:>11} {:>11} {:>11} {:>8} {:>9} {:>8}",
             s.id,
             stats.count,
-            stats.mean,
-            stats.sd,
-            stats.rms,
-            stats.worst,
-            z.rms
+            number(stats.mean, 4),
+            number(stats.sd, 4),
+            number(stats.rms, 4),
+            number(stats.worst, 4),
+            number(z.rms, 2),
+            test_cell(test_of(e, Subject::Sensor(i), Statistic::Mean), true),
+            test_cell(test_of(e, Subject::Sensor(i), Statistic::Spread), false)
         );
     }
-    say!("residuals in noise SDs (z) by direction:");
-    for (d, z) in &c.per_direction {
-        if z.count > 0 {
+    for t in e.tests.iter().filter(|t| t.statistic == Statistic::Mean) {
+        if let Subject::Group(g) = t.subject {
             say!(
-                "  {:<10} n {:>5}  mean {:>7.2}  sd {:>6.2}  rms {:>6.2}",
-                d.as_str(),
-                z.count,
-                z.mean,
-                z.sd,
-                z.rms
+                "group {:<16} {:>5} {:>56} {:>9} {:>8}",
+                g.name(),
+                t.count,
+                "",
+                test_cell(Some(t), true),
+                test_cell(test_of(e, t.subject, Statistic::Spread), false)
             );
         }
     }
     say!(
-        "overall: rms {:.2} noise SDs over {} readings (about 1 if the model explains the log)",
-        c.overall.rms,
+        "per-sensor tests: mean/SE is the mean z in standard errors, sd/σ the spread of z about its mean; * rejects noise (Holm, family-wise error {}): {} of {} tests",
+        e.family_alpha,
+        e.significant().count(),
+        e.tests.len()
+    );
+    say!("residuals in noise SDs (z) by direction:");
+    for (d, z) in &c.per_direction {
+        if z.count > 0 {
+            say!(
+                "  {:<10} n {:>5}  mean {:>7}  sd {:>6}  rms {:>6}",
+                d.as_str(),
+                z.count,
+                number(z.mean, 2),
+                number(z.sd, 2),
+                number(z.rms, 2)
+            );
+        }
+    }
+    say!(
+        "overall: rms {} noise SDs over {} readings (about 1 if the model explains the log)",
+        number(c.overall.rms, 2),
         c.overall.count
     );
     say!("{}", verdict_in_words(log, v));
@@ -174,7 +223,7 @@ fn verdict_in_words(log: &MeasurementLog, v: &ComparisonVerdict) -> String {
     match v {
         ComparisonVerdict::NoReadings => "no reading could be compared".into(),
         ComparisonVerdict::Noise { rms_z, limit } => format!(
-            "the residuals are consistent with sensor noise (overall RMS {rms_z:.2} σ ≤ {limit:.2} σ)"
+            "the residuals are consistent with sensor noise (overall RMS {rms_z:.2} σ ≤ {limit:.2} σ, no per-sensor test rejects noise)"
         ),
         ComparisonVerdict::Fails(w) => where_it_fails_in_words(log, w),
     }
@@ -196,9 +245,35 @@ pub(super) fn where_it_fails_in_words(log: &MeasurementLog, w: &WhereItFails) ->
         None => "its residual correlates with no feature".into(),
     };
     format!(
-        "the model fails worst at {sensor} (RMS {:.1} σ, mean {:+.1} σ), most in the {direction} direction (RMS {:.1} σ); {feature}",
-        w.sensor_rms_z, w.sensor_mean_z, w.direction_rms_z
+        "the model fails worst at {sensor} (RMS {} σ, mean {} σ; {} per-sensor tests reject noise), most in the {direction} direction (RMS {} σ); {feature}",
+        number(w.sensor_rms_z, 1),
+        signed_number(w.sensor_mean_z, 1),
+        w.significant_tests,
+        number(w.direction_rms_z, 1)
     )
+}
+
+/// `x` with `decimals` decimals, or in scientific notation (four
+/// significant figures) where that would print more than ten digits or
+/// show nothing but zeros: a sensor with a bad noise SD must not print a
+/// number hundreds of digits long.
+pub(super) fn number(x: f64, decimals: usize) -> String {
+    let small = x != 0.0 && x.abs() < 0.5 * 10f64.powi(-(decimals as i32));
+    if x.is_finite() && x.abs() < 1e5 && !small {
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+/// [`number`] with its sign always shown.
+pub(super) fn signed_number(x: f64, decimals: usize) -> String {
+    let text = number(x, decimals);
+    if text.starts_with('-') || x.is_nan() {
+        text
+    } else {
+        format!("+{text}")
+    }
 }
 
 fn residuals_csv(log: &MeasurementLog, c: &Comparison) -> CsvTable {
@@ -244,12 +319,35 @@ fn residuals_csv(log: &MeasurementLog, c: &Comparison) -> CsvTable {
     t
 }
 
-fn sensors_csv(log: &MeasurementLog, c: &Comparison) -> CsvTable {
+fn sensors_csv(log: &MeasurementLog, c: &Comparison, e: &Evidence) -> CsvTable {
     let mut t = CsvTable::new(&[
-        "sensor", "count", "mean", "sd", "rms", "worst", "rms_z", "mean_z",
+        "sensor",
+        "count",
+        "mean",
+        "sd",
+        "rms",
+        "worst",
+        "rms_z",
+        "mean_z",
+        "mean_se",
+        "mean_p",
+        "mean_significant",
+        "spread_z",
+        "spread_p",
+        "spread_significant",
     ]);
-    for (sensor, (st, z)) in log.sensors.iter().zip(&c.per_sensor) {
+    for (i, (sensor, (st, z))) in log.sensors.iter().zip(&c.per_sensor).enumerate() {
         if st.count > 0 {
+            let cells = |statistic| match test_of(e, Subject::Sensor(i), statistic) {
+                Some(t) => [
+                    t.value.to_string(),
+                    t.p_value.to_string(),
+                    t.significant.to_string(),
+                ],
+                None => Default::default(),
+            };
+            let [mean_se, mean_p, mean_sig] = cells(Statistic::Mean);
+            let [spread, spread_p, spread_sig] = cells(Statistic::Spread);
             t.row([
                 sensor.id.clone(),
                 st.count.to_string(),
@@ -259,8 +357,31 @@ fn sensors_csv(log: &MeasurementLog, c: &Comparison) -> CsvTable {
                 st.worst.to_string(),
                 z.rms.to_string(),
                 z.mean.to_string(),
+                mean_se,
+                mean_p,
+                mean_sig,
+                spread,
+                spread_p,
+                spread_sig,
             ]);
         }
     }
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn large_and_tiny_numbers_print_in_scientific_notation() {
+        assert_eq!(number(4.23991, 4), "4.2399");
+        assert_eq!(number(-0.0001, 4), "-0.0001");
+        assert_eq!(number(0.0, 2), "0.00");
+        assert_eq!(number(1.0e300, 2), "1.000e300");
+        assert_eq!(number(-3.0e-7, 4), "-3.000e-7");
+        assert_eq!(number(f64::INFINITY, 2), "inf");
+        assert_eq!(signed_number(1.25, 1), "+1.2");
+        assert_eq!(signed_number(-1.0e9, 1), "-1.000e9");
+    }
 }

@@ -19,11 +19,12 @@ use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_json;
 use tensegrity_deploy::measure::compare::{where_it_fails, WhereItFails};
 use tensegrity_deploy::measure::diagnose::{
-    diagnose, Candidate, DiagnoseSettings, Diagnosis, Verdict,
+    diagnose, Candidate, DiagnoseError, DiagnoseSettings, Diagnosis, Verdict,
 };
+use tensegrity_deploy::measure::evidence::{Statistic, Subject};
 use tensegrity_deploy::model::EffectKind;
 
-use super::compare::where_it_fails_in_words;
+use super::compare::{number, signed_number, where_it_fails_in_words};
 use super::{fitted_parameter, replay_stopped, value, Outcome};
 
 /// The `diagnose` subcommand's arguments.
@@ -93,7 +94,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let start = std::time::Instant::now();
     let d = match diagnose(&model, &log, &o.settings) {
         Ok(d) => d,
-        Err(e) => return replay_stopped(e, format!("diagnosing {}", o.log.display())),
+        Err(DiagnoseError::Replay(e)) => {
+            return replay_stopped(e, format!("diagnosing {}", o.log.display()))
+        }
+        Err(DiagnoseError::Log(e)) => anyhow::bail!("{}: {e}", o.log.display()),
     };
     for (i, round) in d.rounds.iter().enumerate() {
         say!(
@@ -121,6 +125,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
                 params(c),
                 if c.converged { "" } else { " (not converged)" }
             );
+            for f in &c.flags {
+                say!("    warning: {f}");
+            }
         }
         let unfitted: Vec<String> = round
             .screened
@@ -140,14 +147,43 @@ pub fn run(o: &Options) -> Result<Outcome> {
         }
     }
     let fails = match &d.verdict {
-        Verdict::Unexplained { .. } => where_it_fails(&d.final_comparison),
+        Verdict::Unexplained { .. } => where_it_fails(&d.final_comparison, &d.evidence),
         _ => None,
     };
+    let significant: Vec<String> = d
+        .evidence
+        .significant()
+        .map(|t| {
+            let name = match t.subject {
+                Subject::Sensor(s) => log.sensors.get(s).map(|s| s.id.clone()).unwrap_or_default(),
+                Subject::Group(g) => format!("group {}", g.name()),
+            };
+            match t.statistic {
+                Statistic::Mean => format!("{name} mean {} SE", signed_number(t.value, 1)),
+                Statistic::Spread => format!("{name} spread {} σ", number(t.value, 2)),
+            }
+        })
+        .collect();
+    if significant.is_empty() {
+        say!(
+            "per-sensor tests (final model): none of {} rejects noise (Holm, family-wise error {})",
+            d.evidence.tests.len(),
+            d.evidence.family_alpha
+        );
+    } else {
+        say!(
+            "per-sensor tests (final model): {} of {} reject noise (Holm, family-wise error {}): {}",
+            significant.len(),
+            d.evidence.tests.len(),
+            d.evidence.family_alpha,
+            significant.join(", ")
+        );
+    }
     match &d.verdict {
         Verdict::NothingMissing => {
             say!("verdict: residuals are consistent with sensor noise: nothing is missing")
         }
-        Verdict::Missing(found) => {
+        Verdict::Missing { found, confident } => {
             for c in found {
                 say!(
                     "verdict: effect {} is missing ({}; explains {:.0}% of the held-out residual above noise)",
@@ -155,6 +191,15 @@ pub fn run(o: &Options) -> Result<Outcome> {
                     params(c),
                     100.0 * c.explained
                 );
+                for f in &c.flags {
+                    say!("  warning: {f}");
+                }
+                if !c.converged {
+                    say!("  warning: the fit did not converge");
+                }
+            }
+            if !confident {
+                say!("  not confident: a fitted value is flagged above; the effect may stand in for another");
             }
         }
         Verdict::Unexplained {

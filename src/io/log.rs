@@ -14,14 +14,17 @@
 //!   `kind` is `tension` (target: a continuous-cable segment
 //!   `CABLE_ID:SEGMENT`, or a member id; N), `position_x`, `position_y`,
 //!   `position_z` (target: a node id; m) or `temperature` (target `-`; °C).
-//!   `noise_sd` is the sensor's noise standard deviation in its unit.
+//!   `noise_sd` is the sensor's noise standard deviation in its unit,
+//!   positive (residuals are divided by it).
 //! - `measurements.csv`: `cycle,step,sensor,value`: one row per cycle, step
 //!   and sensor, in SI units (°C for temperature); step 0 of a cycle is the
 //!   state before its first command. An empty `value`, or a missing row, is
 //!   a missing reading.
 //!
 //! Loading validates every file against the structure and names the file,
-//! line and field of the first problem.
+//! line and field of the first problem. A log must be comparable: every
+//! cycle needs at least one reading of a sensor other than the thermometer
+//! ([`MeasurementLog::check_comparable`]).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -103,12 +106,19 @@ pub fn read_log(dir: &Path, structure: &Structure) -> Result<MeasurementLog, Fil
     }
     let sensors = read_sensors(&dir.join("sensors.csv"), structure)?;
     let mut cycles = read_commands(&dir.join("commands.csv"), structure)?;
-    read_measurements(&dir.join("measurements.csv"), &sensors, &mut cycles)?;
-    Ok(MeasurementLog {
+    let measurements = dir.join("measurements.csv");
+    read_measurements(&measurements, &sensors, &mut cycles)?;
+    let log = MeasurementLog {
         structure: meta.structure,
         sensors,
         cycles,
-    })
+    };
+    log.check_comparable().map_err(|e| FileError::Invalid {
+        path: measurements,
+        entry: "readings".into(),
+        message: e.to_string(),
+    })?;
+    Ok(log)
 }
 
 fn read_sensors(path: &Path, structure: &Structure) -> Result<Vec<Sensor>, FileError> {
@@ -166,8 +176,12 @@ fn read_sensors(path: &Path, structure: &Structure) -> Result<Vec<Sensor>, FileE
             }
         };
         let noise_sd = parse_finite(&r[3], path, line, "noise_sd")?;
-        if noise_sd < 0.0 {
-            return Err(err("noise_sd", format!("{noise_sd} is negative")));
+        // Residuals are divided by it: zero would make them infinite.
+        if noise_sd <= 0.0 {
+            return Err(err(
+                "noise_sd",
+                format!("{noise_sd:e} must be positive (the sensor's noise SD in its unit)"),
+            ));
         }
         sensors.push(Sensor {
             id,
@@ -434,6 +448,35 @@ mod tests {
             e.contains("log.toml: structure: the log was made on"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn zero_noise_and_logs_without_comparable_readings_are_refused() {
+        let s = reference_bridge(&BridgeParameters::default()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        write_log(dir.path(), &sample(&s), &s).unwrap();
+        let sensors = dir.path().join("sensors.csv");
+        let text = std::fs::read_to_string(&sensors).unwrap();
+        std::fs::write(&sensors, text.replacen(",7\n", ",0\n", 1)).unwrap();
+        let e = read_log(dir.path(), &s).unwrap_err().to_string();
+        assert!(
+            e.contains("sensors.csv: line 2, field `noise_sd`: 0e0 must be positive"),
+            "{e}"
+        );
+        std::fs::write(&sensors, text).unwrap();
+        // Every reading but the thermometer's blanked: nothing to compare.
+        let mut log = sample(&s);
+        for step in &mut log.cycles[0].readings {
+            step[0] = None;
+            step[1] = None;
+        }
+        write_log(dir.path(), &log, &s).unwrap();
+        let e = read_log(dir.path(), &s).unwrap_err().to_string();
+        assert!(
+            e.contains("measurements.csv: readings: no comparable reading in the log"),
+            "{e}"
+        );
+        assert_eq!(e.lines().count(), 1, "{e}");
     }
 
     #[test]

@@ -7,6 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::evidence::{Evidence, Subject};
 use crate::measure::log::MeasurementLog;
 use crate::sim::SensorTarget;
 
@@ -221,14 +222,16 @@ pub fn noise_rms_limit(n: usize) -> f64 {
 pub enum ComparisonVerdict {
     /// No reading could be compared.
     NoReadings,
-    /// The overall RMS of `z` is within [`noise_rms_limit`].
+    /// The overall RMS of `z` is within [`noise_rms_limit`] *and* no
+    /// per-sensor or per-group test rejects noise ([`Evidence`]).
     Noise {
         /// Overall RMS of `z`.
         rms_z: f64,
         /// The noise limit for this many readings.
         limit: f64,
     },
-    /// The residuals are larger than noise; where they are worst.
+    /// The residuals are larger than noise, overall or at some sensor;
+    /// where they are worst.
     Fails(WhereItFails),
 }
 
@@ -236,18 +239,22 @@ pub enum ComparisonVerdict {
 /// feature its residual goes with.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WhereItFails {
-    /// The sensor with the largest RMS `z` (index in the log's layout).
+    /// The sensor the per-sensor tests point at most (smallest p-value
+    /// among the significant ones), else the one with the largest RMS `z`
+    /// (index in the log's layout).
     pub sensor: usize,
     /// Its RMS `z`.
     pub sensor_rms_z: f64,
     /// Its mean `z`.
     pub sensor_mean_z: f64,
+    /// Per-sensor and per-group tests that reject noise.
+    pub significant_tests: usize,
     /// The direction with the largest RMS `z` over all sensors (`None`
     /// where no direction has readings).
     pub direction: Option<Direction>,
     /// That direction's RMS `z`.
     pub direction_rms_z: f64,
-    /// The feature of [`FEATURES`] the worst sensor's `z` correlates with
+    /// The feature of [`FEATURES`] the sensor's `z` correlates with
     /// most, by name (`None` where no feature varies).
     pub feature: Option<String>,
     /// That Pearson correlation, −1 to 1.
@@ -255,25 +262,33 @@ pub struct WhereItFails {
 }
 
 /// The comparison's verdict: noise when the overall RMS of `z` is within
-/// [`noise_rms_limit`], else [`where_it_fails`].
-pub fn verdict(c: &Comparison) -> ComparisonVerdict {
+/// [`noise_rms_limit`] and no test of `evidence` (the comparison's
+/// [`evidence`](super::evidence::evidence)) rejects noise, else
+/// [`where_it_fails`].
+pub fn verdict(c: &Comparison, evidence: &Evidence) -> ComparisonVerdict {
     let limit = noise_rms_limit(c.overall.count);
-    match where_it_fails(c) {
+    match where_it_fails(c, evidence) {
         None => ComparisonVerdict::NoReadings,
-        Some(_) if c.overall.rms <= limit => ComparisonVerdict::Noise {
-            rms_z: c.overall.rms,
-            limit,
-        },
+        Some(_) if c.overall.rms <= limit && !evidence.any_significant() => {
+            ComparisonVerdict::Noise {
+                rms_z: c.overall.rms,
+                limit,
+            }
+        }
         Some(w) => ComparisonVerdict::Fails(w),
     }
 }
 
 /// Where the model fails worst (`None` if no reading was compared): the
-/// sensor with the largest RMS `z`, the direction with the largest RMS
-/// `z`, and the feature the sensor's residual correlates with most in
-/// magnitude.
-pub fn where_it_fails(c: &Comparison) -> Option<WhereItFails> {
-    let worst = c.worst_sensor()?;
+/// sensor the per-sensor tests of `evidence` point at most (else the one
+/// with the largest RMS `z`), the direction with the largest RMS `z`, and
+/// the feature the sensor's residual correlates with most in magnitude.
+pub fn where_it_fails(c: &Comparison, evidence: &Evidence) -> Option<WhereItFails> {
+    let largest = c.worst_sensor()?;
+    let worst = match evidence.most_significant_sensor().map(|t| t.subject) {
+        Some(Subject::Sensor(s)) if s < c.per_sensor.len() => s,
+        _ => largest,
+    };
     let z = c.per_sensor[worst].1;
     let (direction, direction_rms_z) = c
         .per_direction
@@ -294,6 +309,7 @@ pub fn where_it_fails(c: &Comparison) -> Option<WhereItFails> {
         sensor: worst,
         sensor_rms_z: z.rms,
         sensor_mean_z: z.mean,
+        significant_tests: evidence.significant().count(),
         direction,
         direction_rms_z,
         feature,
@@ -506,7 +522,7 @@ mod tests {
     #[test]
     fn where_it_fails_finds_the_sensor_direction_and_feature() {
         let c = hand_made();
-        let w = where_it_fails(&c).unwrap();
+        let w = where_it_fails(&c, &Evidence::default()).unwrap();
         assert_eq!(w.sensor, 1);
         // Sensor 1's z is 0, 1, …, 19: RMS √(Σk²/20), mean 9.5.
         let rms = ((0..20).map(|k| (k * k) as f64).sum::<f64>() / 20.0).sqrt();
@@ -517,14 +533,20 @@ mod tests {
         // features do not vary, so their correlation is 0).
         assert_eq!(w.feature.as_deref(), Some("payout_m"));
         assert!((w.correlation - 1.0).abs() < 1e-12);
-        assert!(matches!(verdict(&c), ComparisonVerdict::Fails(_)));
+        assert!(matches!(
+            verdict(&c, &Evidence::default()),
+            ComparisonVerdict::Fails(_)
+        ));
         let empty = Comparison {
             residuals: vec![],
             per_sensor: vec![(Stats::default(), Stats::default())],
             per_direction: vec![],
             overall: Stats::default(),
         };
-        assert_eq!(verdict(&empty), ComparisonVerdict::NoReadings);
+        assert_eq!(
+            verdict(&empty, &Evidence::default()),
+            ComparisonVerdict::NoReadings
+        );
     }
 
     #[test]
@@ -535,11 +557,24 @@ mod tests {
         c.overall = Stats::of(c.residuals.iter().map(|r| r.z));
         // z = ±0.5: RMS 0.5, below the limit 1 + 4/√(2·20).
         assert_eq!(
-            verdict(&c),
+            verdict(&c, &Evidence::default()),
             ComparisonVerdict::Noise {
                 rms_z: 0.5,
                 limit: noise_rms_limit(20)
             }
+        );
+        // The same RMS with one sensor test rejecting noise is a failure.
+        let mut e = Evidence::default();
+        e.tests.push(crate::measure::evidence::NoiseTest {
+            subject: Subject::Sensor(0),
+            statistic: crate::measure::evidence::Statistic::Mean,
+            count: 20,
+            value: 6.0,
+            p_value: 2e-9,
+            significant: true,
+        });
+        assert!(
+            matches!(verdict(&c, &e), ComparisonVerdict::Fails(w) if w.sensor == 0 && w.significant_tests == 1)
         );
     }
 

@@ -5,7 +5,9 @@
 
 pub mod compare;
 pub mod diagnose;
+pub mod evidence;
 pub mod lab;
 pub mod log;
+pub mod tail_probability;
 
 pub use log::{Cycle, MeasurementLog, StepCommand};
