@@ -91,7 +91,7 @@ pub fn parse_commands(
             field_error(
                 line,
                 "payout_change_m",
-                format!("\"{}\" is not a number", &record[2]),
+                format!("\"{}\" is not a finite number", &record[2]),
             )
         })?;
         PAYOUT_CHANGE_RANGE_M
