@@ -53,7 +53,7 @@ pub enum FileError {
         cause: std::io::Error,
     },
     /// Malformed syntax (JSON or TOML).
-    #[error("{}:{line}:{column}: {message}", path.display())]
+    #[error("{}:{line}:{column}: {}", path.display(), fold_line_breaks(message))]
     Syntax {
         /// The file.
         path: PathBuf,
@@ -65,7 +65,7 @@ pub enum FileError {
         message: String,
     },
     /// A value that parses but makes no sense, in a CSV file.
-    #[error("{}: line {line}, field `{field}`: {message}", path.display())]
+    #[error("{}: line {line}, field `{}`: {}", path.display(), fold_line_breaks(field), fold_line_breaks(message))]
     Field {
         /// The file.
         path: PathBuf,
@@ -77,7 +77,7 @@ pub enum FileError {
         message: String,
     },
     /// An entry of a JSON document that makes no sense.
-    #[error("{}: {entry}: {message}", path.display())]
+    #[error("{}: {}: {}", path.display(), fold_line_breaks(entry), fold_line_breaks(message))]
     Invalid {
         /// The file.
         path: PathBuf,
@@ -87,7 +87,7 @@ pub enum FileError {
         message: String,
     },
     /// The structure failed validation.
-    #[error("{}: {cause}", path.display())]
+    #[error("{}: {}", path.display(), fold_line_breaks(&cause.to_string()))]
     Structure {
         /// The file.
         path: PathBuf,
@@ -120,6 +120,12 @@ impl FileError {
             cause,
         }
     }
+}
+
+/// `text` with its line breaks written as `\n` and `\r`: a quoted CSV
+/// field or a JSON id can hold them, and an error stays one line.
+fn fold_line_breaks(text: &str) -> String {
+    text.replace('\r', "\\r").replace('\n', "\\n")
 }
 
 /// Largest input file any reader accepts, bytes (64 MiB: a structure of
@@ -164,12 +170,7 @@ pub(crate) fn csv_with_header<'a>(
     path: &Path,
     expected: &[&str],
 ) -> Result<csv::Reader<&'a [u8]>, FileError> {
-    let header_error = |message: String| FileError::Field {
-        path: path.to_path_buf(),
-        line: 1,
-        field: "header".to_string(),
-        message,
-    };
+    let header_error = |message: String| FileError::field(path, 1, "header", message);
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
