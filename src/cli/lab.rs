@@ -77,7 +77,7 @@ impl Options {
         let steps: usize = value(m, "steps")?;
         if !(1..=MAX_STEPS).contains(&steps) {
             return Err(anyhow!(
-                "--steps: must be 1 to {MAX_STEPS} (the limit on a cycle's work), got {steps}"
+                "--steps: must be at least 1 and at most {MAX_STEPS} (the limit on a cycle's work), got {steps}"
             ));
         }
         Ok(Options {
