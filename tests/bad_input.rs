@@ -69,7 +69,7 @@ fn non_positive_stiffness_is_rejected() {
         r#""ea_n": 0, "rest_length_m": 0.99}"#,
     ));
     assert!(
-        e.contains("cables[0] (\"c0\"): field `ea_n` must be positive"),
+        e.contains("cables[0] (\"c0\"): field `ea_n` must be a finite number in [1, 1e12], got 0"),
         "{e}"
     );
 }

@@ -152,7 +152,7 @@ fn bad_model_files_are_named_with_line_and_field() {
     let cases = [
         (
             "[effects.joint_friction]\nmu = -0.1\n",
-            "effects.joint_friction.mu: must be ≥ 0, got -0.1",
+            "line 4, field `effects.joint_friction.mu`: must be ≥ 0, got -0.1",
         ),
         ("[effects.joint_friction]\nmu = \"high\"\n", "bad.toml:4:"),
         ("[effects.warp_drive]\nfactor = 9\n", "warp_drive"),

@@ -19,13 +19,13 @@ fn joint_sticks_below_and_slips_at_the_capstan_ratio() {
         let theta = theta_deg.to_radians();
         let bound = (mu * (PI - theta)).exp();
         for t in TENSIONS_N {
-            let below = load_rig(&friction, theta, t, t * bound * (1.0 - 1e-6));
+            let below = load_rig(&friction, theta, t, t * bound * (1.0 - 1e-6)).unwrap();
             assert!(below.report.status.is_converged());
             assert_eq!(
                 below.slide_m, 0.0,
                 "θ={theta_deg}°, T={t}: slid below the bound"
             );
-            let above = load_rig(&friction, theta, t, t * bound * 1.05);
+            let above = load_rig(&friction, theta, t, t * bound * 1.05).unwrap();
             assert!(above.report.status.is_converged());
             assert!(
                 above.slide_m < 0.0,
@@ -38,7 +38,7 @@ fn joint_sticks_below_and_slips_at_the_capstan_ratio() {
                 "ratio after slip {ratio}, bound {bound}"
             );
             // The threshold found by loading the model agrees with the formula.
-            let slip = modelled_slip_ratio(&friction, theta, t);
+            let slip = modelled_slip_ratio(&friction, theta, t).unwrap();
             assert!(
                 (slip / bound - 1.0).abs() < 1e-6,
                 "θ={theta_deg}°: model {slip}, formula {bound}"
@@ -55,7 +55,7 @@ fn interior_convention_uses_the_interior_angle() {
     )
     .unwrap();
     let theta = 146f64.to_radians();
-    let slip = modelled_slip_ratio(&friction, theta, 2000.0);
+    let slip = modelled_slip_ratio(&friction, theta, 2000.0).unwrap();
     assert!((slip / (0.1 * theta).exp() - 1.0).abs() < 1e-6);
 }
 
@@ -66,7 +66,8 @@ fn frictionless_joint_slides_to_equal_tension() {
         146f64.to_radians(),
         1000.0,
         1300.0,
-    );
+    )
+    .unwrap();
     assert!(out.report.status.is_converged());
     let [a, b] = out.tensions_n;
     assert!((a - b).abs() < 1e-6 * a, "{a} vs {b}");

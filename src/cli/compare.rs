@@ -12,12 +12,13 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{value_parser, Arg, ArgMatches, Command};
 use serde::Serialize;
 
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
+use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::{write_atomically, write_json, CsvTable};
 use tensegrity_deploy::measure::compare::{
     compare as compare_runs, verdict, Comparison, ComparisonVerdict, WhereItFails,
@@ -38,6 +39,7 @@ pub fn command() -> Command {
         .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/compare").value_parser(value_parser!(PathBuf)).help("Report folder (CSV and SVG)"))
         .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the comparison and its verdict as JSON to this file"))
+        .arg(Arg::new("force").long("force").action(clap::ArgAction::SetTrue).help("Replace the report folder even if it holds files tdeploy did not write"))
 }
 
 /// Options of `tdeploy compare`.
@@ -51,6 +53,8 @@ pub struct Options {
     pub out: PathBuf,
     /// JSON report file, if asked for.
     pub json: Option<PathBuf>,
+    /// Replace a report folder that holds other files.
+    pub force: bool,
 }
 
 impl Options {
@@ -61,6 +65,7 @@ impl Options {
             log: value(m, "log")?,
             out: value(m, "out")?,
             json: m.get_one::<PathBuf>("json").cloned(),
+            force: m.get_flag("force"),
         })
     }
 }
@@ -94,8 +99,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let e = evidence(&c, &log.sensors);
     let v = verdict(&c, &e);
     print_tables(&log, &c, &e, &v);
-    let out = &o.out;
-    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+    let folder = ResultsFolder::claim(&o.out, "compare", o.force)?;
+    let out = folder.path();
     residuals_csv(&log, &c).write(&out.join("residuals.csv"))?;
     sensors_csv(&log, &c, &e).write(&out.join("sensors.csv"))?;
     write_atomically(
@@ -110,6 +115,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         &out.join("residuals_vs_features.svg"),
         residuals_vs_features_svg(&c)?.as_bytes(),
     )?;
+    folder.commit()?;
     if let Some(json) = &o.json {
         let report = CompareReport {
             model: &o.model,
@@ -122,7 +128,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         write_json(json, &report)?;
         say!("JSON report in {}", json.display());
     }
-    say!("report in {}", out.display());
+    say!("report in {}", o.out.display());
     Ok(Outcome::GoalReached)
 }
 

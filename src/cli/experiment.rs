@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{value_parser, Arg, ArgMatches, Command};
 
-use tensegrity_deploy::design::friction_rig::modelled_slip_ratio;
+use tensegrity_deploy::design::friction_rig::{modelled_slip_ratio, RigError};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::experiment_file::{
     read_experiment, DeploymentExperiment, Experiment, FrictionEffectExperiment,
@@ -102,7 +102,18 @@ fn friction_rig(e: &FrictionRigExperiment) -> Result<Outcome> {
         let theta = theta_deg.to_radians();
         for t_kn in tensions {
             let t = 1e3 * t_kn;
-            let ratio = modelled_slip_ratio(&friction, theta, t);
+            let ratio = match modelled_slip_ratio(&friction, theta, t) {
+                Ok(ratio) => ratio,
+                Err(e @ (RigError::NotConverged { .. } | RigError::NeverSlips)) => {
+                    return Ok(Outcome::GoalMissed(format!(
+                        "friction rig at {theta_deg}°, {t_kn} kN: {e}"
+                    )))
+                }
+                Err(e) => {
+                    return Err(anyhow::Error::new(e)
+                        .context(format!("friction rig at {theta_deg}°, {t_kn} kN")))
+                }
+            };
             let formula = friction.ratio_bound(theta, false);
             let mu_interior = ratio.ln() / theta;
             let mu_wrap = ratio.ln() / (std::f64::consts::PI - theta);

@@ -8,12 +8,16 @@ use clap::{value_parser, Arg, ArgMatches, Command};
 use tensegrity_deploy::io::experiment_file::PAYOUT_RANGE_M;
 use tensegrity_deploy::io::log::write_log;
 use tensegrity_deploy::io::model_file::read_model;
+use tensegrity_deploy::io::output::{check_absent, ResultsFolder, RESULTS_MARKER};
 use tensegrity_deploy::io::{write_atomically, NumberRange};
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles};
 use tensegrity_deploy::sim::standard_sensors;
 
 use super::{number_in, replay_stopped, value, Outcome};
 
+/// Most `--steps` each way per cycle: the limit on a cycle's work (the
+/// default is 5).
+const MAX_STEPS: usize = 1000;
 /// Range of `--temperature-swing`, K: beyond ±100 K about 20 °C no bridge
 /// is deployed.
 const SWING_RANGE_K: NumberRange = NumberRange::non_negative_up_to(100.0);
@@ -31,7 +35,8 @@ pub fn command() -> Command {
         .arg(Arg::new("out").long("out").short('o').default_value("out/lab-log").value_parser(value_parser!(PathBuf)).help("Log folder to write; the truth is recorded beside it as <out>.truth.toml"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
         .arg(Arg::new("amplitudes").long("amplitudes").value_delimiter(',').default_value("0.01,0.05,0.1,0.4").value_parser(value_parser!(f64)).help("Cable actuation of each cycle, m, each in (0, 1] (paid out, then reeled back in)"))
-        .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle, at least 1"))
+        .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle, 1 to 1000"))
+        .arg(Arg::new("force").long("force").action(clap::ArgAction::SetTrue).help("Replace the log folder (and its truth record) even if they hold files tdeploy did not write"))
         .arg(Arg::new("temperature-swing").long("temperature-swing").default_value("12").value_parser(value_parser!(f64)).help("Amplitude of the temperature's daily swing about 20 °C, K, in [0, 100]"))
 }
 
@@ -50,6 +55,8 @@ pub struct Options {
     pub steps: usize,
     /// Daily temperature swing, K.
     pub swing_k: f64,
+    /// Replace an output folder or truth record that holds other files.
+    pub force: bool,
 }
 
 impl Options {
@@ -68,8 +75,10 @@ impl Options {
                 .map_err(|why| anyhow!("--amplitudes: {why}"))?;
         }
         let steps: usize = value(m, "steps")?;
-        if steps == 0 {
-            return Err(anyhow!("--steps: must be at least 1"));
+        if !(1..=MAX_STEPS).contains(&steps) {
+            return Err(anyhow!(
+                "--steps: must be at least 1 and at most {MAX_STEPS} (the limit on a cycle's work), got {steps}"
+            ));
         }
         Ok(Options {
             truth: value(m, "truth")?,
@@ -78,6 +87,7 @@ impl Options {
             amplitudes_m,
             steps,
             swing_k: number_in(m, "temperature-swing", SWING_RANGE_K)?,
+            force: m.get_flag("force"),
         })
     }
 }
@@ -93,14 +103,18 @@ pub fn run(o: &Options) -> Result<Outcome> {
         o.steps,
         o.swing_k,
     );
+    // Claimed before the work, so that a refusal costs nothing.
+    let truth_copy = truth_record_path(&o.out);
+    check_absent(&truth_copy, o.force || o.out.join(RESULTS_MARKER).is_file())?;
+    let folder = ResultsFolder::claim(&o.out, "lab", o.force)?;
     let log = match run_lab(&model, &sensors, &cycles, o.seed) {
         Ok(log) => log,
         Err(e) => return replay_stopped(e, format!("truth model {}", o.truth.display())),
     };
-    write_log(&o.out, &log, &model.structure)?;
+    write_log(folder.path(), &log, &model.structure)?;
+    folder.commit()?;
     // The truth stays outside the log folder: compare, diagnose and
     // calibrate read only the log.
-    let truth_copy = truth_record_path(&o.out);
     let record = format!(
         "# The truth behind the log {}: seed {}, amplitudes {:?} m, {} steps each way, temperature 20 ± {} °C.\n# Nothing in compare, diagnose or calibrate reads this file.\n{}",
         o.out.display(),

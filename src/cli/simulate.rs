@@ -8,16 +8,17 @@ use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::io::commands::{read_commands, CommandSequence};
+use tensegrity_deploy::io::commands::{check_increments, read_commands, CommandSequence};
 use tensegrity_deploy::io::experiment_file::{INCREMENT_RANGE_M, MU_RANGE};
 use tensegrity_deploy::io::friction_table::read_friction_table;
+use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::results::{write_simulation, StepRecord};
 use tensegrity_deploy::io::structure_file::read_structure;
 use tensegrity_deploy::io::{write_atomically, NumberRange};
 use tensegrity_deploy::model::{
-    AngleConvention, CommandReport, DeploymentState, ForwardModel, FrictionCoefficient,
-    IncrementObserver, JointFriction, RelaxReport, RelaxSettings, RelaxStatus, Structure,
-    Workspace,
+    AngleConvention, CommandError, CommandReport, DeploymentState, ForwardModel,
+    FrictionCoefficient, IncrementObserver, JointFriction, RelaxReport, RelaxSettings, RelaxStatus,
+    Structure, Workspace,
 };
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 
@@ -58,6 +59,7 @@ pub fn command() -> Command {
         .arg(Arg::new("max-iter").long("max-iter").value_parser(value_parser!(usize)).default_value("200000").help("Most dynamic-relaxation iterations per solve; a solve that needs more stops the run (exit 1)"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/simulate").value_parser(value_parser!(PathBuf)))
         .arg(Arg::new("quiet").long("quiet").short('q').action(ArgAction::SetTrue).help("No progress bar"))
+        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace the output folder even if it holds files tdeploy did not write"))
 }
 
 /// Where μ comes from.
@@ -88,6 +90,8 @@ pub struct Options {
     pub out: PathBuf,
     /// No progress bar.
     pub quiet: bool,
+    /// Replace an output folder that holds other files.
+    pub force: bool,
 }
 
 impl Options {
@@ -118,6 +122,7 @@ impl Options {
             },
             out: value(m, "out")?,
             quiet: m.get_flag("quiet"),
+            force: m.get_flag("force"),
         })
     }
 }
@@ -158,12 +163,19 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Some(p) => read_commands(p, &structure)?,
         None => default_commands(&structure),
     };
+    let commands_name = o
+        .commands
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("the default commands"));
+    check_increments(&commands, o.increment_m, &commands_name)?;
     let mu = match &o.mu {
         MuSource::Constant(mu) => FrictionCoefficient::Constant(*mu),
         MuSource::Table(path) => read_friction_table(path)?,
     };
     let friction = JointFriction::new(mu, o.convention)?;
     let model = ForwardModel::new(structure, friction, o.settings.clone())?;
+    // Claimed before the work, so that a refusal costs nothing.
+    let folder = ResultsFolder::claim(&o.out, "simulate", o.force)?;
     let mut ws = Workspace::default();
     let mut state = model.reference_state();
     let initial = model.relax(&mut state, &mut ws);
@@ -189,10 +201,35 @@ pub fn run(o: &Options) -> Result<Outcome> {
     }
     let mut progress = Progress(bar.clone());
     let mut worst = initial.status;
+    let mut refused = None;
     if initial.status.is_converged() {
         for (label, change) in commands.step_labels.iter().zip(&commands.payout_change_m) {
-            let report =
-                model.apply_payout(&mut state, &mut ws, change, o.increment_m, &mut progress)?;
+            let report = match model.apply_payout(
+                &mut state,
+                &mut ws,
+                change,
+                o.increment_m,
+                &mut progress,
+            ) {
+                Ok(report) => report,
+                Err(e) => {
+                    // The steps before it are written all the same.
+                    // Name the cable by its id, not its index.
+                    let e = match e {
+                            CommandError::ReeledThrough { cable, left_m } => format!(
+                                "continuous cable \"{}\": reeling in would leave {left_m:.4} m in the first segment",
+                                model.structure().continuous_cables[cable].id
+                            ),
+                            other => other.to_string(),
+                        };
+                    refused = Some(anyhow!(
+                        "step {label} cannot be applied: {e} (results up to step {} in {})",
+                        records.last().map(|r| r.step).unwrap_or(0),
+                        o.out.display()
+                    ));
+                    break;
+                }
+            };
             bar.inc(1);
             if report.status.severity() > worst.severity() {
                 worst = report.status;
@@ -209,7 +246,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         }
     }
     bar.finish_and_clear();
-    write_simulation(&o.out, &model, &records)?;
+    write_simulation(folder.path(), &model, &records)?;
     let (first, last) = (&records[0].state, &records[records.len() - 1].state);
     let (f0, f1) = (model.member_forces(first), model.member_forces(last));
     let svg = state_views_svg(
@@ -226,8 +263,12 @@ pub fn run(o: &Options) -> Result<Outcome> {
         }),
         &model.structure().name,
     )?;
-    write_atomically(&o.out.join("state.svg"), svg.as_bytes())?;
+    write_atomically(&folder.path().join("state.svg"), svg.as_bytes())?;
+    folder.commit()?;
     print_summary(&model, &records, &o.out);
+    if let Some(e) = refused {
+        return Err(e);
+    }
     if worst != RelaxStatus::Converged {
         let step = records.last().map(|r| r.step).unwrap_or(0);
         return Ok(Outcome::GoalMissed(format!(

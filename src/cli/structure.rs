@@ -4,11 +4,13 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use clap::{value_parser, Arg, ArgMatches, Command};
+use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::bridge_params::read_bridge_parameters;
-use tensegrity_deploy::io::structure_file::write_structure;
+use tensegrity_deploy::io::output::check_new_file;
+use tensegrity_deploy::io::structure_file::structure_to_json;
+use tensegrity_deploy::io::write_atomically;
 
 use super::{value, Outcome};
 
@@ -31,6 +33,12 @@ pub fn command() -> Command {
                     "TOML file overriding bridge parameters (field names as in BridgeParameters)",
                 ),
         )
+        .arg(
+            Arg::new("force")
+                .long("force")
+                .action(ArgAction::SetTrue)
+                .help("Overwrite the output file if it exists with other contents"),
+        )
 }
 
 /// Options of `tdeploy structure`.
@@ -40,6 +48,8 @@ pub struct Options {
     pub out: PathBuf,
     /// Bridge-parameter file, if any.
     pub params: Option<PathBuf>,
+    /// Overwrite an existing output file.
+    pub force: bool,
 }
 
 impl Options {
@@ -48,6 +58,7 @@ impl Options {
         Ok(Options {
             out: value(m, "out")?,
             params: m.get_one::<PathBuf>("params").cloned(),
+            force: m.get_flag("force"),
         })
     }
 }
@@ -62,7 +73,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Some(path) => format!("{}: generating the bridge", path.display()),
         None => "generating the default bridge".into(),
     })?;
-    write_structure(&o.out, &s)?;
+    let json = structure_to_json(&s);
+    check_new_file(&o.out, json.as_bytes(), o.force)?;
+    write_atomically(&o.out, json.as_bytes())?;
     let count = |kind: &str| s.members.iter().filter(|m| m.kind.name() == kind).count();
     say!(
         "wrote {}: {} nodes, {} struts, {} cables, {} springs, {} continuous cables ({} segments)",

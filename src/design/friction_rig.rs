@@ -7,10 +7,11 @@
 //! fix the tensions on each side, which is what the rig does.
 
 use nalgebra::Vector3;
+use thiserror::Error;
 
 use crate::model::{
-    ContinuousCable, ForwardModel, JointFriction, Node, RelaxReport, RelaxSettings, Structure,
-    Workspace,
+    ContinuousCable, ForwardModel, JointFriction, Node, RelaxReport, RelaxSettings, RelaxStatus,
+    SettingsError, Structure, StructureError, Workspace,
 };
 
 /// Centre distance of the rig's pulleys, m (seed: 400 mm).
@@ -18,9 +19,72 @@ pub const PULLEY_SPACING_M: f64 = 0.4;
 /// Axial stiffness of the rig's 4 mm braided steel cable, N (as the bridge).
 pub const RIG_CABLE_EA_N: f64 = 7.0e5;
 
+/// Smallest interior angle the rig is built for, rad (1°): the seat then
+/// stands 11 m above the pulleys; below it the geometry degenerates.
+pub const MIN_RIG_ANGLE_RAD: f64 = std::f64::consts::PI / 180.0;
+/// Largest interior angle, rad (179°): a nearly straight cable, 1.7 mm of
+/// seat height.
+pub const MAX_RIG_ANGLE_RAD: f64 = 179.0 * std::f64::consts::PI / 180.0;
+/// Largest tension on either side of the rig, N (10 MN, fifty times the
+/// breaking load of a 4 mm cable): a larger one is an input slip.
+pub const MAX_RIG_TENSION_N: f64 = 1e7;
+/// Doublings of the load ratio [`modelled_slip_ratio`] tries before it
+/// gives up (a ratio of 2⁶⁰ exceeds any capstan bound with μ ≤ 2 … by far).
+pub const MAX_RATIO_DOUBLINGS: usize = 60;
+
+/// A rig that cannot be built or loaded.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum RigError {
+    /// The interior angle is not a finite number in
+    /// [[`MIN_RIG_ANGLE_RAD`], [`MAX_RIG_ANGLE_RAD`]].
+    #[error("interior angle {angle_deg}° is outside the rig's range [1°, 179°]")]
+    Angle {
+        /// The angle, degrees.
+        angle_deg: f64,
+    },
+    /// A tension is not a finite number in (0, [`MAX_RIG_TENSION_N`]].
+    #[error("rig tension {tension_n} N is outside (0, 1e7] N")]
+    Tension {
+        /// The tension, N.
+        tension_n: f64,
+    },
+    /// The rig's structure failed validation.
+    #[error("the rig is not a valid structure: {0}")]
+    Structure(#[from] StructureError),
+    /// The rig's solver settings were rejected.
+    #[error("the rig's solver settings: {0}")]
+    Settings(#[from] SettingsError),
+    /// A loading of the rig did not reach equilibrium.
+    #[error("loading the rig at a ratio of {ratio}: {}", .status.describe())]
+    NotConverged {
+        /// Load ratio `T_high/T_low` tried.
+        ratio: f64,
+        /// How the solve ended.
+        status: RelaxStatus,
+    },
+    /// The joint still held at a ratio of 2^[`MAX_RATIO_DOUBLINGS`].
+    #[error("the joint never slipped up to a load ratio of 2^{MAX_RATIO_DOUBLINGS}")]
+    NeverSlips,
+}
+
 /// The rig with interior angle θ and the cable pre-loaded to `tension_p1_n`
 /// on the first side and `tension_p2_n` on the second.
-pub fn friction_rig(interior_angle_rad: f64, tension_p1_n: f64, tension_p2_n: f64) -> Structure {
+pub fn friction_rig(
+    interior_angle_rad: f64,
+    tension_p1_n: f64,
+    tension_p2_n: f64,
+) -> Result<Structure, RigError> {
+    // `!(…)` so that NaN fails too.
+    if !(MIN_RIG_ANGLE_RAD..=MAX_RIG_ANGLE_RAD).contains(&interior_angle_rad) {
+        return Err(RigError::Angle {
+            angle_deg: interior_angle_rad.to_degrees(),
+        });
+    }
+    for t in [tension_p1_n, tension_p2_n] {
+        if !(t > 0.0 && t <= MAX_RIG_TENSION_N) {
+            return Err(RigError::Tension { tension_n: t });
+        }
+    }
     let half = 0.5 * PULLEY_SPACING_M;
     let height = half / (0.5 * interior_angle_rad).tan();
     let node = |id: &str, x: f64, z: f64| Node {
@@ -43,15 +107,14 @@ pub fn friction_rig(interior_angle_rad: f64, tension_p1_n: f64, tension_p2_n: f6
         ea_n: RIG_CABLE_EA_N,
         segment_rest_lengths_m: vec![rest(tension_p1_n), rest(tension_p2_n)],
     };
-    Structure::new(
+    Ok(Structure::new(
         "friction rig",
         nodes,
         vec![],
         vec![cable],
         Vector3::zeros(),
         vec![],
-    )
-    .expect("the rig is a valid structure for any angle in (0, π)")
+    )?)
 }
 
 /// What one loading of the rig did.
@@ -71,55 +134,67 @@ pub fn load_rig(
     interior_angle_rad: f64,
     tension_p1_n: f64,
     tension_p2_n: f64,
-) -> RigOutcome {
-    let structure = friction_rig(interior_angle_rad, tension_p1_n, tension_p2_n);
+) -> Result<RigOutcome, RigError> {
+    let structure = friction_rig(interior_angle_rad, tension_p1_n, tension_p2_n)?;
     let settings = RelaxSettings {
         tol_force_rel: 1e-12,
         ..RelaxSettings::default()
     };
-    let model = ForwardModel::new(structure, friction.clone(), settings)
-        .expect("the rig's constant settings are valid");
+    let model = ForwardModel::new(structure, friction.clone(), settings)?;
     let mut state = model.reference_state();
     let before = state.segment_rest_lengths_m[0];
     let report = model.relax(&mut state, &mut Workspace::default());
     let forces = model.member_forces(&state);
-    RigOutcome {
+    Ok(RigOutcome {
         report,
         slide_m: state.segment_rest_lengths_m[0] - before,
         tensions_n: [forces.segment_n[0], forces.segment_n[1]],
-    }
+    })
 }
 
 /// Smallest load ratio `T_high/T_low` at which the modelled joint slides,
 /// found by bisection on the model itself (not on the formula), to a
-/// relative precision of 1e-10.
+/// relative precision of 1e-10. The search is bounded: at most
+/// [`MAX_RATIO_DOUBLINGS`] doublings, then about 35 bisections; a solve
+/// that does not converge, or a high tension beyond [`MAX_RIG_TENSION_N`],
+/// ends it with an error.
 pub fn modelled_slip_ratio(
     friction: &JointFriction,
     interior_angle_rad: f64,
     tension_low_n: f64,
-) -> f64 {
-    let slides = |ratio: f64| {
-        load_rig(
+) -> Result<f64, RigError> {
+    let slides = |ratio: f64| -> Result<bool, RigError> {
+        let out = load_rig(
             friction,
             interior_angle_rad,
             tension_low_n,
             ratio * tension_low_n,
-        )
-        .slide_m
-            != 0.0
+        )?;
+        if !out.report.status.is_converged() {
+            return Err(RigError::NotConverged {
+                ratio,
+                status: out.report.status,
+            });
+        }
+        Ok(out.slide_m != 0.0)
     };
     let (mut lo, mut hi) = (1.0, 2.0);
-    while !slides(hi) {
+    let mut doublings = 0;
+    while !slides(hi)? {
+        doublings += 1;
+        if doublings > MAX_RATIO_DOUBLINGS {
+            return Err(RigError::NeverSlips);
+        }
         lo = hi;
         hi *= 2.0;
     }
     while (hi - lo) > 1e-10 * lo {
         let mid = 0.5 * (lo + hi);
-        if slides(mid) {
+        if slides(mid)? {
             hi = mid;
         } else {
             lo = mid;
         }
     }
-    hi
+    Ok(hi)
 }

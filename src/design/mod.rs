@@ -8,4 +8,5 @@ pub mod reference_bridge;
 
 pub use reference_bridge::{
     reference_bridge, BridgeError, BridgeParameters, BridgeTopology, SpringPlacement,
+    MAX_MODULES_PER_HALF,
 };

@@ -59,6 +59,11 @@ use crate::model::structure::{
     ContinuousCable, Member, MemberKind, Node, Structure, StructureError,
 };
 
+/// Most modules per half the generator builds: its form finding's memory
+/// grows with about the cube of the size (0.9 GB and half a second at 16;
+/// at 64 it would pass 7.5 GB). The seed's bridge has 2.
+pub const MAX_MODULES_PER_HALF: usize = 16;
+
 /// Every value the generator assumes, with its source or reasoning.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -524,10 +529,13 @@ fn check(p: &BridgeParameters) -> Result<(), BridgeError> {
             })
         }
     };
-    if p.modules_per_half == 0 || p.modules_per_half > 64 {
+    if p.modules_per_half == 0 || p.modules_per_half > MAX_MODULES_PER_HALF {
         return Err(BridgeError::BadParameter {
             field: "modules_per_half",
-            reason: format!("must be 1 to 64, got {}", p.modules_per_half),
+            reason: format!(
+                "must be 1 to {MAX_MODULES_PER_HALF} (the limit on the bridge's size), got {}",
+                p.modules_per_half
+            ),
         });
     }
     positive("module_length_m", p.module_length_m)?;
@@ -549,6 +557,31 @@ fn check(p: &BridgeParameters) -> Result<(), BridgeError> {
     positive("joint_mass_kg", p.joint_mass_kg)?;
     positive("continuous_cable_tension_n", p.continuous_cable_tension_n)?;
     positive("gravity_m_per_s2", p.gravity_m_per_s2)?;
+    let non_negative = |field: &'static str, v: f64| {
+        if v.is_finite() && v >= 0.0 {
+            Ok(())
+        } else {
+            Err(BridgeError::BadParameter {
+                field,
+                reason: format!("must be a non-negative number, got {v}"),
+            })
+        }
+    };
+    non_negative("cable_min_tension_n", p.cable_min_tension_n)?;
+    non_negative("cable_target_tension_n", p.cable_target_tension_n)?;
+    non_negative("spring_min_tension_n", p.spring_min_tension_n)?;
+    non_negative("spring_target_tension_n", p.spring_target_tension_n)?;
+    non_negative("strut_min_compression_n", p.strut_min_compression_n)?;
+    positive(
+        "topology.middle_ring_radius_ratio",
+        p.topology.middle_ring_radius_ratio,
+    )?;
+    if !p.topology.ring_twist_deg.is_finite() {
+        return Err(BridgeError::BadParameter {
+            field: "topology.ring_twist_deg",
+            reason: format!("must be a finite number, got {}", p.topology.ring_twist_deg),
+        });
+    }
     if p.min_stiffness_n_per_m.is_nan() {
         return Err(BridgeError::BadParameter {
             field: "min_stiffness_n_per_m",

@@ -15,7 +15,8 @@
 //! ([`crate::design::BridgeTopology`]), with their meaning, units and
 //! defaults documented there. Unknown keys are errors. Every number must be
 //! finite and lie in the range [`RANGES`] gives (with [`OFFSET_RANGE`] for
-//! the topology's ring offsets, 1 to 64 modules per half, a strut wall
+//! the topology's ring offsets, 1 to [`MAX_MODULES_PER_HALF`] modules per
+//! half (the limit on the bridge's size), a strut wall
 //! thinner than half the tube's diameter, and `min_stiffness_n_per_m`
 //! either in its range or `-inf`, which drops the stiffness requirement).
 //! The ranges are wide: they reject typos and unit slips (mm for m), not
@@ -25,7 +26,7 @@ use std::path::Path;
 
 use super::toml_text::{field_error, parse_toml};
 use super::{FileError, NumberRange};
-use crate::design::BridgeParameters;
+use crate::design::{BridgeParameters, MAX_MODULES_PER_HALF};
 
 /// The admissible range of every real-valued parameter, by key.
 pub const RANGES: [(&str, NumberRange); 21] = [
@@ -76,7 +77,7 @@ pub const OFFSET_RANGE: std::ops::RangeInclusive<usize> = 0..=4;
 
 /// Reads and validates a bridge-parameter file.
 pub fn read_bridge_parameters(path: &Path) -> Result<BridgeParameters, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    let text = super::read_text(path)?;
     parse_bridge_parameters(&text, path)
 }
 
@@ -91,10 +92,13 @@ pub fn parse_bridge_parameters(text: &str, path: &Path) -> Result<BridgeParamete
         }
         range.check(value).map_err(|m| error(key, m))?;
     }
-    if !(1..=64).contains(&p.modules_per_half) {
+    if !(1..=MAX_MODULES_PER_HALF).contains(&p.modules_per_half) {
         return Err(error(
             "modules_per_half",
-            format!("must be 1 to 64, got {}", p.modules_per_half),
+            format!(
+                "must be 1 to {MAX_MODULES_PER_HALF} (the limit on the bridge's size), got {}",
+                p.modules_per_half
+            ),
         ));
     }
     if 2.0 * p.strut_wall_m >= p.strut_outer_diameter_m {

@@ -11,15 +11,31 @@
 //! reappear after a later one). `cable` is a continuous-cable id of the
 //! structure; cables a step does not list keep their payout. `payout_change_m`
 //! is the change of payout in metres: positive pays cable out (folding),
-//! negative reels it in (deploying). A step may list a cable once.
+//! negative reels it in (deploying), within [`PAYOUT_CHANGE_RANGE_M`]. A
+//! step may list a cable once.
+//!
+//! Work is bounded: a step is applied in increments no larger than the
+//! simulation's increment, at most
+//! [`MAX_INCREMENTS_PER_COMMAND`](crate::model::solver::command::MAX_INCREMENTS_PER_COMMAND)
+//! per step and [`MAX_INCREMENTS_PER_RUN`] over the file
+//! ([`check_increments`]).
 
 use std::path::Path;
 
-use super::{CsvTable, FileError};
+use super::{CsvTable, FileError, NumberRange};
+use crate::model::solver::command::{increments_needed, MAX_INCREMENTS_PER_COMMAND};
 use crate::model::Structure;
 
 /// The header a command file must have.
 pub const COMMAND_HEADER: [&str; 3] = ["step", "cable", "payout_change_m"];
+
+/// Range of one step's payout change of one cable, m: ±10 m, five times
+/// the length of a reference-bridge cable; more is a unit slip (mm for m).
+pub const PAYOUT_CHANGE_RANGE_M: NumberRange = NumberRange::closed(-10.0, 10.0);
+
+/// Most increments a whole command sequence may take: 100 steps at the
+/// per-step limit, or a thousand 1 m steps at 1 cm. It bounds a run's work.
+pub const MAX_INCREMENTS_PER_RUN: usize = 1_000_000;
 
 /// A validated sequence of payout commands.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,7 +48,7 @@ pub struct CommandSequence {
 
 /// Reads a command file for `structure`.
 pub fn read_commands(path: &Path, structure: &Structure) -> Result<CommandSequence, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    let text = super::read_text(path)?;
     parse_commands(&text, path, structure)
 }
 
@@ -71,17 +87,16 @@ pub fn parse_commands(
                     format!("no continuous cable \"{}\" in the structure", &record[1]),
                 )
             })?;
-        let change: f64 = record[2]
-            .parse()
-            .ok()
-            .filter(|v: &f64| v.is_finite())
-            .ok_or_else(|| {
-                field_error(
-                    line,
-                    "payout_change_m",
-                    format!("\"{}\" is not a finite number", &record[2]),
-                )
-            })?;
+        let change: f64 = record[2].parse().map_err(|_| {
+            field_error(
+                line,
+                "payout_change_m",
+                format!("\"{}\" is not a finite number", &record[2]),
+            )
+        })?;
+        PAYOUT_CHANGE_RANGE_M
+            .check(change)
+            .map_err(|m| field_error(line, "payout_change_m", m))?;
         match out.step_labels.last() {
             Some(&last) if last == step => {}
             Some(&last) if last > step => {
@@ -97,10 +112,6 @@ pub fn parse_commands(
                 seen_in_step.fill(false);
             }
         }
-        let row = out
-            .payout_change_m
-            .last_mut()
-            .expect("a step was just pushed");
         if std::mem::replace(&mut seen_in_step[cable], true) {
             return Err(field_error(
                 line,
@@ -108,12 +119,58 @@ pub fn parse_commands(
                 format!("cable \"{}\" appears twice in step {step}", &record[1]),
             ));
         }
-        row[cable] = change;
+        // A step was pushed above whenever the list was empty.
+        if let Some(row) = out.payout_change_m.last_mut() {
+            row[cable] = change;
+        }
     }
     if out.step_labels.is_empty() {
         return Err(field_error(1, "row", "the file has no commands".into()));
     }
     Ok(out)
+}
+
+/// The number of increments `seq` takes at a largest increment of
+/// `max_increment_m`, checked against the limits per step
+/// ([`MAX_INCREMENTS_PER_COMMAND`]) and per run ([`MAX_INCREMENTS_PER_RUN`]);
+/// the error names `path` (the command file, or what stands for it), the
+/// step, and the limit hit.
+pub fn check_increments(
+    seq: &CommandSequence,
+    max_increment_m: f64,
+    path: &Path,
+) -> Result<usize, FileError> {
+    let invalid = |entry: String, message: String| FileError::Invalid {
+        path: path.to_path_buf(),
+        entry,
+        message,
+    };
+    let mut total = 0.0;
+    for (label, row) in seq.step_labels.iter().zip(&seq.payout_change_m) {
+        let largest = row.iter().fold(0.0f64, |a, d| a.max(d.abs()));
+        let needed = increments_needed(largest, max_increment_m);
+        if !(needed <= MAX_INCREMENTS_PER_COMMAND as f64) {
+            return Err(invalid(
+                format!("step {label}"),
+                format!(
+                    "a payout change of {} m in increments of at most {} m needs {} increments, over the limit of {MAX_INCREMENTS_PER_COMMAND} per step (use a larger increment or split the step)",
+                    super::number_range::compact(largest),
+                    super::number_range::compact(max_increment_m),
+                    super::number_range::compact(needed)
+                ),
+            ));
+        }
+        total += needed;
+    }
+    if !(total <= MAX_INCREMENTS_PER_RUN as f64) {
+        return Err(invalid(
+            "steps".into(),
+            format!(
+                "the commands need {total} increments in all, over the limit of {MAX_INCREMENTS_PER_RUN} per run (use a larger increment or fewer steps)"
+            ),
+        ));
+    }
+    Ok(total as usize)
 }
 
 /// A command sequence in the same format (zero changes omitted).

@@ -9,8 +9,8 @@
 //! kind = "friction-rig"
 //! mu = 0.2                              # true μ, in [0, 2]
 //! convention = "wrap"                   # or "interior"; default "wrap"
-//! interior_angles_deg = [117, 146, 170] # each in (0, 180)
-//! tensions_kn = [[1, 2], [1, 2], [2]]   # one list per angle; each in (0, 1000] kN
+//! interior_angles_deg = [117, 146, 170] # each in [1, 179]
+//! tensions_kn = [[1, 2], [1, 2], [2]]   # one list per angle; each in [0.001, 100] kN
 //! out = "out/friction-rig"
 //! ```
 //!
@@ -68,15 +68,15 @@ use crate::model::{AngleConvention, EffectKind, Effects};
 
 /// Range of a friction coefficient μ: beyond 2 no cable seat is plausible.
 pub const MU_RANGE: NumberRange = NumberRange::non_negative_up_to(2.0);
-/// Range of a rig test's interior angle, degrees: the back-calculation
-/// divides by θ and by π − θ.
-pub const INTERIOR_ANGLE_RANGE_DEG: NumberRange = NumberRange {
-    min: 0.0,
-    min_exclusive: true,
-    max: 179.999,
-};
-/// Range of a rig test's cable tension, kN.
-pub const TENSION_RANGE_KN: NumberRange = NumberRange::positive_up_to(1000.0);
+/// Range of a rig test's interior angle, degrees: the rig's own range
+/// ([`crate::design::friction_rig::MIN_RIG_ANGLE_RAD`] to
+/// [`crate::design::friction_rig::MAX_RIG_ANGLE_RAD`]); the seat height is
+/// 0.2 m / tan(θ/2), 11 m at 1°, and the back-calculation divides by θ and
+/// by π − θ.
+pub const INTERIOR_ANGLE_RANGE_DEG: NumberRange = NumberRange::closed(1.0, 179.0);
+/// Range of a rig test's cable tension, kN: 1 N to 100 kN, twice the
+/// breaking load of the rig's 4 mm cable (the seed tested 1 to 3 kN).
+pub const TENSION_RANGE_KN: NumberRange = NumberRange::closed(1e-3, 100.0);
 /// Range of a cable payout of a whole command (fold, deploy, actuation), m.
 pub const PAYOUT_RANGE_M: NumberRange = NumberRange::non_negative_up_to(1.0);
 /// Range of a command increment, m.
@@ -244,7 +244,7 @@ struct MeasurementDoc {
 
 /// Reads and validates an experiment file.
 pub fn read_experiment(path: &Path) -> Result<Experiment, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    let text = super::read_text(path)?;
     parse_experiment(&text, path)
 }
 
@@ -386,6 +386,7 @@ pub fn parse_experiment(text: &str, path: &Path) -> Result<Experiment, FileError
                     e.reason,
                 )
             })?;
+            super::model_file::check_reference_temperature(&d.truth, "truth", text, path)?;
             Ok(Experiment::FrictionVsMeasurement(
                 FrictionVsMeasurementExperiment {
                     actuation_m: d.actuation_m,

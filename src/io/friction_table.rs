@@ -20,7 +20,7 @@ pub const FRICTION_TABLE_HEADER: [&str; 2] = ["interior_angle_deg", "mu"];
 
 /// Reads a friction table.
 pub fn read_friction_table(path: &Path) -> Result<FrictionCoefficient, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    let text = super::read_text(path)?;
     parse_friction_table(&text, path)
 }
 

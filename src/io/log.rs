@@ -7,7 +7,9 @@
 //!   name of the structure the log was made on (checked against the model's
 //!   structure, so that a log is never replayed on another bridge).
 //! - `commands.csv`: `cycle,step,cable,payout_change_m`: the payout change
-//!   sent to each motor, one row per cycle, step and cable (cables a step
+//!   sent to each motor (within
+//!   [`PAYOUT_CHANGE_RANGE_M`](super::commands::PAYOUT_CHANGE_RANGE_M)),
+//!   one row per cycle, step and cable (cables a step
 //!   does not list are not moved). Cycles and steps are non-negative
 //!   integers, in increasing order.
 //! - `sensors.csv`: `sensor,kind,target,noise_sd`: the sensor layout.
@@ -17,7 +19,8 @@
 //!   `noise_sd` is the sensor's noise standard deviation in its unit,
 //!   positive (residuals are divided by it).
 //! - `measurements.csv`: `cycle,step,sensor,value`: one row per cycle, step
-//!   and sensor, in SI units (°C for temperature); step 0 of a cycle is the
+//!   and sensor, in SI units (°C for temperature), within [`READING_RANGE`];
+//!   step 0 of a cycle is the
 //!   state before its first command. An empty `value`, or a missing row, is
 //!   a missing reading.
 //!
@@ -30,7 +33,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use super::toml_text::parse_toml;
-use super::{csv_records, csv_with_header, write_atomically, CsvTable, FileError};
+use super::{csv_records, csv_with_header, write_atomically, CsvTable, FileError, NumberRange};
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::Structure;
 use crate::sim::{Sensor, SensorTarget};
@@ -41,6 +44,10 @@ pub const LOG_FORMAT: &str = "tensegrity-deploy/log/1";
 pub const LOG_COMMANDS_HEADER: [&str; 4] = ["cycle", "step", "cable", "payout_change_m"];
 /// Header of `sensors.csv`.
 pub const SENSORS_HEADER: [&str; 4] = ["sensor", "kind", "target", "noise_sd"];
+/// Range of any reading (N, m or °C): ±1e9, far beyond any sensor of the
+/// bridge; a larger number is a corrupt file, and would overflow the
+/// squared residuals of a comparison.
+pub const READING_RANGE: NumberRange = NumberRange::closed(-1e9, 1e9);
 /// Header of `measurements.csv`.
 pub const MEASUREMENTS_HEADER: [&str; 4] = ["cycle", "step", "sensor", "value"];
 
@@ -77,7 +84,7 @@ fn parse_finite(text: &str, path: &Path, line: usize, field: &str) -> Result<f64
 }
 
 fn read_text(path: &Path) -> Result<String, FileError> {
-    std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))
+    super::read_text(path)
 }
 
 /// Reads and validates the log in folder `dir` against `structure`.
@@ -217,6 +224,9 @@ fn read_commands(path: &Path, structure: &Structure) -> Result<Vec<Cycle>, FileE
             .position(|c| c.id == r[2])
             .ok_or_else(|| err("cable", format!("no continuous cable \"{}\"", &r[2])))?;
         let change = parse_finite(&r[3], path, line, "payout_change_m")?;
+        super::commands::PAYOUT_CHANGE_RANGE_M
+            .check(change)
+            .map_err(|m| err("payout_change_m", m))?;
         match cycles.last() {
             Some(c) if c.label == cycle => {}
             Some(c) if c.label > cycle => {
@@ -232,7 +242,8 @@ fn read_commands(path: &Path, structure: &Structure) -> Result<Vec<Cycle>, FileE
                 readings: vec![],
             }),
         }
-        let c = cycles.last_mut().expect("pushed above");
+        // A cycle was pushed above whenever the list was empty.
+        let Some(c) = cycles.last_mut() else { continue };
         match c.step_labels.last() {
             Some(&s) if s == step => {}
             Some(&s) if s > step => {
@@ -243,7 +254,10 @@ fn read_commands(path: &Path, structure: &Structure) -> Result<Vec<Cycle>, FileE
                 c.commands.push(vec![0.0; n]);
             }
         }
-        let row = c.commands.last_mut().expect("pushed above");
+        // A step was pushed above whenever the cycle had none.
+        let Some(row) = c.commands.last_mut() else {
+            continue;
+        };
         if row[cable] != 0.0 {
             return Err(err("cable", format!("\"{}\" twice in one step", &r[2])));
         }
@@ -298,7 +312,9 @@ fn read_measurements(
             ));
         }
         if !r[3].is_empty() {
-            c.readings[k][s] = Some(parse_finite(&r[3], path, line, "value")?);
+            let value = parse_finite(&r[3], path, line, "value")?;
+            READING_RANGE.check(value).map_err(|m| err("value", m))?;
+            c.readings[k][s] = Some(value);
         }
     }
     Ok(())

@@ -13,6 +13,7 @@ pub mod friction_table;
 pub mod log;
 pub mod model_file;
 pub mod number_range;
+pub mod output;
 pub mod policy_file;
 pub mod problem_file;
 pub mod results;
@@ -29,26 +30,30 @@ use thiserror::Error;
 use crate::model::StructureError;
 
 /// An error reading or writing a file, naming the file and the place in it.
+///
+/// Each variant's message holds its cause, and no variant chains it as an
+/// error `source` too: a chain printer (`anyhow`'s `{:#}`) would print the
+/// cause twice.
 #[derive(Debug, Error)]
 pub enum FileError {
     /// The file could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read: {cause}", path.display())]
     Read {
         /// The file.
         path: PathBuf,
         /// Cause.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The file could not be written.
-    #[error("{}: cannot write: {source}", path.display())]
+    #[error("{}: cannot write: {cause}", path.display())]
     Write {
         /// The file.
         path: PathBuf,
         /// Cause.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// Malformed syntax (JSON or TOML).
-    #[error("{}:{line}:{column}: {message}", path.display())]
+    #[error("{}:{line}:{column}: {}", path.display(), fold_line_breaks(message))]
     Syntax {
         /// The file.
         path: PathBuf,
@@ -60,7 +65,7 @@ pub enum FileError {
         message: String,
     },
     /// A value that parses but makes no sense, in a CSV file.
-    #[error("{}: line {line}, field `{field}`: {message}", path.display())]
+    #[error("{}: line {line}, field `{}`: {}", path.display(), fold_line_breaks(field), fold_line_breaks(message))]
     Field {
         /// The file.
         path: PathBuf,
@@ -72,7 +77,7 @@ pub enum FileError {
         message: String,
     },
     /// An entry of a JSON document that makes no sense.
-    #[error("{}: {entry}: {message}", path.display())]
+    #[error("{}: {}: {}", path.display(), fold_line_breaks(entry), fold_line_breaks(message))]
     Invalid {
         /// The file.
         path: PathBuf,
@@ -82,12 +87,12 @@ pub enum FileError {
         message: String,
     },
     /// The structure failed validation.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {}", path.display(), fold_line_breaks(&cause.to_string()))]
     Structure {
         /// The file.
         path: PathBuf,
         /// What is wrong.
-        source: StructureError,
+        cause: StructureError,
     },
 }
 
@@ -102,19 +107,60 @@ impl FileError {
         }
     }
 
-    pub(crate) fn read(path: &Path, source: std::io::Error) -> Self {
+    pub(crate) fn read(path: &Path, cause: std::io::Error) -> Self {
         FileError::Read {
             path: path.to_path_buf(),
-            source,
+            cause,
         }
     }
 
-    pub(crate) fn write(path: &Path, source: std::io::Error) -> Self {
+    pub(crate) fn write(path: &Path, cause: std::io::Error) -> Self {
         FileError::Write {
             path: path.to_path_buf(),
-            source,
+            cause,
         }
     }
+}
+
+/// `text` with its line breaks written as `\n` and `\r`: a quoted CSV
+/// field or a JSON id can hold them, and an error stays one line.
+fn fold_line_breaks(text: &str) -> String {
+    text.replace('\r', "\\r").replace('\n', "\\n")
+}
+
+/// Largest input file any reader accepts, bytes (64 MiB: a structure of
+/// [`structure_file::MAX_NODES`] nodes is a few MiB, a long log a few tens);
+/// a larger file is refused before it is read into memory.
+pub const MAX_INPUT_BYTES: u64 = 64 << 20;
+
+/// The text of the input file `path`: an unreadable file, one over
+/// [`MAX_INPUT_BYTES`] or one that is not UTF-8 is an error naming the file
+/// (and, for bad UTF-8, the line and column of the first bad byte).
+pub(crate) fn read_text(path: &Path) -> Result<String, FileError> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| FileError::read(path, e))?;
+    let mut bytes = Vec::new();
+    // One byte more than the limit tells "at the limit" from "over it".
+    file.take(MAX_INPUT_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| FileError::read(path, e))?;
+    if bytes.len() as u64 > MAX_INPUT_BYTES {
+        return Err(FileError::Invalid {
+            path: path.to_path_buf(),
+            entry: "file".into(),
+            message: format!("larger than the input limit of {MAX_INPUT_BYTES} bytes"),
+        });
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = e.utf8_error().valid_up_to();
+        let (line, column) = toml_text::line_column_bytes(e.as_bytes(), valid);
+        FileError::Syntax {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message: "invalid UTF-8 (files must be UTF-8 text)".into(),
+        }
+    })
 }
 
 /// A CSV reader over `text` (fields trimmed) whose header has been checked
@@ -124,12 +170,7 @@ pub(crate) fn csv_with_header<'a>(
     path: &Path,
     expected: &[&str],
 ) -> Result<csv::Reader<&'a [u8]>, FileError> {
-    let header_error = |message: String| FileError::Field {
-        path: path.to_path_buf(),
-        line: 1,
-        field: "header".to_string(),
-        message,
-    };
+    let header_error = |message: String| FileError::field(path, 1, "header", message);
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());

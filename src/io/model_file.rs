@@ -45,8 +45,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::structure_file::read_structure;
-use super::toml_text::parse_toml;
-use super::{write_atomically, FileError};
+use super::toml_text::{field_error, parse_toml};
+use super::{write_atomically, FileError, NumberRange};
 use crate::design::{reference_bridge, BridgeParameters};
 use crate::model::{Effects, Structure};
 use crate::sim::EffectModel;
@@ -81,9 +81,36 @@ struct ModelDoc {
     effects: Effects,
 }
 
+/// Range of a thermal effect's reference temperature, °C: the
+/// temperatures a bridge is built and deployed at.
+pub const REFERENCE_TEMPERATURE_RANGE_C: NumberRange = NumberRange::closed(-100.0, 100.0);
+
+/// Checks the one effect number [`Effects::validate`] leaves alone, the
+/// thermal effect's reference temperature, at key `prefix.thermal.…`.
+pub(crate) fn check_reference_temperature(
+    effects: &Effects,
+    prefix: &str,
+    text: &str,
+    path: &Path,
+) -> Result<(), FileError> {
+    match &effects.thermal {
+        Some(t) => REFERENCE_TEMPERATURE_RANGE_C
+            .check(t.reference_temperature_c)
+            .map_err(|m| {
+                field_error(
+                    text,
+                    path,
+                    &format!("{prefix}.thermal.reference_temperature_c"),
+                    m,
+                )
+            }),
+        None => Ok(()),
+    }
+}
+
 /// Reads and validates a model file.
 pub fn read_model(path: &Path) -> Result<ModelFile, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    let text = super::read_text(path)?;
     parse_model(&text, path)
 }
 
@@ -103,11 +130,14 @@ pub fn parse_model(text: &str, path: &Path) -> Result<ModelFile, FileError> {
         ));
     }
     doc.effects.validate().map_err(|e| {
-        invalid(
+        field_error(
+            text,
+            path,
             &format!("effects.{}.{}", e.effect, e.parameter),
             e.reason.clone(),
         )
     })?;
+    check_reference_temperature(&doc.effects, "effects", text, path)?;
     let structure = if doc.structure == "reference" {
         StructureSource::Reference
     } else {
@@ -236,7 +266,15 @@ backlash_m = 0.002
             .to_string();
         assert_eq!(
             e,
-            "m.toml: effects.joint_friction.mu: must be ≥ 0, got -0.1"
+            "m.toml: line 6, field `effects.joint_friction.mu`: must be ≥ 0, got -0.1"
+        );
+        let text = "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n[effects.thermal]\nexpansion_per_k = 1.2e-5\nreference_temperature_c = nan\n";
+        let e = parse_model(text, Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("m.toml: line 5, field `effects.thermal.reference_temperature_c`: must be a finite number in [-100, 100]"),
+            "{e}"
         );
         let text = GOOD.replace("mu = 0.12", "mu = \"high\"");
         let e = parse_model(&text, Path::new("m.toml"))

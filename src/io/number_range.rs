@@ -55,15 +55,30 @@ impl NumberRange {
         if self.contains(value) {
             Ok(())
         } else {
-            Err(format!("must be a finite number in {self}, got {value}"))
+            Err(format!(
+                "must be a finite number in {self}, got {}",
+                compact(value)
+            ))
         }
+    }
+}
+
+/// `value` as a short literal: plain decimals between 1e-4 and 1e6 (as
+/// people write them), else scientific, so that `1e300` does not print as
+/// three hundred digits in a one-line error.
+pub fn compact(value: f64) -> String {
+    let magnitude = value.abs();
+    if !value.is_finite() || magnitude == 0.0 || (1e-4..1e6).contains(&magnitude) {
+        value.to_string()
+    } else {
+        format!("{value:e}")
     }
 }
 
 impl fmt::Display for NumberRange {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let open = if self.min_exclusive { '(' } else { '[' };
-        write!(f, "{open}{}, {}]", self.min, self.max)
+        write!(f, "{open}{}, {}]", compact(self.min), compact(self.max))
     }
 }
 
@@ -82,5 +97,11 @@ mod tests {
             r.check(-1.0).unwrap_err(),
             "must be a finite number in (0, 0.1], got -1"
         );
+        assert_eq!(
+            NumberRange::closed(-1e9, 1e9).check(1e300).unwrap_err(),
+            "must be a finite number in [-1e9, 1e9], got 1e300"
+        );
+        assert_eq!(compact(-0.0), "-0");
+        assert_eq!(compact(1.5e-7), "1.5e-7");
     }
 }

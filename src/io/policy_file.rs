@@ -26,7 +26,7 @@ pub const POLICY_FORMAT: &str = "tensegrity-deploy/policy/1";
 
 /// Reads and validates a policy file.
 pub fn read_policy(path: &Path) -> Result<Policy, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    let text = super::read_text(path)?;
     parse_policy(&text, path)
 }
 

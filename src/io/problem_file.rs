@@ -30,7 +30,7 @@ pub const PROBLEM_FORMAT: &str = "tensegrity-deploy/problem/1";
 /// Reads and validates a problem file. The per-motor lists are checked
 /// against the structure when a plan starts.
 pub fn read_problem(path: &Path) -> Result<DeploymentProblem, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    let text = super::read_text(path)?;
     parse_problem(&text, path)
 }
 

@@ -19,17 +19,47 @@
 //! `fixed` and `load_n` may be omitted (free, unloaded); `midspan_pairs`
 //! may be omitted. Unknown fields are errors, so a misspelt field is never
 //! silently ignored. SI units throughout, as the field names say.
+//!
+//! Every number must lie in its range below (wide: they reject unit slips
+//! and corrupt files, not unusual structures), and the structure in its
+//! size limits ([`MAX_NODES`], [`MAX_ELEMENTS`]); the error names the entry
+//! by kind, index and id, and the field.
 
 use std::path::Path;
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::{write_atomically, FileError};
+use super::{write_atomically, FileError, NumberRange};
 use crate::model::{ContinuousCable, Member, MemberKind, Node, Structure};
 
 /// The format tag this version writes and reads.
 pub const STRUCTURE_FORMAT: &str = "tensegrity-deploy/structure/1";
+
+/// Range of a node coordinate, m: ±10 km. Far beyond it the member
+/// lengths lose every significant digit of their stretch.
+pub const COORDINATE_RANGE_M: NumberRange = NumberRange::closed(-1e4, 1e4);
+/// Range of a node's lumped mass, kg.
+pub const MASS_RANGE_KG: NumberRange = NumberRange::non_negative_up_to(1e6);
+/// Range of each component of a node load, N.
+pub const LOAD_RANGE_N: NumberRange = NumberRange::closed(-1e9, 1e9);
+/// Range of each component of gravity, m/s².
+pub const GRAVITY_RANGE_M_PER_S2: NumberRange = NumberRange::closed(-100.0, 100.0);
+/// Range of a member's or segment's rest length, m: from 1 mm (the
+/// shortest a motor may reel a first segment to) to 10 km.
+pub const REST_LENGTH_RANGE_M: NumberRange = NumberRange::closed(1e-3, 1e4);
+/// Range of an axial stiffness EA, N: 1 N (a rubber thread) to 1e12 N.
+pub const EA_RANGE_N: NumberRange = NumberRange::closed(1.0, 1e12);
+/// Range of a strut's bending stiffness EI, N·m² (its Euler load stays
+/// finite and positive).
+pub const EI_RANGE_NM2: NumberRange = NumberRange::closed(1e-6, 1e12);
+/// Range of a spring's stiffness, N/m.
+pub const SPRING_STIFFNESS_RANGE_N_PER_M: NumberRange = NumberRange::closed(1e-6, 1e12);
+/// Most nodes of a structure (the reference bridge has 50).
+pub const MAX_NODES: usize = 10_000;
+/// Most force elements of a structure: members plus continuous-cable
+/// segments (the reference bridge has 240).
+pub const MAX_ELEMENTS: usize = 100_000;
 
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -101,7 +131,7 @@ struct ContinuousDoc {
 
 /// Reads and validates a structure file.
 pub fn read_structure(path: &Path) -> Result<Structure, FileError> {
-    let text = std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))?;
+    let text = super::read_text(path)?;
     parse_structure(&text, path)
 }
 
@@ -124,6 +154,7 @@ pub fn parse_structure(text: &str, path: &Path) -> Result<Structure, FileError> 
             format!("expected \"{STRUCTURE_FORMAT}\", found \"{}\"", doc.format),
         ));
     }
+    check_ranges(&doc).map_err(|(entry, message)| invalid(entry, message))?;
     let mut index = std::collections::HashMap::new();
     for (i, n) in doc.nodes.iter().enumerate() {
         index.insert(n.id.as_str(), i);
@@ -210,8 +241,118 @@ pub fn parse_structure(text: &str, path: &Path) -> Result<Structure, FileError> 
     )
     .map_err(|e| FileError::Structure {
         path: path.to_path_buf(),
-        source: e,
+        cause: e,
     })
+}
+
+/// Checks the size limits and every number's range; the error is the entry
+/// (`nodes[3] ("b")`) and the message naming the field.
+fn check_ranges(doc: &StructureDoc) -> Result<(), (String, String)> {
+    if doc.nodes.len() > MAX_NODES {
+        return Err((
+            "nodes".into(),
+            format!(
+                "{} nodes, over the limit of {MAX_NODES} per structure",
+                doc.nodes.len()
+            ),
+        ));
+    }
+    let elements = doc.struts.len()
+        + doc.cables.len()
+        + doc.springs.len()
+        + doc
+            .continuous_cables
+            .iter()
+            .map(|c| c.segment_rest_lengths_m.len())
+            .sum::<usize>();
+    if elements > MAX_ELEMENTS {
+        return Err((
+            "members".into(),
+            format!(
+                "{elements} members and segments, over the limit of {MAX_ELEMENTS} per structure"
+            ),
+        ));
+    }
+    let check = |entry: &dyn Fn() -> String, field: &str, v: f64, range: NumberRange| {
+        range
+            .check(v)
+            .map_err(|m| (entry(), format!("field `{field}` {m}")))
+    };
+    for (axis, g) in doc.gravity_m_per_s2.iter().enumerate() {
+        check(
+            &|| "gravity_m_per_s2".into(),
+            &format!("gravity_m_per_s2[{axis}]"),
+            *g,
+            GRAVITY_RANGE_M_PER_S2,
+        )?;
+    }
+    for (i, n) in doc.nodes.iter().enumerate() {
+        let entry = || format!("nodes[{i}] (\"{}\")", n.id);
+        for axis in 0..3 {
+            check(
+                &entry,
+                &format!("position_m[{axis}]"),
+                n.position_m[axis],
+                COORDINATE_RANGE_M,
+            )?;
+            check(
+                &entry,
+                &format!("load_n[{axis}]"),
+                n.load_n[axis],
+                LOAD_RANGE_N,
+            )?;
+        }
+        check(&entry, "mass_kg", n.mass_kg, MASS_RANGE_KG)?;
+    }
+    for (i, m) in doc.struts.iter().enumerate() {
+        let entry = || format!("struts[{i}] (\"{}\")", m.id);
+        check(&entry, "ea_n", m.ea_n, EA_RANGE_N)?;
+        check(&entry, "ei_nm2", m.ei_nm2, EI_RANGE_NM2)?;
+        check(
+            &entry,
+            "rest_length_m",
+            m.rest_length_m,
+            REST_LENGTH_RANGE_M,
+        )?;
+    }
+    for (i, m) in doc.cables.iter().enumerate() {
+        let entry = || format!("cables[{i}] (\"{}\")", m.id);
+        check(&entry, "ea_n", m.ea_n, EA_RANGE_N)?;
+        check(
+            &entry,
+            "rest_length_m",
+            m.rest_length_m,
+            REST_LENGTH_RANGE_M,
+        )?;
+    }
+    for (i, m) in doc.springs.iter().enumerate() {
+        let entry = || format!("springs[{i}] (\"{}\")", m.id);
+        check(
+            &entry,
+            "stiffness_n_per_m",
+            m.stiffness_n_per_m,
+            SPRING_STIFFNESS_RANGE_N_PER_M,
+        )?;
+        check(
+            &entry,
+            "rest_length_m",
+            m.rest_length_m,
+            REST_LENGTH_RANGE_M,
+        )?;
+    }
+    for (i, c) in doc.continuous_cables.iter().enumerate() {
+        let entry = || format!("continuous_cables[{i}] (\"{}\")", c.id);
+        check(&entry, "ea_n", c.ea_n, EA_RANGE_N)?;
+        for (k, l) in c.segment_rest_lengths_m.iter().enumerate() {
+            check(
+                &entry,
+                &format!("segment_rest_lengths_m[{k}]"),
+                *l,
+                REST_LENGTH_RANGE_M,
+            )?;
+        }
+    }
+    Ok(())
 }
 
 /// Serialises a structure to the file format (members grouped by kind).

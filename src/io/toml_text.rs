@@ -67,7 +67,12 @@ fn value_line(text: &str, key: &str) -> Option<usize> {
 
 /// 1-based line and column of byte `offset` in `text` (column in bytes).
 pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text.as_bytes()[..offset.min(text.len())];
+    line_column_bytes(text.as_bytes(), offset)
+}
+
+/// [`line_column`] over raw bytes (which need not be UTF-8).
+pub(crate) fn line_column_bytes(bytes: &[u8], offset: usize) -> (usize, usize) {
+    let before = &bytes[..offset.min(bytes.len())];
     let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
     let line_start = before
         .iter()

@@ -39,6 +39,29 @@ pub enum CommandError {
     /// The increment size is not positive.
     #[error("command increment must be positive, got {0} m")]
     BadIncrement(f64),
+    /// The command would need more than [`MAX_INCREMENTS_PER_COMMAND`]
+    /// increments: a bound on the work one command may take.
+    #[error("a payout change of {largest_m} m in increments of at most {increment_m} m needs more than {MAX_INCREMENTS_PER_COMMAND} increments (the limit per command)")]
+    TooManyIncrements {
+        /// Largest payout change of the command, m.
+        largest_m: f64,
+        /// Largest increment, m.
+        increment_m: f64,
+    },
+}
+
+/// Most increments one command may be split into: at the default 1 mm
+/// increment, a 10 m payout change. It bounds the work of a command whatever
+/// its input (a 1 km payout, a 1 nm increment).
+pub const MAX_INCREMENTS_PER_COMMAND: usize = 10_000;
+
+/// Increments a command whose largest payout change is `largest_m` needs at
+/// a largest increment of `max_increment_m` (at least one).
+pub fn increments_needed(largest_m: f64, max_increment_m: f64) -> f64 {
+    // The tiny relative slack avoids an extra increment from rounding.
+    ((largest_m.abs() / max_increment_m) * (1.0 - 1e-12))
+        .ceil()
+        .max(1.0)
 }
 
 /// Receives each increment's result as a command is applied. The CLI's
@@ -123,10 +146,15 @@ impl ForwardModel {
                 });
             }
         }
-        // The tiny relative slack avoids an extra increment from rounding.
-        let count = ((largest / max_increment_m) * (1.0 - 1e-12))
-            .ceil()
-            .max(1.0) as usize;
+        let count = increments_needed(largest, max_increment_m);
+        // `!(…<=…)` so that an infinite count is refused too.
+        if !(count <= MAX_INCREMENTS_PER_COMMAND as f64) {
+            return Err(CommandError::TooManyIncrements {
+                largest_m: largest,
+                increment_m: max_increment_m,
+            });
+        }
+        let count = count as usize;
         let mut out = CommandReport {
             status: RelaxStatus::Converged,
             increments: 0,

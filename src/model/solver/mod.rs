@@ -16,10 +16,12 @@ pub mod settings;
 pub mod status;
 mod workspace;
 
-pub use command::{CommandError, CommandReport, IncrementObserver};
+pub use command::{
+    increments_needed, CommandError, CommandReport, IncrementObserver, MAX_INCREMENTS_PER_COMMAND,
+};
 pub use forward_model::{ForwardModel, MemberForces};
 pub use relax::SolveMode;
 pub use sensitivity::{MotorDirection, MotorResponse, PayoutSensitivities, SensitivityError};
 pub use settings::{RelaxSettings, SettingsError};
-pub use status::{RelaxReport, RelaxStatus};
+pub use status::{RelaxReport, RelaxStatus, PLAUSIBLE_STRAIN};
 pub use workspace::Workspace;

@@ -86,12 +86,19 @@ impl ForwardModel {
             report.max_residual_n = max_r;
             report.max_friction_residual_n = friction_left;
             report.tolerance_n = tol;
-            if !max_r.is_finite() {
+            // Converged means finite: a NaN or infinite residual, member
+            // force or friction residual (e.g. a node at 1e300 m) is a
+            // divergence, never a pass of the test below.
+            if !(max_r.is_finite() && max_t.is_finite() && friction_left.is_finite()) {
                 report.status = RelaxStatus::Diverged;
                 return report;
             }
             if max_r <= tol && friction_left <= tol {
-                report.status = RelaxStatus::Converged;
+                report.status = if self.strain_is_plausible(state) {
+                    RelaxStatus::Converged
+                } else {
+                    RelaxStatus::ImplausibleStrain
+                };
                 return report;
             }
             if report.iterations >= s.max_iter {

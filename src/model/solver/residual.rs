@@ -4,9 +4,11 @@
 
 use super::element::ElementLaw;
 use super::forward_model::ForwardModel;
+use super::status::PLAUSIBLE_STRAIN;
 use super::workspace::Workspace;
 use crate::model::sliding::{map_cable, map_cable_with_slip, IncrementStart};
 use crate::model::state::DeploymentState;
+use crate::model::MemberKind;
 
 /// How a residual evaluation treats the joints' slip.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,6 +43,29 @@ impl ForwardModel {
             .iter()
             .zip(&ws.start)
             .any(|(x, x0)| !((x - x0).norm() <= max_disp))
+    }
+
+    /// Whether every strut, cable and segment of `state` is strained by at
+    /// most [`PLAUSIBLE_STRAIN`] (struts both ways, cables and segments in
+    /// tension; springs exempt). Elements `0..members` are the members in
+    /// structure order, the rest the segments.
+    pub(super) fn strain_is_plausible(&self, state: &DeploymentState) -> bool {
+        let x = &state.positions_m;
+        self.elements.iter().enumerate().all(|(k, e)| {
+            let length = (x[e.b] - x[e.a]).norm();
+            let (rest, both_ways) = match e.law {
+                ElementLaw::Segment { index, .. } => (state.segment_rest_lengths_m[index], false),
+                ElementLaw::Linear { rest_m, .. } => match self.structure.members[k].kind {
+                    MemberKind::Spring { .. } => return true,
+                    MemberKind::Strut { .. } => (rest_m, true),
+                    MemberKind::Cable { .. } => (rest_m, false),
+                },
+            };
+            let strain = length / rest - 1.0;
+            let limit = if both_ways { strain.abs() } else { strain };
+            // A NaN strain fails the test, so it is not plausible.
+            limit <= PLAUSIBLE_STRAIN
+        })
     }
 
     pub(super) fn max_free_residual(&self, ws: &Workspace) -> f64 {

@@ -1,5 +1,15 @@
 //! How a solve ended ([`RelaxStatus`]) and what it reports ([`RelaxReport`]).
 
+/// Largest strain `L/L0 − 1` (in magnitude) a strut, cable or
+/// continuous-cable segment may have in a converged result: 20 %, ten times
+/// the breaking strain of structural steel and beyond any rope. An
+/// equilibrium past it is no physical result (a solver artefact, or an
+/// input slip such as a strut 1 µm long) and is reported as
+/// [`RelaxStatus::ImplausibleStrain`]. Slack (shortened) cables and segments
+/// carry nothing and are not limited; springs are exempt, since stretching
+/// is their function (the reference bridge's stretch by up to 120 %).
+pub const PLAUSIBLE_STRAIN: f64 = 0.2;
+
 /// How a solve ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -11,6 +21,9 @@ pub enum RelaxStatus {
     IterationLimit,
     /// A position or force became NaN or infinite; the state is unusable.
     Diverged,
+    /// The solve balanced, but a member is strained beyond
+    /// [`PLAUSIBLE_STRAIN`]: the equilibrium is not physical.
+    ImplausibleStrain,
     /// Nodes moved farther than `max_displacement_rel` allows: the structure
     /// is a mechanism in this configuration (lost prestress, slack cables).
     UnstableMechanism,
@@ -30,6 +43,7 @@ impl RelaxStatus {
             RelaxStatus::IterationLimit => "iteration_limit",
             RelaxStatus::Diverged => "diverged",
             RelaxStatus::UnstableMechanism => "unstable_mechanism",
+            RelaxStatus::ImplausibleStrain => "implausible_strain",
         }
     }
 
@@ -42,16 +56,21 @@ impl RelaxStatus {
             RelaxStatus::UnstableMechanism => {
                 "unstable mechanism (nodes ran away: prestress lost or cables slack)"
             }
+            RelaxStatus::ImplausibleStrain => {
+                "implausible strain (a member stretched or a strut crushed by more than 20 % of its rest length: not a physical result)"
+            }
         }
     }
 
-    /// Severity order: converged < iteration limit < mechanism < diverged.
+    /// Severity order: converged < iteration limit < implausible strain <
+    /// mechanism < diverged.
     pub fn severity(self) -> u8 {
         match self {
             RelaxStatus::Converged => 0,
             RelaxStatus::IterationLimit => 1,
-            RelaxStatus::UnstableMechanism => 2,
-            RelaxStatus::Diverged => 3,
+            RelaxStatus::ImplausibleStrain => 2,
+            RelaxStatus::UnstableMechanism => 3,
+            RelaxStatus::Diverged => 4,
         }
     }
 }
@@ -86,6 +105,7 @@ mod tests {
             RelaxStatus::IterationLimit,
             RelaxStatus::Diverged,
             RelaxStatus::UnstableMechanism,
+            RelaxStatus::ImplausibleStrain,
         ] {
             assert_eq!(serde_json::to_value(s).unwrap(), s.as_str());
         }
