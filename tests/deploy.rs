@@ -11,13 +11,13 @@ use std::process::{Command, Output};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::log::read_log;
-use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
+use tensegrity_deploy::model::{EffectKind, Effects, ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::closed_loop::CORRECTIVE_PHASE_GAP_M;
 use tensegrity_deploy::plan::{
     deploy_closed_loop, ClosedLoopSetup, DeployObserver, DeployRecord, DeployStart, Deployment,
     DeploymentProblem, PlanStatus, Policy,
 };
-use tensegrity_deploy::sim::{default_truth, standard_sensors, CycleSchedule, Sensor};
+use tensegrity_deploy::sim::{default_truth, standard_sensors, CycleSchedule, EffectModel, Sensor};
 
 /// Counts what the observer is shown.
 #[derive(Default)]
@@ -415,4 +415,82 @@ fn bad_policy_and_problem_files_exit_2_naming_file_line_and_field() {
     assert!(!dir.path().join("o").exists());
     let e = failed_with(&tdeploy(&["deploy", "--threads", "0"], dir.path(), None), 2);
     assert!(e.contains("--threads"), "{e}");
+}
+
+/// Deploys a truth hiding `effects` (parameters per kind, in the effects
+/// library's order) with the default controller, or with `policy`.
+fn deploy_hidden(effects: &[(EffectKind, &[f64])], policy: &Policy) -> Deployment {
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let model = ForwardModel::new(
+        structure.clone(),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .unwrap();
+    let mut hidden = Effects::default();
+    for (kind, values) in effects {
+        hidden = hidden.with_parameters(*kind, values);
+    }
+    let truth = EffectModel::for_measurement(structure, hidden);
+    let sensors = standard_sensors(&truth.structure);
+    let problem = DeploymentProblem::default();
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: 9,
+    };
+    deploy_closed_loop(&setup, &mut ()).unwrap()
+}
+
+fn broken_limits(d: &Deployment) -> usize {
+    d.records.iter().map(|r| r.truth_violations.len()).sum()
+}
+
+/// Scenario 9 of `experiments/deployment.toml`: drums that reel 4.3 % more
+/// than commanded and cables 19 % softer. Without the payout-scale
+/// estimate the controller's model stayed where its commands put it, the
+/// truth was reeled past its designed state and its axial cables went
+/// slack (8 limits broken on the 8th command); with it, the commands are
+/// scaled down to what the measured motion says the cables do.
+#[test]
+fn negative_drum_slip_does_not_reel_the_truth_past_its_design() {
+    let effects: [(EffectKind, &[f64]); 4] = [
+        (EffectKind::JointFriction, &[0.057]),
+        (EffectKind::Motor, &[-0.0425, 0.0012]),
+        (EffectKind::StiffnessError, &[1.043, 0.811, 1.078]),
+        (EffectKind::JointMassError, &[0.836]),
+    ];
+    let d = deploy_hidden(&effects, &Policy::default());
+    assert_eq!(d.status, PlanStatus::Connected, "{}", d.status.describe());
+    assert_eq!(broken_limits(&d), 0);
+    assert!(d.final_true_gap_m().unwrap() <= 0.030);
+    // The same truth without the estimate breaks limits: the test sees
+    // the difference it is named after.
+    let blind = Policy {
+        payout_scale_prior_sd: 0.0,
+        ..Policy::default()
+    };
+    assert!(broken_limits(&deploy_hidden(&effects, &blind)) > 0);
+}
+
+/// Scenario 26: drums that reel 4.2 % less than commanded and cables 32 %
+/// softer. The model believed itself at the designed state after 40 cm
+/// of commands, with the truth's gaps still 39 mm open, and refused to
+/// reel further ("not reachable").
+#[test]
+fn positive_drum_slip_and_soft_cables_still_connect() {
+    let effects: [(EffectKind, &[f64]); 4] = [
+        (EffectKind::JointFriction, &[0.023]),
+        (EffectKind::Motor, &[0.0423, 0.0038]),
+        (EffectKind::StiffnessError, &[0.801, 0.680, 1.163]),
+        (EffectKind::JointMassError, &[1.043]),
+    ];
+    let d = deploy_hidden(&effects, &Policy::default());
+    assert_eq!(d.status, PlanStatus::Connected, "{}", d.status.describe());
+    assert_eq!(broken_limits(&d), 0);
+    assert!(d.final_true_gap_m().unwrap() <= 0.030);
 }
