@@ -6,7 +6,10 @@
 //! - the whole open-loop plan from the fold to the connection, in which
 //!   most commands reuse the previous command's Broyden-updated responses
 //!   (the per-command times of one such plan are in `tdeploy plan`'s
-//!   plan.csv).
+//!   plan.csv);
+//! - a whole closed-loop deployment of the default truth (μ = 0.2, 3 mm
+//!   backlash) by the frictionless controller, folded to connected (what
+//!   `tdeploy deploy` runs, without its files).
 //!
 //!     cargo bench --bench planner
 
@@ -17,8 +20,10 @@ use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::qp_step::step_solver_settings;
 use tensegrity_deploy::plan::search::{step_data, step_weights};
 use tensegrity_deploy::plan::{
-    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PlanContext, Policy,
+    deploy_closed_loop, folded_start, planner_for, solve_step, ClosedLoopSetup, DeploymentProblem,
+    PayoutResponse, PlanContext, Policy,
 };
+use tensegrity_deploy::sim::{default_truth, standard_sensors};
 
 fn bench(c: &mut Criterion) {
     let model = ForwardModel::new(
@@ -60,6 +65,27 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     group.bench_function("open_loop_plan_from_fold_mu0.2", |b| {
         b.iter(|| tensegrity_deploy::plan::plan_open_loop(&model, &problem, &full, &start))
+    });
+    let structure = reference_bridge(&BridgeParameters::default()).expect("reference bridge");
+    let controller = ForwardModel::new(
+        structure.clone(),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .expect("default settings");
+    let truth = default_truth(structure);
+    let sensors = standard_sensors(&truth.structure);
+    let setup = ClosedLoopSetup {
+        model: &controller,
+        problem: &problem,
+        policy: &full,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: 1,
+    };
+    group.bench_function("closed_loop_deployment_default_truth", |b| {
+        b.iter(|| deploy_closed_loop(&setup, &mut ()).expect("deployment"))
     });
     group.finish();
 }
