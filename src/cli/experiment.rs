@@ -21,7 +21,7 @@ use tensegrity_deploy::plan::DeploymentProblem;
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 use tensegrity_deploy::report::figures::grouped_bars_svg;
 use tensegrity_deploy::studies::deployment::{
-    run_deployment_study, summarise, DeploymentStudySettings,
+    mcnemar_exact_p, paired_outcomes, run_deployment_study, summarise, DeploymentStudySettings,
 };
 use tensegrity_deploy::studies::friction_study::{
     friction_study, CellComparison, FrictionStudySettings,
@@ -564,6 +564,38 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
     say!(
         "seed lab practice: predetermined 5 cm commands of every cable, no feedback (the nominal policy); connection judged by eye, success rate not reported"
     );
+    // The first policy against each other one on the same scenarios.
+    let mut paired = CsvTable::new(&[
+        "policy_a",
+        "policy_b",
+        "both",
+        "only_a",
+        "only_b",
+        "neither",
+        "mcnemar_exact_p",
+    ]);
+    for (b, other) in policies.iter().enumerate().skip(1) {
+        let tolerance = settings.problem.connection_tolerance_m;
+        let (both, only_a, only_b, neither) = paired_outcomes(&runs, 0, b, tolerance);
+        let p = mcnemar_exact_p(only_a, only_b);
+        say!(
+            "{} vs {} on the same {} scenarios: both succeed {both}, only {} {only_a}, only {} {only_b}, neither {neither}; exact McNemar p = {p:.2e}",
+            policies[0].name,
+            other.name,
+            both + only_a + only_b + neither,
+            policies[0].name,
+            other.name,
+        );
+        paired.row([
+            policies[0].name.clone(),
+            other.name.clone(),
+            both.to_string(),
+            only_a.to_string(),
+            only_b.to_string(),
+            neither.to_string(),
+            p.to_string(),
+        ]);
+    }
     let svg = grouped_bars_svg(
         &format!(
             "{} policies on {} scenarios (median over successes; gap over all runs)",
@@ -582,10 +614,11 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
     results_folder(&e.out)?;
     csv.write(&e.out.join("runs.csv"))?;
     summary.write(&e.out.join("summary.csv"))?;
+    paired.write(&e.out.join("paired.csv"))?;
     timing.write(&e.out.join("timing.csv"))?;
     write_atomically(&e.out.join("deployment.svg"), svg.as_bytes())?;
     say!(
-        "results in {} (runs.csv, summary.csv, deployment.svg; planning times in timing.csv)",
+        "results in {} (runs.csv, summary.csv, paired.csv, deployment.svg; planning times in timing.csv)",
         e.out.display()
     );
     Ok(Outcome::GoalReached)

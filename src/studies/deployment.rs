@@ -228,6 +228,62 @@ pub fn wilson_interval(k: usize, n: usize) -> (f64, f64) {
     ((centre - half).max(0.0), (centre + half).min(1.0))
 }
 
+/// Exact two-sided McNemar test of two policies on the same (paired)
+/// scenarios: `only_first` scenarios where only the first succeeded,
+/// `only_second` where only the second did. Under the null hypothesis
+/// (equal success rates) each discordant pair is a fair coin, so the
+/// p-value is `min(1, 2·P[X ≤ min(b, c)])` for `X ~ Binomial(b + c, ½)`;
+/// 1 when there is no discordant pair. Exact rather than the χ²
+/// approximation, which is poor for the few discordant pairs of a
+/// 50-scenario study.
+pub fn mcnemar_exact_p(only_first: usize, only_second: usize) -> f64 {
+    let n = only_first + only_second;
+    if n == 0 {
+        return 1.0;
+    }
+    let k = only_first.min(only_second);
+    // Σ_{i ≤ k} C(n, i) / 2ⁿ, summed in logs so that n in the thousands
+    // neither overflows nor underflows term by term.
+    let ln_half_n = n as f64 * std::f64::consts::LN_2;
+    let mut ln_c = 0.0; // ln C(n, 0)
+    let mut tail = 0.0;
+    for i in 0..=k {
+        if i > 0 {
+            ln_c += ((n - i + 1) as f64).ln() - (i as f64).ln();
+        }
+        tail += (ln_c - ln_half_n).exp();
+    }
+    (2.0 * tail).min(1.0)
+}
+
+/// Paired outcome of policies `a` and `b` over the same scenarios:
+/// (both succeeded, only `a`, only `b`, neither).
+pub fn paired_outcomes(
+    runs: &[DeploymentRun],
+    a: usize,
+    b: usize,
+    tolerance_m: f64,
+) -> (usize, usize, usize, usize) {
+    let success = |policy: usize, scenario: usize| {
+        runs.iter()
+            .find(|r| r.policy == policy && r.scenario == scenario)
+            .map(|r| r.succeeded(tolerance_m))
+    };
+    let scenarios: std::collections::BTreeSet<usize> = runs.iter().map(|r| r.scenario).collect();
+    let mut counts = (0, 0, 0, 0);
+    for s in scenarios {
+        match (success(a, s), success(b, s)) {
+            (Some(true), Some(true)) => counts.0 += 1,
+            (Some(true), Some(false)) => counts.1 += 1,
+            (Some(false), Some(true)) => counts.2 += 1,
+            (Some(false), Some(false)) => counts.3 += 1,
+            // A scenario one policy did not run is not a pair.
+            _ => {}
+        }
+    }
+    counts
+}
+
 /// The summary of policy `policy` over `runs`; success needs every true
 /// gap within `tolerance_m`.
 pub fn summarise(runs: &[DeploymentRun], policy: usize, tolerance_m: f64) -> PolicySummary {
@@ -282,6 +338,23 @@ pub fn summarise(runs: &[DeploymentRun], policy: usize, tolerance_m: f64) -> Pol
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mcnemar_matches_the_binomial_tail_by_hand() {
+        // b = 1, c = 9: 2·(C(10,0) + C(10,1))/2¹⁰ = 22/1024.
+        assert!((mcnemar_exact_p(1, 9) - 22.0 / 1024.0).abs() < 1e-15);
+        assert_eq!(mcnemar_exact_p(9, 1), mcnemar_exact_p(1, 9));
+        // b = 0, c = 22 (the deployment experiment's QP against the
+        // nominal policy): 2/2²² = 4.77e-7.
+        assert!((mcnemar_exact_p(0, 22) - 2.0 / 4_194_304.0).abs() < 1e-20);
+        // Balanced discordance is no evidence; none at all neither.
+        assert_eq!(mcnemar_exact_p(5, 5), 1.0);
+        assert_eq!(mcnemar_exact_p(0, 0), 1.0);
+        // Large n stays finite and symmetric: b = 480, c = 520 gives the
+        // two-sided normal approximation's p ≈ 0.218 to 2 digits.
+        let p = mcnemar_exact_p(480, 520);
+        assert!((p - 0.218).abs() < 0.01, "{p}");
+    }
 
     #[test]
     fn wilson_interval_matches_hand_values() {
