@@ -494,3 +494,46 @@ fn positive_drum_slip_and_soft_cables_still_connect() {
     assert_eq!(broken_limits(&d), 0);
     assert!(d.final_true_gap_m().unwrap() <= 0.030);
 }
+
+/// The deployment study (what `experiments/deployment.toml` runs) gives
+/// the same deployments at 1 and 2 threads, and reports each run once to
+/// the progress callback.
+#[test]
+fn the_deployment_study_is_the_same_at_any_thread_count() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use tensegrity_deploy::studies::deployment::{run_deployment_study, DeploymentStudySettings};
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let model = ForwardModel::new(
+        structure,
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .unwrap();
+    let settings = DeploymentStudySettings {
+        scenarios: 2,
+        seed: 3,
+        hidden_effects: vec![EffectKind::JointFriction, EffectKind::Motor],
+        problem: DeploymentProblem::default(),
+    };
+    let policies = [Policy::default()];
+    let run = |threads: usize| {
+        let done = AtomicUsize::new(0);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let (_, runs) = pool.install(|| {
+            run_deployment_study(&model, &policies, &settings, &|| {
+                done.fetch_add(1, Ordering::Relaxed);
+            })
+        });
+        assert_eq!(done.into_inner(), 2);
+        runs.into_iter()
+            .map(|r| {
+                let d = r.outcome.unwrap();
+                (r.scenario, d.status, d.readings, d.final_true_state)
+            })
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(run(1), run(2));
+}

@@ -28,6 +28,10 @@ use tensegrity_deploy::studies::friction_study::{
 };
 use tensegrity_deploy::studies::{friction_effect, FrictionEffectSettings};
 
+use std::io::IsTerminal;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
 use super::{replay_stopped, value, Outcome};
 
 /// The `experiment` subcommand's arguments.
@@ -421,7 +425,16 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         e.hidden_effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
         e.model_mu
     );
-    let (scenarios, runs) = run_deployment_study(&model, &policies, &settings);
+    let bar = if std::io::stderr().is_terminal() {
+        ProgressBar::new((e.scenarios * policies.len()) as u64)
+    } else {
+        ProgressBar::hidden()
+    };
+    if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} deployments {eta}") {
+        bar.set_style(style);
+    }
+    let (scenarios, runs) = run_deployment_study(&model, &policies, &settings, &|| bar.inc(1));
+    bar.finish_and_clear();
 
     let mut header = vec!["scenario".to_string(), "seed".into()];
     for kind in &e.hidden_effects {

@@ -132,11 +132,15 @@ pub fn scenarios(settings: &DeploymentStudySettings) -> Vec<Scenario> {
 }
 
 /// Runs every policy on every scenario, the controller planning on
-/// `model` (whose structure is also the truths').
+/// `model` (whose structure is also the truths'), in parallel; `run_done`
+/// is called (from any thread, in any order) as each run ends, for a
+/// progress bar. The runs come back in (scenario, policy) order whatever
+/// the thread count.
 pub fn run_deployment_study(
     model: &ForwardModel,
     policies: &[Policy],
     settings: &DeploymentStudySettings,
+    run_done: &(dyn Fn() + Sync),
 ) -> (Vec<Scenario>, Vec<DeploymentRun>) {
     let scenarios = scenarios(settings);
     let structure: &Structure = model.structure();
@@ -158,11 +162,13 @@ pub fn run_deployment_study(
                 temperature_c: None,
                 seed: scenario.seed,
             };
-            DeploymentRun {
+            let run = DeploymentRun {
                 scenario: s,
                 policy: p,
                 outcome: deploy_closed_loop(&setup, &mut ()).map_err(|e| e.to_string()),
-            }
+            };
+            run_done();
+            run
         })
         .collect();
     (scenarios, runs)
