@@ -3,17 +3,17 @@
 //! scenario failed.
 //!
 //! `cargo run --release --example deployment_scenario -- POLICY SEED SCENARIO...`
-//! (the experiment's hidden effects: joint friction, motor, stiffness and
-//! joint-mass errors; the controller plans on the frictionless model).
+//! (the experiment's scenarios: the default distribution of `tdeploy
+//! evaluate`; the controller plans on the frictionless model).
 
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::policy_file::read_policy;
-use tensegrity_deploy::model::{EffectKind, ForwardModel, JointFriction, RelaxSettings};
+use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::DeploymentProblem;
 use tensegrity_deploy::plan::{deploy_closed_loop, ClosedLoopSetup};
 use tensegrity_deploy::sim::standard_sensors;
 use tensegrity_deploy::sim::EffectModel;
-use tensegrity_deploy::studies::deployment::{scenarios, DeploymentStudySettings};
+use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -29,27 +29,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         JointFriction::constant(0.0)?,
         RelaxSettings::default(),
     )?;
-    let settings = DeploymentStudySettings {
-        scenarios: wanted.iter().max().map_or(0, |m| m + 1),
-        seed,
-        hidden_effects: vec![
-            EffectKind::JointFriction,
-            EffectKind::Motor,
-            EffectKind::StiffnessError,
-            EffectKind::JointMassError,
-        ],
-        problem: DeploymentProblem::default(),
-    };
+    let distribution = ScenarioDistribution::default();
+    let problem = DeploymentProblem::default();
     let sensors = standard_sensors(&structure);
-    for s in scenarios(&settings)
-        .into_iter()
-        .filter(|s| wanted.contains(&s.index))
-    {
+    for s in wanted.iter().map(|&i| distribution.draw(seed, i)) {
         println!("== scenario {} effects {:?}", s.index, s.effects);
         let truth = EffectModel::for_measurement(structure.clone(), s.effects);
         let setup = ClosedLoopSetup {
             model: &model,
-            problem: &settings.problem,
+            problem: &problem,
             policy: &policy,
             truth: &truth,
             sensors: &sensors,

@@ -495,13 +495,15 @@ fn positive_drum_slip_and_soft_cables_still_connect() {
     assert!(d.final_true_gap_m().unwrap() <= 0.030);
 }
 
-/// The deployment study (what `experiments/deployment.toml` runs) gives
-/// the same deployments at 1 and 2 threads, and reports each run once to
-/// the progress callback.
+/// The evaluation (what `tdeploy evaluate` and the deployment experiment
+/// run) gives the same runs at 1 and 2 threads and shard by shard, and
+/// reports each run once to the progress callback.
 #[test]
-fn the_deployment_study_is_the_same_at_any_thread_count() {
+fn the_evaluation_is_the_same_at_any_thread_count_and_sharding() {
     use std::sync::atomic::{AtomicUsize, Ordering};
-    use tensegrity_deploy::studies::deployment::{run_deployment_study, DeploymentStudySettings};
+    use tensegrity_deploy::studies::evaluation::{
+        evaluate, EvaluationSetup, RunResult, ScenarioDistribution, Shard,
+    };
     let structure = reference_bridge(&BridgeParameters::default()).unwrap();
     let model = ForwardModel::new(
         structure,
@@ -509,31 +511,44 @@ fn the_deployment_study_is_the_same_at_any_thread_count() {
         RelaxSettings::default(),
     )
     .unwrap();
-    let settings = DeploymentStudySettings {
-        scenarios: 2,
-        seed: 3,
-        hidden_effects: vec![EffectKind::JointFriction, EffectKind::Motor],
-        problem: DeploymentProblem::default(),
-    };
+    let distribution =
+        ScenarioDistribution::plausible(&[EffectKind::JointFriction, EffectKind::Motor]);
     let policies = [Policy::default()];
-    let run = |threads: usize| {
+    let problem = DeploymentProblem::default();
+    let setup = EvaluationSetup {
+        model: &model,
+        policies: &policies,
+        distribution: &distribution,
+        problem: &problem,
+        seed: 3,
+    };
+    // Planning times are wall clock: the one value allowed to differ.
+    let timeless = |mut r: RunResult| {
+        r.planning_time_median_s = None;
+        r
+    };
+    let run = |threads: usize, indices: &[usize]| {
         let done = AtomicUsize::new(0);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
-        let (_, runs) = pool.install(|| {
-            run_deployment_study(&model, &policies, &settings, &|| {
+        let (scenarios, results) = pool.install(|| {
+            evaluate(&setup, indices, &|| {
                 done.fetch_add(1, Ordering::Relaxed);
             })
         });
-        assert_eq!(done.into_inner(), 2);
-        runs.into_iter()
-            .map(|r| {
-                let d = r.outcome.unwrap();
-                (r.scenario, d.status, d.readings, d.final_true_state)
-            })
-            .collect::<Vec<_>>()
+        assert_eq!(done.into_inner(), indices.len());
+        (
+            scenarios,
+            results.into_iter().map(timeless).collect::<Vec<_>>(),
+        )
     };
-    assert_eq!(run(1), run(2));
+    let whole = run(1, &[0, 1, 2]);
+    assert_eq!(whole, run(2, &[0, 1, 2]));
+    let mut sharded: Vec<RunResult> = (1..=2)
+        .flat_map(|k| run(2, &Shard { index: k, count: 2 }.scenarios(3)).1)
+        .collect();
+    sharded.sort_by_key(|r| r.scenario);
+    assert_eq!(whole.1, sharded);
 }

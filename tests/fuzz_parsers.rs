@@ -27,6 +27,7 @@ use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::bridge_params::parse_bridge_parameters;
 use tensegrity_deploy::io::commands::parse_commands;
+use tensegrity_deploy::io::evaluation_files::parse_distribution;
 use tensegrity_deploy::io::experiment_file::parse_experiment;
 use tensegrity_deploy::io::friction_table::parse_friction_table;
 use tensegrity_deploy::io::log::read_log;
@@ -346,6 +347,12 @@ fn policy_files() {
         repo("policies/greedy-tree.toml"),
     ];
     fuzz_text("policy.toml", &seeds, parse_policy);
+}
+
+#[test]
+fn scenario_distribution_files() {
+    let seeds = [repo("scenarios/default.toml")];
+    fuzz_text("scenarios.toml", &seeds, parse_distribution);
 }
 
 #[test]

@@ -9,6 +9,9 @@ use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::design::friction_rig::{modelled_slip_ratio, RigError};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::io::evaluation_files::{
+    EvaluationRecord, EvaluationRuns, ScenarioRow, EVALUATION_FORMAT,
+};
 use tensegrity_deploy::io::experiment_file::{
     read_experiment, DeploymentExperiment, Experiment, FrictionEffectExperiment,
     FrictionRigExperiment, FrictionVsMeasurementExperiment,
@@ -20,9 +23,7 @@ use tensegrity_deploy::model::{FrictionCoefficient, JointFriction, RelaxSettings
 use tensegrity_deploy::plan::DeploymentProblem;
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 use tensegrity_deploy::report::figures::grouped_bars_svg;
-use tensegrity_deploy::studies::deployment::{
-    mcnemar_exact_p, paired_outcomes, run_deployment_study, summarise, DeploymentStudySettings,
-};
+use tensegrity_deploy::studies::evaluation::{evaluate, EvaluationSetup, ScenarioDistribution};
 use tensegrity_deploy::studies::friction_study::{
     friction_study, CellComparison, FrictionStudySettings,
 };
@@ -32,6 +33,7 @@ use std::io::IsTerminal;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+use super::evaluation_report::report;
 use super::{replay_stopped, value, Outcome};
 
 /// The `experiment` subcommand's arguments.
@@ -389,16 +391,6 @@ fn friction_vs_measurement(e: &FrictionVsMeasurementExperiment) -> Result<Outcom
     Ok(Outcome::GoalReached)
 }
 
-/// Milliseconds of an optional duration in seconds, for tables.
-fn ms(v: Option<f64>) -> String {
-    v.map_or("-".into(), |s| format!("{:.1}", 1e3 * s))
-}
-
-/// An optional number with `digits` decimals, for tables.
-fn num(v: Option<f64>, digits: usize) -> String {
-    v.map_or("-".into(), |x| format!("{x:.digits$}"))
-}
-
 fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
     let policies = e
         .policies
@@ -411,12 +403,8 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         JointFriction::constant(e.model_mu)?,
         RelaxSettings::default(),
     )?;
-    let settings = DeploymentStudySettings {
-        scenarios: e.scenarios,
-        seed: e.seed,
-        hidden_effects: e.hidden_effects.clone(),
-        problem: DeploymentProblem::default(),
-    };
+    let distribution = ScenarioDistribution::plausible(&e.hidden_effects);
+    let problem = DeploymentProblem::default();
     say!(
         "deployment: {} policies × {} scenarios (seed {}), hidden effects {:?}, controller model μ = {}",
         policies.len(),
@@ -433,205 +421,55 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
     if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} deployments {eta}") {
         bar.set_style(style);
     }
-    let (scenarios, runs) = run_deployment_study(&model, &policies, &settings, &|| bar.inc(1));
+    let setup = EvaluationSetup {
+        model: &model,
+        policies: &policies,
+        distribution: &distribution,
+        problem: &problem,
+        seed: e.seed,
+    };
+    let indices: Vec<usize> = (0..e.scenarios).collect();
+    let (scenarios, results) = evaluate(&setup, &indices, &|| bar.inc(1));
     bar.finish_and_clear();
-
-    let mut header = vec!["scenario".to_string(), "seed".into()];
-    for kind in &e.hidden_effects {
-        for p in kind.parameters() {
-            header.push(format!("{}.{}", kind.name(), p.name));
-        }
-    }
-    for h in [
-        "policy",
-        "status",
-        "commands",
-        "corrective_commands",
-        "final_measured_gap_m",
-        "final_true_gap_m",
-        "cable_travel_m",
-        "truth_worst_utilisation",
-        "truth_violations",
-    ] {
-        header.push(h.into());
-    }
-    let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
-    let mut csv = CsvTable::new(&header_refs);
-    let mut timing = CsvTable::new(&["scenario", "policy", "median_planning_time_s"]);
-    for r in &runs {
-        let s = &scenarios[r.scenario];
-        let mut row = vec![s.index.to_string(), s.seed.to_string()];
-        for kind in &e.hidden_effects {
-            for v in s.effects.parameters(*kind).unwrap_or_default() {
-                row.push(v.to_string());
-            }
-        }
-        row.push(policies[r.policy].name.clone());
-        match &r.outcome {
-            Ok(d) => {
-                let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
-                row.push(d.status.label().into());
-                row.push(d.records.len().to_string());
-                row.push(
-                    d.corrective_commands
-                        .map_or(String::new(), |c| c.to_string()),
-                );
-                row.push(opt(d.final_measured_gap_m()));
-                row.push(opt(d.final_true_gap_m()));
-                row.push(opt(r.cable_travel_m()));
-                row.push(opt(r.worst_utilisation()));
-                row.push(d.truth_limit_violations.to_string());
-            }
-            Err(why) => {
-                row.push(format!("not started: {why}"));
-                row.extend(std::iter::repeat(String::new()).take(7));
-            }
-        }
-        csv.row(row);
-        timing.row([
-            s.index.to_string(),
-            policies[r.policy].name.clone(),
-            r.median_planning_time_s()
-                .map_or(String::new(), |t| t.to_string()),
-        ]);
-    }
-
-    say!(
-        "{:<12} {:>9} {:>15} {:>9} {:>9} {:>11} {:>10} {:>10} {:>9} {:>9} {:>6} {:>9}",
-        "policy",
-        "success",
-        "Wilson 95 %",
-        "cmds med",
-        "cmds p95",
-        "corrective",
-        "gap med",
-        "gap p95",
-        "travel",
-        "worst use",
-        "viol.",
-        "ms/cmd"
-    );
-    let mut summary = CsvTable::new(&[
-        "policy",
-        "runs",
-        "successes",
-        "success_rate",
-        "wilson_low",
-        "wilson_high",
-        "commands_median",
-        "commands_p95",
-        "corrective_median",
-        "final_gap_median_m",
-        "final_gap_p95_m",
-        "cable_travel_median_m",
-        "worst_utilisation",
-        "violations",
-    ]);
-    let mut bars: Vec<(&str, Vec<f64>)> = Vec::new();
-    for (p, policy) in policies.iter().enumerate() {
-        let s = summarise(&runs, p, settings.problem.connection_tolerance_m);
-        let rate = s.successes as f64 / s.runs.max(1) as f64;
-        say!(
-            "{:<12} {:>8.0}% {:>7.0}–{:>3.0} % {:>9} {:>9} {:>11} {:>7} mm {:>7} mm {:>7} m {:>9.2} {:>6} {:>9}",
-            policy.name,
-            100.0 * rate,
-            100.0 * s.success_interval.0,
-            100.0 * s.success_interval.1,
-            num(s.commands_median, 1),
-            num(s.commands_p95, 1),
-            num(s.corrective_median, 1),
-            num(s.final_gap_median_m.map(|g| 1e3 * g), 1),
-            num(s.final_gap_p95_m.map(|g| 1e3 * g), 1),
-            num(s.travel_median_m, 2),
-            s.worst_utilisation,
-            s.violations,
-            ms(s.planning_time_median_s)
-        );
-        let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
-        summary.row([
-            policy.name.clone(),
-            s.runs.to_string(),
-            s.successes.to_string(),
-            rate.to_string(),
-            s.success_interval.0.to_string(),
-            s.success_interval.1.to_string(),
-            opt(s.commands_median),
-            opt(s.commands_p95),
-            opt(s.corrective_median),
-            opt(s.final_gap_median_m),
-            opt(s.final_gap_p95_m),
-            opt(s.travel_median_m),
-            s.worst_utilisation.to_string(),
-            s.violations.to_string(),
-        ]);
-        bars.push((
-            policy.name.as_str(),
-            vec![
-                100.0 * rate,
-                s.commands_median.unwrap_or(0.0),
-                s.corrective_median.unwrap_or(0.0),
-                s.final_gap_median_m.map_or(0.0, |g| 1e3 * g),
-            ],
-        ));
-    }
+    let names: Vec<String> = policies.iter().map(|p| p.name.clone()).collect();
+    let record = EvaluationRecord {
+        format: EVALUATION_FORMAT.into(),
+        seed: e.seed,
+        scenarios: e.scenarios,
+        shard: "1/1".into(),
+        policies: names.clone(),
+        policy_fingerprints: policies
+            .iter()
+            .map(super::evaluate::policy_fingerprint)
+            .collect::<Result<_>>()?,
+        model: format!("reference, joint friction mu = {}", e.model_mu),
+        distribution: distribution.clone(),
+    };
+    let runs = EvaluationRuns {
+        drawn_names: distribution.drawn_names(),
+        policy_names: names,
+        scenarios: scenarios
+            .iter()
+            .map(|s| {
+                (
+                    s.index,
+                    ScenarioRow {
+                        index: s.index,
+                        seed: s.seed,
+                        drawn: s.drawn_values(&distribution),
+                    },
+                )
+            })
+            .collect(),
+        results,
+    };
+    results_folder(&e.out)?;
+    report(&record, &runs, &e.out)?;
     say!(
         "seed lab practice: predetermined 5 cm commands of every cable, no feedback (the nominal policy); connection judged by eye, success rate not reported"
     );
-    // The first policy against each other one on the same scenarios.
-    let mut paired = CsvTable::new(&[
-        "policy_a",
-        "policy_b",
-        "both",
-        "only_a",
-        "only_b",
-        "neither",
-        "mcnemar_exact_p",
-    ]);
-    for (b, other) in policies.iter().enumerate().skip(1) {
-        let tolerance = settings.problem.connection_tolerance_m;
-        let (both, only_a, only_b, neither) = paired_outcomes(&runs, 0, b, tolerance);
-        let p = mcnemar_exact_p(only_a, only_b);
-        say!(
-            "{} vs {} on the same {} scenarios: both succeed {both}, only {} {only_a}, only {} {only_b}, neither {neither}; exact McNemar p = {p:.2e}",
-            policies[0].name,
-            other.name,
-            both + only_a + only_b + neither,
-            policies[0].name,
-            other.name,
-        );
-        paired.row([
-            policies[0].name.clone(),
-            other.name.clone(),
-            both.to_string(),
-            only_a.to_string(),
-            only_b.to_string(),
-            neither.to_string(),
-            p.to_string(),
-        ]);
-    }
-    let svg = grouped_bars_svg(
-        &format!(
-            "{} policies on {} scenarios (median over successes; gap over all runs)",
-            policies.len(),
-            e.scenarios
-        ),
-        "value",
-        &[
-            "success rate, %".to_string(),
-            "commands to connection".into(),
-            "corrective commands".into(),
-            "final largest gap, mm".into(),
-        ],
-        &bars,
-    )?;
-    results_folder(&e.out)?;
-    csv.write(&e.out.join("runs.csv"))?;
-    summary.write(&e.out.join("summary.csv"))?;
-    paired.write(&e.out.join("paired.csv"))?;
-    timing.write(&e.out.join("timing.csv"))?;
-    write_atomically(&e.out.join("deployment.svg"), svg.as_bytes())?;
     say!(
-        "results in {} (runs.csv, summary.csv, paired.csv, deployment.svg; planning times in timing.csv)",
+        "results in {} (evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg; planning times in timing.csv)",
         e.out.display()
     );
     Ok(Outcome::GoalReached)

@@ -42,8 +42,11 @@ mod calibrate;
 mod compare;
 mod deploy;
 mod diagnose;
+mod evaluate;
+mod evaluation_report;
 mod experiment;
 mod lab;
+mod merge;
 mod plan;
 mod simulate;
 mod structure;
@@ -88,6 +91,8 @@ pub fn command() -> Command {
         .subcommand(experiment::command())
         .subcommand(plan::command())
         .subcommand(deploy::command())
+        .subcommand(evaluate::command())
+        .subcommand(merge::command())
 }
 
 /// The typed options of one subcommand.
@@ -111,6 +116,10 @@ pub enum Options {
     Plan(plan::Options),
     /// `tdeploy deploy`.
     Deploy(deploy::Options),
+    /// `tdeploy evaluate`.
+    Evaluate(evaluate::Options),
+    /// `tdeploy merge`.
+    Merge(merge::Options),
 }
 
 impl Options {
@@ -126,6 +135,8 @@ impl Options {
             Some(("experiment", a)) => Options::Experiment(experiment::Options::from_matches(a)?),
             Some(("plan", a)) => Options::Plan(plan::Options::from_matches(a)?),
             Some(("deploy", a)) => Options::Deploy(deploy::Options::from_matches(a)?),
+            Some(("evaluate", a)) => Options::Evaluate(evaluate::Options::from_matches(a)?),
+            Some(("merge", a)) => Options::Merge(merge::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -144,6 +155,8 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Experiment(o) => experiment::run(o),
         Options::Plan(o) => plan::run(o),
         Options::Deploy(o) => deploy::run(o),
+        Options::Evaluate(o) => evaluate::run(o),
+        Options::Merge(o) => merge::run(o),
     }
 }
 

@@ -46,7 +46,7 @@
 //!
 //! # `kind = "deployment"`
 //! Policies deploying the same seeded scenarios in closed loop
-//! ([`DeploymentExperiment`]; see [`crate::studies::deployment`]):
+//! ([`DeploymentExperiment`]; see [`crate::studies::evaluation`]):
 //! ```toml
 //! kind = "deployment"
 //! policies = ["../policies/qp.toml", "../policies/nominal.toml"]  # relative to this file

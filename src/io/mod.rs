@@ -8,6 +8,7 @@
 pub mod bridge_params;
 pub mod commands;
 pub mod csv_table;
+pub mod evaluation_files;
 pub mod experiment_file;
 pub mod friction_table;
 pub mod log;

@@ -2,8 +2,9 @@
 //! model compared with each other or with a synthetic measurement. They
 //! read the other layers and are read only by the CLI. Pure: no files.
 
-pub mod deployment;
+pub mod evaluation;
 pub mod friction_effect;
 pub mod friction_study;
+pub mod statistics;
 
 pub use friction_effect::{friction_effect, FrictionEffect, FrictionEffectSettings, StudyError};

@@ -1,0 +1,239 @@
+//! `tdeploy evaluate [--policy P]… [--scenarios N] [--seed S]
+//! [--distribution F] [--model M] [--problem F] [--shard k/n]
+//! [--threads N] [-o DIR] [--force]`: offline evaluation of policies on
+//! the same seeded scenarios ([`tensegrity_deploy::studies::evaluation`]).
+//!
+//! Writes in DIR (as a whole: a crash leaves the old set or the new one):
+//! `evaluation.toml` (what ran), `runs.csv` (one row per scenario and
+//! policy, with the scenario's seed and drawn values), `summary.csv`,
+//! `paired.csv` (the first policy against each other, exact McNemar),
+//! `evaluation.svg`, and `timing.csv` (planning times, the only file that
+//! changes from run to run). Every other file is the same, byte for byte,
+//! at any thread count, and `tdeploy merge` of the shards `1/n … n/n` of
+//! a sweep writes the same files as the sweep in one piece.
+//!
+//! Exit 0 when no run broke a truth limit, 1 when one did (the
+//! evaluation's standard: violations must be 0), 2 on bad input.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use tensegrity_deploy::io::evaluation_files::{
+    fingerprint, read_distribution, EvaluationRecord, EvaluationRuns, ScenarioRow,
+    EVALUATION_FORMAT,
+};
+use tensegrity_deploy::io::output::ResultsFolder;
+use tensegrity_deploy::model::JointFriction;
+use tensegrity_deploy::plan::Policy;
+use tensegrity_deploy::studies::evaluation::{
+    evaluate, EvaluationSetup, ScenarioDistribution, Shard,
+};
+
+use super::evaluation_report::report;
+use super::plan::{planning_model, policy_or_default, problem_or_default};
+use super::{value, Outcome};
+
+/// Most scenarios one sweep may have: a bound on the work a flag can ask
+/// for (a million deployments is about a day on 2 cores).
+pub const MAX_SCENARIOS: usize = 1_000_000;
+
+/// The `evaluate` subcommand's arguments.
+pub fn command() -> Command {
+    Command::new("evaluate")
+        .about("Evaluate policies offline on the same seeded scenarios (hidden effects, noise, fold drawn from a distribution); exit code 1 if any run broke a truth limit")
+        .arg(Arg::new("policy").long("policy").action(ArgAction::Append).value_parser(value_parser!(PathBuf)).help("Policy file; repeat to compare policies on the same scenarios (the first against each other). Default: policies/qp.toml's settings, built in"))
+        .arg(Arg::new("scenarios").long("scenarios").default_value("100").value_parser(value_parser!(usize)).help("Scenarios in the sweep (1 to 1000000)"))
+        .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the scenario draws (each scenario's seed is recorded)"))
+        .arg(Arg::new("distribution").long("distribution").value_parser(value_parser!(PathBuf)).help("Scenario distribution file (TOML, format tensegrity-deploy/scenarios/1). Default: joint friction, motor slip and backlash, stiffness and joint-mass errors over their plausible ranges; standard sensor noise; the 40 cm fold"))
+        .arg(Arg::new("model").long("model").value_parser(value_parser!(PathBuf)).help("Model file the controller plans on. Default: the reference bridge without friction"))
+        .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (its start fold is replaced by each scenario's)"))
+        .arg(Arg::new("shard").long("shard").default_value("1/1").help("Run shard k of n (scenarios i with i mod n = k − 1); `tdeploy merge` joins the shards"))
+        .arg(Arg::new("threads").long("threads").value_parser(value_parser!(usize)).help("Worker threads, at least 1 (default: one per core); the results do not depend on it"))
+        .arg(Arg::new("out").long("out").short('o').default_value("out/evaluate").value_parser(value_parser!(PathBuf)).help("Folder for evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg, timing.csv"))
+        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files this command did not write"))
+}
+
+/// Options of `tdeploy evaluate`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Policy files; empty: the built-in default.
+    pub policies: Vec<PathBuf>,
+    /// Scenarios in the sweep.
+    pub scenarios: usize,
+    /// Seed of the draws.
+    pub seed: u64,
+    /// Distribution file; `None`: the default distribution.
+    pub distribution: Option<PathBuf>,
+    /// Controller's model file; `None`: frictionless reference bridge.
+    pub model: Option<PathBuf>,
+    /// Problem file; `None`: the default problem.
+    pub problem: Option<PathBuf>,
+    /// This run's shard.
+    pub shard: Shard,
+    /// Worker threads; `None`: rayon's default.
+    pub threads: Option<usize>,
+    /// Results folder.
+    pub out: PathBuf,
+    /// Replace a folder of other files.
+    pub force: bool,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        let threads = m.get_one::<usize>("threads").copied();
+        if threads == Some(0) {
+            bail!("--threads: must be at least 1");
+        }
+        let scenarios: usize = value(m, "scenarios")?;
+        if !(1..=MAX_SCENARIOS).contains(&scenarios) {
+            bail!("--scenarios: {scenarios} is not from 1 to {MAX_SCENARIOS}");
+        }
+        let shard_text: String = value(m, "shard")?;
+        let shard = Shard::parse(&shard_text)
+            .with_context(|| format!("--shard: `{shard_text}` is not k/n with 1 ≤ k ≤ n"))?;
+        Ok(Options {
+            policies: m
+                .get_many::<PathBuf>("policy")
+                .map(|v| v.cloned().collect())
+                .unwrap_or_default(),
+            scenarios,
+            seed: value(m, "seed")?,
+            distribution: m.get_one::<PathBuf>("distribution").cloned(),
+            model: m.get_one::<PathBuf>("model").cloned(),
+            problem: m.get_one::<PathBuf>("problem").cloned(),
+            shard,
+            threads,
+            out: value(m, "out")?,
+            force: m.get_flag("force"),
+        })
+    }
+}
+
+/// Fingerprint of a policy's settings.
+pub fn policy_fingerprint(policy: &Policy) -> Result<String> {
+    Ok(fingerprint(
+        serde_json::to_string(policy)
+            .context("serialising a policy")?
+            .as_bytes(),
+    ))
+}
+
+/// Runs `tdeploy evaluate`.
+pub fn run(o: &Options) -> Result<Outcome> {
+    let policies: Vec<Policy> = if o.policies.is_empty() {
+        vec![policy_or_default(None)?]
+    } else {
+        o.policies
+            .iter()
+            .map(|p| policy_or_default(Some(p)))
+            .collect::<Result<_>>()?
+    };
+    let names: Vec<String> = policies.iter().map(|p| p.name.clone()).collect();
+    if let Some(dup) = names
+        .iter()
+        .enumerate()
+        .find(|(i, n)| names[..*i].contains(n))
+    {
+        bail!(
+            "two policies are named `{}`: give each policy file its own name",
+            dup.1
+        );
+    }
+    let distribution = match &o.distribution {
+        Some(p) => read_distribution(p)?,
+        None => ScenarioDistribution::default(),
+    };
+    let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
+    let problem = problem_or_default(o.problem.as_deref())?;
+    let record = EvaluationRecord {
+        format: EVALUATION_FORMAT.into(),
+        seed: o.seed,
+        scenarios: o.scenarios,
+        shard: format!("{}/{}", o.shard.index, o.shard.count),
+        policies: names.clone(),
+        policy_fingerprints: policies
+            .iter()
+            .map(policy_fingerprint)
+            .collect::<Result<_>>()?,
+        model: o
+            .model
+            .as_ref()
+            .map_or("reference".into(), |p| p.display().to_string()),
+        distribution: distribution.clone(),
+    };
+    // Claimed before the work, so that a refusal costs nothing.
+    let folder = ResultsFolder::claim(&o.out, "evaluate", o.force)?;
+
+    let indices = o.shard.scenarios(o.scenarios);
+    say!(
+        "evaluate: {} × {} scenarios (shard {}/{} of {}, seed {}); policies {}",
+        indices.len(),
+        policies.len(),
+        o.shard.index,
+        o.shard.count,
+        o.scenarios,
+        o.seed,
+        names.join(", ")
+    );
+    let bar = if std::io::stderr().is_terminal() {
+        ProgressBar::new((indices.len() * policies.len()) as u64)
+    } else {
+        ProgressBar::hidden()
+    };
+    if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} deployments {eta}") {
+        bar.set_style(style);
+    }
+    let setup = EvaluationSetup {
+        model: &model,
+        policies: &policies,
+        distribution: &distribution,
+        problem: &problem,
+        seed: o.seed,
+    };
+    let sweep = || evaluate(&setup, &indices, &|| bar.inc(1));
+    let (scenarios, results) = match o.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .context("--threads: cannot start the worker threads")?
+            .install(sweep),
+        None => sweep(),
+    };
+    bar.finish_and_clear();
+    let runs = EvaluationRuns {
+        drawn_names: distribution.drawn_names(),
+        policy_names: names,
+        scenarios: scenarios
+            .iter()
+            .map(|s| {
+                (
+                    s.index,
+                    ScenarioRow {
+                        index: s.index,
+                        seed: s.seed,
+                        drawn: s.drawn_values(&distribution),
+                    },
+                )
+            })
+            .collect(),
+        results,
+    };
+    let violations = report(&record, &runs, folder.path())?;
+    folder.commit()?;
+    say!(
+        "results in {} (evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg; planning times in timing.csv)",
+        o.out.display()
+    );
+    Ok(if violations == 0 {
+        Outcome::GoalReached
+    } else {
+        Outcome::GoalMissed(format!(
+            "{violations} truth limit violations over the runs (must be 0)"
+        ))
+    })
+}

@@ -1,0 +1,373 @@
+//! The files of a policy evaluation (`tdeploy evaluate`, `tdeploy merge`,
+//! the deployment experiment) and the scenario-distribution file.
+//!
+//! **Scenario distribution** (TOML, format
+//! `tensegrity-deploy/scenarios/1`; see
+//! [`crate::studies::evaluation::ScenarioDistribution`]):
+//!
+//! ```toml
+//! format = "tensegrity-deploy/scenarios/1"
+//! position_noise_m = [0.001, 0.001]
+//! load_cell_noise_n = [7.0, 7.0]
+//! fold_m = [0.35, 0.45]
+//! temperature_c = [5.0, 35.0]      # optional
+//! [effects.motor]
+//! slip_fraction = [-0.05, 0.05]
+//! backlash_m = [0.0, 0.005]
+//! ```
+//!
+//! **`evaluation.toml`**: what was run (format
+//! `tensegrity-deploy/evaluation/1`): seed, scenario count, shard,
+//! policy names and fingerprints, the controller model's source and the
+//! distribution itself. Shards merge only if everything but the shard
+//! agrees.
+//!
+//! **`runs.csv`**: one row per scenario and policy, in scenario then
+//! policy order: `scenario,seed`, every drawn value (named as
+//! [`crate::studies::evaluation::ScenarioDistribution::drawn_names`]),
+//! then `policy,status,succeeded,commands,corrective_commands,
+//! final_measured_gap_m,final_true_gap_m,cable_travel_m,
+//! truth_worst_utilisation,truth_violations` (SI units; empty = none).
+//! Numbers are written as the shortest text that reads back to the same
+//! value, so a merge re-writes the rows of its shards byte for byte.
+//!
+//! **`timing.csv`**: `scenario,policy,median_planning_time_s`, the one
+//! file that differs from run to run.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::problem_file::{field_line, parse_versioned};
+use super::toml_text::{field_error, parse_toml};
+use super::{csv_records, csv_with_header, read_text, CsvTable, FileError};
+use crate::studies::evaluation::{RunResult, ScenarioDistribution, Shard};
+
+/// The `format` of a scenario-distribution file.
+pub const DISTRIBUTION_FORMAT: &str = "tensegrity-deploy/scenarios/1";
+/// The `format` of `evaluation.toml`.
+pub const EVALUATION_FORMAT: &str = "tensegrity-deploy/evaluation/1";
+
+/// The columns of `runs.csv` after the drawn values.
+const RESULT_COLUMNS: [&str; 10] = [
+    "policy",
+    "status",
+    "succeeded",
+    "commands",
+    "corrective_commands",
+    "final_measured_gap_m",
+    "final_true_gap_m",
+    "cable_travel_m",
+    "truth_worst_utilisation",
+    "truth_violations",
+];
+
+/// Reads and validates a scenario-distribution file.
+pub fn read_distribution(path: &Path) -> Result<ScenarioDistribution, FileError> {
+    let text = read_text(path)?;
+    parse_distribution(&text, path)
+}
+
+/// Parses a scenario-distribution file; `path` names it in errors.
+pub fn parse_distribution(text: &str, path: &Path) -> Result<ScenarioDistribution, FileError> {
+    let d: ScenarioDistribution = parse_versioned(text, path, DISTRIBUTION_FORMAT)?;
+    d.validate()
+        .map_err(|e| field_error(text, path, &e.field, e.reason))?;
+    Ok(d)
+}
+
+/// What an evaluation ran, as `evaluation.toml` records it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvaluationRecord {
+    /// [`EVALUATION_FORMAT`].
+    pub format: String,
+    /// Seed of the scenario draws.
+    pub seed: u64,
+    /// Scenarios in the whole sweep.
+    pub scenarios: usize,
+    /// This set's shard, `k/n` (`1/1` for a whole sweep or a merge).
+    pub shard: String,
+    /// Policy names, in order.
+    pub policies: Vec<String>,
+    /// FNV-1a fingerprint of each policy's settings (hex).
+    pub policy_fingerprints: Vec<String>,
+    /// The controller's model: `reference` or the model file given.
+    pub model: String,
+    /// The scenario distribution.
+    pub distribution: ScenarioDistribution,
+}
+
+impl EvaluationRecord {
+    /// This record's shard.
+    pub fn shard(&self) -> Option<Shard> {
+        Shard::parse(&self.shard)
+    }
+
+    /// Everything but the shard, for comparing the shards of one sweep.
+    pub fn without_shard(&self) -> EvaluationRecord {
+        EvaluationRecord {
+            shard: String::new(),
+            ..self.clone()
+        }
+    }
+
+    /// As TOML text.
+    pub fn to_toml(&self) -> Result<String, FileError> {
+        toml::to_string(self).map_err(|e| FileError::Invalid {
+            path: "evaluation.toml".into(),
+            entry: "record".into(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// Reads an `evaluation.toml`.
+pub fn read_evaluation_record(path: &Path) -> Result<EvaluationRecord, FileError> {
+    let text = read_text(path)?;
+    let record: EvaluationRecord = parse_toml(&text, path)?;
+    if record.format != EVALUATION_FORMAT {
+        return Err(FileError::field(
+            path,
+            field_line(&text, "format"),
+            "format",
+            format!(
+                "expected \"{EVALUATION_FORMAT}\", found \"{}\"",
+                record.format
+            ),
+        ));
+    }
+    if record.shard().is_none() {
+        return Err(FileError::field(
+            path,
+            field_line(&text, "shard"),
+            "shard",
+            format!("\"{}\" is not k/n with 1 ≤ k ≤ n", record.shard),
+        ));
+    }
+    Ok(record)
+}
+
+/// FNV-1a (64 bit) of `bytes`, as 16 hex digits: a fingerprint to tell
+/// two policies' settings apart, not a security measure.
+pub fn fingerprint(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// One scenario's row prefix in `runs.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScenarioRow {
+    /// Scenario index.
+    pub index: usize,
+    /// Its seed.
+    pub seed: u64,
+    /// Its drawn values.
+    pub drawn: Vec<f64>,
+}
+
+/// The rows of `runs.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EvaluationRuns {
+    /// Names of the drawn values (columns after `seed`).
+    pub drawn_names: Vec<String>,
+    /// Policy names (a result's `policy` indexes them).
+    pub policy_names: Vec<String>,
+    /// Each scenario once, by index.
+    pub scenarios: BTreeMap<usize, ScenarioRow>,
+    /// Every run, in (scenario, policy) order.
+    pub results: Vec<RunResult>,
+}
+
+impl EvaluationRuns {
+    /// `runs.csv` as a table.
+    pub fn runs_table(&self) -> CsvTable {
+        let mut header: Vec<&str> = vec!["scenario", "seed"];
+        header.extend(self.drawn_names.iter().map(String::as_str));
+        header.extend(RESULT_COLUMNS);
+        let mut table = CsvTable::new(&header);
+        let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
+        for r in &self.results {
+            let Some(s) = self.scenarios.get(&r.scenario) else {
+                continue;
+            };
+            let mut row = vec![s.index.to_string(), s.seed.to_string()];
+            row.extend(s.drawn.iter().map(|v| v.to_string()));
+            row.extend([
+                self.policy_names[r.policy].clone(),
+                r.status.clone(),
+                r.succeeded.to_string(),
+                r.commands.to_string(),
+                r.corrective_commands
+                    .map_or(String::new(), |c| c.to_string()),
+                opt(r.final_measured_gap_m),
+                opt(r.final_true_gap_m),
+                r.cable_travel_m.to_string(),
+                r.worst_utilisation.to_string(),
+                r.truth_violations.to_string(),
+            ]);
+            table.row(row);
+        }
+        table
+    }
+
+    /// `timing.csv` as a table.
+    pub fn timing_table(&self) -> CsvTable {
+        let mut table = CsvTable::new(&["scenario", "policy", "median_planning_time_s"]);
+        for r in &self.results {
+            table.row([
+                r.scenario.to_string(),
+                self.policy_names[r.policy].clone(),
+                r.planning_time_median_s
+                    .map_or(String::new(), |t| t.to_string()),
+            ]);
+        }
+        table
+    }
+}
+
+/// Reads `runs.csv` written for `record` (its policies and drawn values),
+/// and the planning times of `timing.csv` beside it if it is there.
+pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationRuns, FileError> {
+    let path = folder.join("runs.csv");
+    let text = read_text(&path)?;
+    let drawn_names = record.distribution.drawn_names();
+    let mut header: Vec<&str> = vec!["scenario", "seed"];
+    header.extend(drawn_names.iter().map(String::as_str));
+    header.extend(RESULT_COLUMNS);
+    let mut reader = csv_with_header(&text, &path, &header)?;
+    let mut runs = EvaluationRuns {
+        drawn_names: drawn_names.clone(),
+        policy_names: record.policies.clone(),
+        scenarios: BTreeMap::new(),
+        results: Vec::new(),
+    };
+    let d = drawn_names.len();
+    for row in csv_records(&mut reader, &path) {
+        let (line, r) = row?;
+        let field = |i: usize| r.get(i).unwrap_or("");
+        let bad = |i: usize, what: &str| {
+            FileError::field(
+                &path,
+                line,
+                header[i],
+                format!("`{}` is not {what}", field(i)),
+            )
+        };
+        let number = |i: usize| -> Result<f64, FileError> {
+            field(i)
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| bad(i, "a finite number"))
+        };
+        let optional = |i: usize| -> Result<Option<f64>, FileError> {
+            if field(i).is_empty() {
+                Ok(None)
+            } else {
+                number(i).map(Some)
+            }
+        };
+        let count = |i: usize| -> Result<usize, FileError> {
+            field(i).parse().map_err(|_| bad(i, "a count"))
+        };
+        let index = count(0)?;
+        let seed: u64 = field(1).parse().map_err(|_| bad(1, "a seed"))?;
+        let drawn = (0..d)
+            .map(|k| number(2 + k))
+            .collect::<Result<Vec<_>, _>>()?;
+        let at = 2 + d;
+        let policy = record
+            .policies
+            .iter()
+            .position(|p| p == field(at))
+            .ok_or_else(|| bad(at, "one of the evaluation's policies"))?;
+        let scenario = ScenarioRow { index, seed, drawn };
+        match runs.scenarios.get(&index) {
+            Some(known) if *known != scenario => {
+                return Err(bad(1, "the seed and draws of the scenario's other rows"))
+            }
+            _ => {
+                runs.scenarios.insert(index, scenario);
+            }
+        }
+        runs.results.push(RunResult {
+            scenario: index,
+            policy,
+            status: field(at + 1).to_string(),
+            succeeded: field(at + 2)
+                .parse()
+                .map_err(|_| bad(at + 2, "true or false"))?,
+            commands: count(at + 3)?,
+            corrective_commands: if field(at + 4).is_empty() {
+                None
+            } else {
+                Some(count(at + 4)?)
+            },
+            final_measured_gap_m: optional(at + 5)?,
+            final_true_gap_m: optional(at + 6)?,
+            cable_travel_m: number(at + 7)?,
+            worst_utilisation: number(at + 8)?,
+            truth_violations: count(at + 9)?,
+            planning_time_median_s: None,
+        });
+    }
+    // Planning times, where the set has them (they are not part of the
+    // comparison of sets).
+    let timing = folder.join("timing.csv");
+    if timing.exists() {
+        let text = read_text(&timing)?;
+        let mut reader = csv_with_header(
+            &text,
+            &timing,
+            &["scenario", "policy", "median_planning_time_s"],
+        )?;
+        let mut times: BTreeMap<(usize, String), f64> = BTreeMap::new();
+        for row in csv_records(&mut reader, &timing) {
+            let (_, r) = row?;
+            if let (Some(Ok(s)), Some(p), Some(Ok(t))) = (
+                r.get(0).map(str::parse::<usize>),
+                r.get(1),
+                r.get(2).map(str::parse::<f64>),
+            ) {
+                times.insert((s, p.to_string()), t);
+            }
+        }
+        for r in &mut runs.results {
+            r.planning_time_median_s = times
+                .get(&(r.scenario, record.policies[r.policy].clone()))
+                .copied();
+        }
+    }
+    Ok(runs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `scenarios/default.toml` writes out the built-in default, so the
+    /// two cannot drift apart.
+    #[test]
+    fn the_shipped_distribution_is_the_default() {
+        let d = parse_distribution(
+            include_str!("../../scenarios/default.toml"),
+            Path::new("scenarios/default.toml"),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d, ScenarioDistribution::default());
+    }
+
+    #[test]
+    fn fingerprints_differ_and_repeat() {
+        assert_eq!(fingerprint(b"qp"), fingerprint(b"qp"));
+        assert_ne!(fingerprint(b"qp"), fingerprint(b"qq"));
+        // FNV-1a of the empty input is its offset basis.
+        assert_eq!(fingerprint(b""), "cbf29ce484222325");
+    }
+}

@@ -1,0 +1,617 @@
+//! Offline policy evaluation: policies deploying the same seeded scenarios
+//! drawn from a documented distribution, one machine or many (shards).
+//!
+//! **Scenarios.** Scenario `i` of seed `s` draws from
+//! `StdRng::seed_from_u64(scenario_seed(s, i))`, in this order: every
+//! parameter of every hidden effect (effects in [`EffectKind::ALL`] order,
+//! parameters in the library's order), then the position-sensor noise,
+//! the load-cell noise, the start fold and, if a range is given, the
+//! temperature; each uniformly within its range `[low, high]`. The same
+//! seed drives the scenario's sensor noise. Every policy meets the same
+//! truth and noise (paired scenarios). A scenario is a function of
+//! (distribution, seed, index) alone, so a shard that runs scenarios
+//! 2, 5, 8, … draws exactly what a single run draws for them.
+//!
+//! **Shards.** Shard `k/n` runs the scenarios whose index is `k − 1`
+//! modulo `n` (interleaved, so shards of a sweep take about equal time).
+//!
+//! **Results.** Each run is reduced to a [`RunResult`] of plain numbers;
+//! summaries are computed from those alone, so a summary of shards merged
+//! from their files is the summary of the single run.
+
+use std::collections::BTreeMap;
+
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use super::statistics::{median, percentile, scenario_seed, wilson_interval};
+use crate::model::{EffectKind, Effects, ForwardModel};
+use crate::plan::closed_loop::{deploy_closed_loop, ClosedLoopSetup, Deployment};
+use crate::plan::{DeploymentProblem, PerMotor, PlanStatus, Policy};
+use crate::sim::{standard_sensors, EffectModel, SensorTarget};
+
+/// Where the scenarios come from: a range per drawn quantity.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioDistribution {
+    /// Hidden effects: `[effects.NAME]` tables of `parameter = [low,
+    /// high]`, names as in model files and [`EffectKind::parameters`];
+    /// every parameter of a listed effect must be given. An effect not
+    /// listed is not hidden.
+    #[serde(default)]
+    pub effects: BTreeMap<String, BTreeMap<String, [f64; 2]>>,
+    /// Noise standard deviation of the midspan position sensors, m.
+    /// Default `[0.001, 0.001]`: the standard sensors.
+    #[serde(default = "default_position_noise")]
+    pub position_noise_m: [f64; 2],
+    /// Noise standard deviation of the load cells, N. Default `[7, 7]`.
+    #[serde(default = "default_load_cell_noise")]
+    pub load_cell_noise_n: [f64; 2],
+    /// Start fold: every motor's payout from the designed state, m.
+    /// Default `[0.40, 0.40]`.
+    #[serde(default = "default_fold")]
+    pub fold_m: [f64; 2],
+    /// Temperature of the deployment, °C (held throughout); `None` (the
+    /// default) leaves the truth at its reference temperature. Matters
+    /// only with a hidden `thermal` effect.
+    #[serde(default)]
+    pub temperature_c: Option<[f64; 2]>,
+}
+
+fn default_position_noise() -> [f64; 2] {
+    [0.001, 0.001]
+}
+fn default_load_cell_noise() -> [f64; 2] {
+    [7.0, 7.0]
+}
+fn default_fold() -> [f64; 2] {
+    [0.40, 0.40]
+}
+
+impl Default for ScenarioDistribution {
+    /// The deployment experiment's distribution: joint friction, motor
+    /// slip and backlash, stiffness errors and joint-mass errors over
+    /// their plausible ranges; standard sensors; the 40 cm fold.
+    fn default() -> Self {
+        ScenarioDistribution::plausible(&[
+            EffectKind::JointFriction,
+            EffectKind::Motor,
+            EffectKind::StiffnessError,
+            EffectKind::JointMassError,
+        ])
+    }
+}
+
+/// A distribution field out of its range.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("scenario distribution field `{field}`: {reason}")]
+pub struct DistributionError {
+    /// Field path, e.g. `effects.motor.slip_fraction`.
+    pub field: String,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl ScenarioDistribution {
+    /// `kinds` hidden over their plausible ranges, everything else at the
+    /// defaults.
+    pub fn plausible(kinds: &[EffectKind]) -> Self {
+        let effects = kinds
+            .iter()
+            .map(|k| {
+                let ranges = k
+                    .parameters()
+                    .iter()
+                    .map(|p| (p.name.to_string(), [p.plausible.0, p.plausible.1]))
+                    .collect();
+                (k.name().to_string(), ranges)
+            })
+            .collect();
+        ScenarioDistribution {
+            effects,
+            position_noise_m: default_position_noise(),
+            load_cell_noise_n: default_load_cell_noise(),
+            fold_m: default_fold(),
+            temperature_c: None,
+        }
+    }
+
+    /// Checks every range: finite, low ≤ high, inside the parameter's
+    /// admissible range (noise ≥ 0, fold in [0, 1] m, temperature in
+    /// [−100, 100] °C); effect and parameter names known, every parameter
+    /// of a listed effect given.
+    pub fn validate(&self) -> Result<(), DistributionError> {
+        let range = |field: String, r: [f64; 2], lo: f64, hi: f64| {
+            let [a, b] = r;
+            if a.is_finite() && b.is_finite() && a <= b && a >= lo && b <= hi {
+                Ok(())
+            } else {
+                Err(DistributionError {
+                    field,
+                    reason: format!("[{a}, {b}] is not a range [low, high] within [{lo}, {hi}]"),
+                })
+            }
+        };
+        for (name, params) in &self.effects {
+            let kind = EffectKind::ALL
+                .into_iter()
+                .find(|k| k.name() == name)
+                .ok_or_else(|| DistributionError {
+                    field: format!("effects.{name}"),
+                    reason: format!(
+                        "unknown effect (known: {})",
+                        EffectKind::ALL.map(|k| k.name()).join(", ")
+                    ),
+                })?;
+            for p in params.keys() {
+                if !kind.parameters().iter().any(|s| s.name == p) {
+                    return Err(DistributionError {
+                        field: format!("effects.{name}.{p}"),
+                        reason: format!(
+                            "unknown parameter of {name} (its parameters: {})",
+                            kind.parameters()
+                                .iter()
+                                .map(|s| s.name)
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    });
+                }
+            }
+            for spec in kind.parameters() {
+                let field = format!("effects.{name}.{}", spec.name);
+                let r = params.get(spec.name).ok_or_else(|| DistributionError {
+                    field: field.clone(),
+                    reason: "missing: give every parameter of a hidden effect".into(),
+                })?;
+                range(field, *r, spec.admissible.0, spec.admissible.1)?;
+            }
+        }
+        range("position_noise_m".into(), self.position_noise_m, 0.0, 1.0)?;
+        range("load_cell_noise_n".into(), self.load_cell_noise_n, 0.0, 1e4)?;
+        range("fold_m".into(), self.fold_m, 0.0, 1.0)?;
+        if let Some(t) = self.temperature_c {
+            range("temperature_c".into(), t, -100.0, 100.0)?;
+        }
+        Ok(())
+    }
+
+    /// The hidden effects with their ranges, in [`EffectKind::ALL`] order
+    /// (the draw order). Assumes [`Self::validate`] passed.
+    fn effect_ranges(&self) -> Vec<(EffectKind, Vec<[f64; 2]>)> {
+        EffectKind::ALL
+            .into_iter()
+            .filter_map(|k| {
+                let params = self.effects.get(k.name())?;
+                let ranges = k
+                    .parameters()
+                    .iter()
+                    .map(|s| params.get(s.name).copied().unwrap_or([s.neutral; 2]))
+                    .collect();
+                Some((k, ranges))
+            })
+            .collect()
+    }
+
+    /// Scenario `index` of seed `seed` (see the module documentation for
+    /// the draw order).
+    pub fn draw(&self, seed: u64, index: usize) -> Scenario {
+        let seed = scenario_seed(seed, index);
+        let mut rng = StdRng::seed_from_u64(seed);
+        let mut draw = |[lo, hi]: [f64; 2]| rng.gen_range(lo..=hi);
+        let mut effects = Effects::default();
+        for (kind, ranges) in self.effect_ranges() {
+            let values: Vec<f64> = ranges.into_iter().map(&mut draw).collect();
+            effects = effects.with_parameters(kind, &values);
+        }
+        let position_noise_m = draw(self.position_noise_m);
+        let load_cell_noise_n = draw(self.load_cell_noise_n);
+        let fold_m = draw(self.fold_m);
+        let temperature_c = self.temperature_c.map(&mut draw);
+        Scenario {
+            index,
+            seed,
+            effects,
+            position_noise_m,
+            load_cell_noise_n,
+            fold_m,
+            temperature_c,
+        }
+    }
+
+    /// The drawn quantities' names, as [`Scenario::drawn_values`] lists
+    /// them (`joint_friction.mu`, …, `position_noise_m`, …).
+    pub fn drawn_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = self
+            .effect_ranges()
+            .iter()
+            .flat_map(|(k, _)| {
+                k.parameters()
+                    .iter()
+                    .map(move |p| format!("{}.{}", k.name(), p.name))
+            })
+            .collect();
+        names.extend(
+            ["position_noise_m", "load_cell_noise_n", "fold_m"]
+                .iter()
+                .map(|s| s.to_string()),
+        );
+        if self.temperature_c.is_some() {
+            names.push("temperature_c".into());
+        }
+        names
+    }
+}
+
+/// One scenario: its seed and everything drawn for it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    /// Index, from 0.
+    pub index: usize,
+    /// Seed of its draws and of its sensor noise.
+    pub seed: u64,
+    /// The truth's effects.
+    pub effects: Effects,
+    /// Position-sensor noise, m.
+    pub position_noise_m: f64,
+    /// Load-cell noise, N.
+    pub load_cell_noise_n: f64,
+    /// Start fold, m.
+    pub fold_m: f64,
+    /// Temperature, °C, if drawn.
+    pub temperature_c: Option<f64>,
+}
+
+impl Scenario {
+    /// The drawn values in the order of
+    /// [`ScenarioDistribution::drawn_names`].
+    pub fn drawn_values(&self, distribution: &ScenarioDistribution) -> Vec<f64> {
+        let mut values: Vec<f64> = distribution
+            .effect_ranges()
+            .iter()
+            .flat_map(|(k, _)| self.effects.parameters(*k).unwrap_or_default())
+            .collect();
+        values.extend([self.position_noise_m, self.load_cell_noise_n, self.fold_m]);
+        values.extend(self.temperature_c);
+        values
+    }
+}
+
+/// Which part of a sweep one machine runs: shard `index` of `count`
+/// (1-based), the scenarios `i` with `i mod count = index − 1`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    /// 1-based shard number.
+    pub index: usize,
+    /// Number of shards.
+    pub count: usize,
+}
+
+impl Shard {
+    /// The whole sweep.
+    pub const ALL: Shard = Shard { index: 1, count: 1 };
+
+    /// Parses `k/n` with 1 ≤ k ≤ n.
+    pub fn parse(text: &str) -> Option<Shard> {
+        let (k, n) = text.split_once('/')?;
+        let (index, count) = (k.trim().parse().ok()?, n.trim().parse().ok()?);
+        (1..=count)
+            .contains(&index)
+            .then_some(Shard { index, count })
+    }
+
+    /// The scenario indices of this shard among `total`.
+    pub fn scenarios(self, total: usize) -> Vec<usize> {
+        (self.index - 1..total).step_by(self.count).collect()
+    }
+}
+
+/// One policy on one scenario, reduced to plain numbers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunResult {
+    /// Scenario index.
+    pub scenario: usize,
+    /// Policy index.
+    pub policy: usize,
+    /// The final status's label ([`PlanStatus::label`]), or `not_started`.
+    pub status: String,
+    /// Connected by the controller, every true gap within the tolerance and
+    /// no truth limit broken.
+    pub succeeded: bool,
+    /// Commands sent.
+    pub commands: usize,
+    /// Commands after the first that brought the largest measured gap
+    /// below 60 mm (`None` if none did).
+    pub corrective_commands: Option<usize>,
+    /// Largest measured gap at the end, m.
+    pub final_measured_gap_m: Option<f64>,
+    /// Largest true gap at the end, m.
+    pub final_true_gap_m: Option<f64>,
+    /// Σ|u| over commands and motors, m.
+    pub cable_travel_m: f64,
+    /// Worst truth utilisation.
+    pub worst_utilisation: f64,
+    /// Truth limits broken (count over increments).
+    pub truth_violations: usize,
+    /// Median planning time per command, s (wall clock: the one value
+    /// that varies from run to run).
+    pub planning_time_median_s: Option<f64>,
+}
+
+impl RunResult {
+    /// The numbers of `outcome` (a deployment, or why it did not start).
+    pub fn of(
+        scenario: usize,
+        policy: usize,
+        outcome: &Result<Deployment, String>,
+        tolerance_m: f64,
+    ) -> RunResult {
+        match outcome {
+            Ok(d) => RunResult {
+                scenario,
+                policy,
+                status: d.status.label().to_string(),
+                succeeded: matches!(d.status, PlanStatus::Connected)
+                    && d.final_true_gap_m().is_some_and(|g| g <= tolerance_m)
+                    && d.truth_limit_violations == 0,
+                commands: d.records.len(),
+                corrective_commands: d.corrective_commands,
+                final_measured_gap_m: d.final_measured_gap_m(),
+                final_true_gap_m: d.final_true_gap_m(),
+                cable_travel_m: d
+                    .records
+                    .iter()
+                    .flat_map(|r| r.command_m.iter())
+                    .map(|u| u.abs())
+                    .sum(),
+                worst_utilisation: d
+                    .records
+                    .iter()
+                    .map(|r| r.truth_worst_utilisation)
+                    .fold(0.0, f64::max),
+                truth_violations: d.truth_limit_violations,
+                planning_time_median_s: median(
+                    d.records.iter().map(|r| r.planning_time_s).collect(),
+                ),
+            },
+            Err(_) => RunResult {
+                scenario,
+                policy,
+                status: "not_started".into(),
+                succeeded: false,
+                commands: 0,
+                corrective_commands: None,
+                final_measured_gap_m: None,
+                final_true_gap_m: None,
+                cable_travel_m: 0.0,
+                worst_utilisation: 0.0,
+                truth_violations: 0,
+                planning_time_median_s: None,
+            },
+        }
+    }
+}
+
+/// What one policy did over all scenarios.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PolicySummary {
+    /// Runs.
+    pub runs: usize,
+    /// Successful runs.
+    pub successes: usize,
+    /// Wilson 95 % interval of the success rate.
+    pub success_interval: (f64, f64),
+    /// Median commands over successful runs.
+    pub commands_median: Option<f64>,
+    /// 95th percentile of commands over successful runs.
+    pub commands_p95: Option<f64>,
+    /// Median corrective commands over successful runs.
+    pub corrective_median: Option<f64>,
+    /// Median final largest true gap over all started runs, m.
+    pub final_gap_median_m: Option<f64>,
+    /// 95th percentile of it, m.
+    pub final_gap_p95_m: Option<f64>,
+    /// Median cable travel over started runs, m.
+    pub travel_median_m: Option<f64>,
+    /// Worst truth utilisation over all runs.
+    pub worst_utilisation: f64,
+    /// Truth limit violations over all runs.
+    pub violations: usize,
+    /// Median over runs of the median planning time per command, s.
+    pub planning_time_median_s: Option<f64>,
+}
+
+/// The summary of policy `policy` over `results`.
+pub fn summarise_results(results: &[RunResult], policy: usize) -> PolicySummary {
+    let mine: Vec<&RunResult> = results.iter().filter(|r| r.policy == policy).collect();
+    let started: Vec<&RunResult> = mine
+        .iter()
+        .copied()
+        .filter(|r| r.status != "not_started")
+        .collect();
+    let ok: Vec<&RunResult> = mine.iter().copied().filter(|r| r.succeeded).collect();
+    let commands = || ok.iter().map(|r| r.commands as f64).collect::<Vec<_>>();
+    let gaps = || {
+        started
+            .iter()
+            .filter_map(|r| r.final_true_gap_m)
+            .collect::<Vec<_>>()
+    };
+    PolicySummary {
+        runs: mine.len(),
+        successes: ok.len(),
+        success_interval: wilson_interval(ok.len(), mine.len()),
+        commands_median: median(commands()),
+        commands_p95: percentile(commands(), 0.95),
+        corrective_median: median(
+            ok.iter()
+                .filter_map(|r| r.corrective_commands.map(|c| c as f64))
+                .collect(),
+        ),
+        final_gap_median_m: median(gaps()),
+        final_gap_p95_m: percentile(gaps(), 0.95),
+        travel_median_m: median(started.iter().map(|r| r.cable_travel_m).collect()),
+        worst_utilisation: mine.iter().map(|r| r.worst_utilisation).fold(0.0, f64::max),
+        violations: mine.iter().map(|r| r.truth_violations).sum(),
+        planning_time_median_s: median(
+            mine.iter()
+                .filter_map(|r| r.planning_time_median_s)
+                .collect(),
+        ),
+    }
+}
+
+/// Paired outcome of policies `a` and `b` over the scenarios both ran:
+/// (both succeeded, only `a`, only `b`, neither).
+pub fn paired_outcomes(results: &[RunResult], a: usize, b: usize) -> (usize, usize, usize, usize) {
+    let success: BTreeMap<(usize, usize), bool> = results
+        .iter()
+        .map(|r| ((r.scenario, r.policy), r.succeeded))
+        .collect();
+    let scenarios: std::collections::BTreeSet<usize> = results.iter().map(|r| r.scenario).collect();
+    let mut counts = (0, 0, 0, 0);
+    for s in scenarios {
+        match (success.get(&(s, a)), success.get(&(s, b))) {
+            (Some(true), Some(true)) => counts.0 += 1,
+            (Some(true), Some(false)) => counts.1 += 1,
+            (Some(false), Some(true)) => counts.2 += 1,
+            (Some(false), Some(false)) => counts.3 += 1,
+            // A scenario one policy did not run is not a pair.
+            _ => {}
+        }
+    }
+    counts
+}
+
+/// Everything an evaluation runs with.
+#[derive(Debug, Clone, Copy)]
+pub struct EvaluationSetup<'a> {
+    /// The controller's model (its structure is also the truths').
+    pub model: &'a ForwardModel,
+    /// The policies, compared on the same scenarios.
+    pub policies: &'a [Policy],
+    /// Where the scenarios come from (validated).
+    pub distribution: &'a ScenarioDistribution,
+    /// The problem; its start fold is replaced by each scenario's.
+    pub problem: &'a DeploymentProblem,
+    /// Seed of the scenario draws.
+    pub seed: u64,
+}
+
+/// Runs every policy on the scenarios `indices` in parallel; `run_done` is
+/// called as each run ends (any thread, any order). The results come
+/// back in (scenario, policy) order whatever the thread count.
+pub fn evaluate(
+    setup: &EvaluationSetup,
+    indices: &[usize],
+    run_done: &(dyn Fn() + Sync),
+) -> (Vec<Scenario>, Vec<RunResult>) {
+    let scenarios: Vec<Scenario> = indices
+        .iter()
+        .map(|&i| setup.distribution.draw(setup.seed, i))
+        .collect();
+    let structure = setup.model.structure();
+    let jobs: Vec<(usize, usize)> = (0..scenarios.len())
+        .flat_map(|s| (0..setup.policies.len()).map(move |p| (s, p)))
+        .collect();
+    let tolerance = setup.problem.connection_tolerance_m;
+    let results = jobs
+        .par_iter()
+        .map(|&(s, p)| {
+            let scenario = &scenarios[s];
+            let truth = EffectModel::for_measurement(structure.clone(), scenario.effects);
+            let sensors: Vec<_> = standard_sensors(structure)
+                .into_iter()
+                .map(|mut sensor| {
+                    sensor.noise_sd = match sensor.target {
+                        SensorTarget::Position { .. } => scenario.position_noise_m,
+                        _ => scenario.load_cell_noise_n,
+                    };
+                    sensor
+                })
+                .collect();
+            let problem = DeploymentProblem {
+                start_payout_m: PerMotor::All(scenario.fold_m),
+                ..setup.problem.clone()
+            };
+            let run = ClosedLoopSetup {
+                model: setup.model,
+                problem: &problem,
+                policy: &setup.policies[p],
+                truth: &truth,
+                sensors: &sensors,
+                temperature_c: scenario.temperature_c,
+                seed: scenario.seed,
+            };
+            let outcome = deploy_closed_loop(&run, &mut ()).map_err(|e| e.to_string());
+            run_done();
+            RunResult::of(scenario.index, p, &outcome, tolerance)
+        })
+        .collect();
+    (scenarios, results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_partition_the_scenarios() {
+        let mut all: Vec<usize> = (1..=3)
+            .flat_map(|k| Shard { index: k, count: 3 }.scenarios(10))
+            .collect();
+        all.sort();
+        assert_eq!(all, (0..10).collect::<Vec<_>>());
+        assert_eq!(Shard::parse("2/3"), Some(Shard { index: 2, count: 3 }));
+        for bad in ["0/3", "4/3", "1/0", "a/b", "3"] {
+            assert_eq!(Shard::parse(bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn a_scenario_depends_on_seed_and_index_only_and_stays_in_its_ranges() {
+        let d = ScenarioDistribution::default();
+        d.validate().unwrap();
+        assert_eq!(d.draw(7, 5), d.draw(7, 5));
+        assert_ne!(d.draw(7, 5), d.draw(7, 6));
+        let names = d.drawn_names();
+        for i in 0..50 {
+            let s = d.draw(7, i);
+            let values = s.drawn_values(&d);
+            assert_eq!(values.len(), names.len());
+            for (kind, ranges) in d.effect_ranges() {
+                for (v, [lo, hi]) in s.effects.parameters(kind).unwrap().iter().zip(ranges) {
+                    assert!((lo..=hi).contains(v), "{} {v}", kind.name());
+                }
+            }
+            assert_eq!((s.fold_m, s.load_cell_noise_n), (0.40, 7.0));
+        }
+    }
+
+    #[test]
+    fn validation_names_the_field() {
+        let mut d = ScenarioDistribution::default();
+        d.effects
+            .get_mut("motor")
+            .unwrap()
+            .insert("slip_fraction".into(), [0.1, -0.1]);
+        assert_eq!(
+            d.validate().unwrap_err().field,
+            "effects.motor.slip_fraction"
+        );
+        let mut d = ScenarioDistribution::default();
+        d.effects.get_mut("motor").unwrap().remove("backlash_m");
+        assert_eq!(d.validate().unwrap_err().field, "effects.motor.backlash_m");
+        let mut d = ScenarioDistribution::default();
+        d.effects.insert("gremlins".into(), BTreeMap::new());
+        assert_eq!(d.validate().unwrap_err().field, "effects.gremlins");
+        let d = ScenarioDistribution {
+            fold_m: [0.4, f64::NAN],
+            ..ScenarioDistribution::default()
+        };
+        assert_eq!(d.validate().unwrap_err().field, "fold_m");
+    }
+}

@@ -1,0 +1,170 @@
+//! `tdeploy evaluate` and `tdeploy merge`: the same bytes at 1 and 2
+//! threads; the shards of a sweep merged give the sweep's files byte for
+//! byte; merge refuses shards that do not make one sweep; a bad
+//! distribution file exits 2 naming file, line and field.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn tdeploy(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
+        .args(args)
+        .output()
+        .expect("tdeploy runs")
+}
+
+/// Ran to its end: exit 0, or 1 where a run broke a truth limit (the
+/// nominal policy does; the files are written either way).
+fn ok(out: &Output) {
+    assert!(
+        matches!(out.status.code(), Some(0 | 1)),
+        "exit {:?}: {}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The files that must be identical (timing.csv holds wall-clock times).
+const SAME: [&str; 5] = [
+    "evaluation.toml",
+    "runs.csv",
+    "summary.csv",
+    "paired.csv",
+    "evaluation.svg",
+];
+
+fn assert_same(a: &Path, b: &Path) {
+    for f in SAME {
+        let (x, y) = (
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+        );
+        assert!(
+            x == y,
+            "{f} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
+    }
+}
+
+const POLICIES: [&str; 4] = [
+    "--policy",
+    "policies/qp.toml",
+    "--policy",
+    "policies/nominal.toml",
+];
+
+fn evaluate(dir: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["evaluate", "--scenarios", "4", "--seed", "5"];
+    args.extend(POLICIES);
+    args.extend(extra);
+    args.extend(["-o", dir.to_str().unwrap()]);
+    tdeploy(&args)
+}
+
+#[test]
+fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = |name: &str| -> PathBuf { tmp.path().join(name) };
+    ok(&evaluate(&dir("whole"), &["--threads", "1"]));
+    ok(&evaluate(&dir("whole2"), &["--threads", "2"]));
+    assert_same(&dir("whole"), &dir("whole2"));
+    // The runs name every scenario's seed and draws.
+    let runs = std::fs::read_to_string(dir("whole").join("runs.csv")).unwrap();
+    assert!(runs.starts_with("scenario,seed,joint_friction.mu,motor.slip_fraction"));
+    assert_eq!(runs.lines().count(), 1 + 4 * 2);
+    for k in 1..=3 {
+        let shard = format!("{k}/3");
+        ok(&evaluate(&dir(&format!("s{k}")), &["--shard", &shard]));
+    }
+    let merged = dir("merged");
+    ok(&tdeploy(&[
+        "merge",
+        dir("s3").to_str().unwrap(),
+        dir("s1").to_str().unwrap(),
+        dir("s2").to_str().unwrap(),
+        "-o",
+        merged.to_str().unwrap(),
+    ]));
+    assert_same(&dir("whole"), &merged);
+
+    // A missing shard, a repeated one, and a shard of another sweep are
+    // refused, naming what is wrong.
+    let refuse = |args: &[&str], says: &str| {
+        let out = tdeploy(args);
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+    };
+    let o = dir("refused");
+    let (s1, s2, s3) = (dir("s1"), dir("s2"), dir("s3"));
+    let (s1, s2, s3) = (
+        s1.to_str().unwrap(),
+        s2.to_str().unwrap(),
+        s3.to_str().unwrap(),
+    );
+    refuse(
+        &["merge", s1, s2, "-o", o.to_str().unwrap()],
+        "shards 3 of 3 are missing",
+    );
+    refuse(
+        &["merge", s1, s1, s2, "-o", o.to_str().unwrap()],
+        "given twice",
+    );
+    ok(&tdeploy(&[
+        "evaluate",
+        "--scenarios",
+        "4",
+        "--seed",
+        "6",
+        "--policy",
+        "policies/qp.toml",
+        "--policy",
+        "policies/nominal.toml",
+        "--shard",
+        "3/3",
+        "-o",
+        dir("other").to_str().unwrap(),
+    ]));
+    let other = dir("other");
+    refuse(
+        &[
+            "merge",
+            s1,
+            s2,
+            other.to_str().unwrap(),
+            "-o",
+            o.to_str().unwrap(),
+        ],
+        "not shards of the same sweep",
+    );
+    let _ = s3;
+}
+
+#[test]
+fn a_bad_distribution_file_exits_2_naming_file_line_and_field() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("d.toml");
+    std::fs::write(
+        &file,
+        "format = \"tensegrity-deploy/scenarios/1\"\n[effects.motor]\nslip_fraction = [0.1, -0.1]\nbacklash_m = [0.0, 0.005]\n",
+    )
+    .unwrap();
+    let out = tdeploy(&[
+        "evaluate",
+        "--distribution",
+        file.to_str().unwrap(),
+        "-o",
+        tmp.path().join("o").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("d.toml")
+            && err.contains("line 3")
+            && err.contains("effects.motor.slip_fraction"),
+        "{err}"
+    );
+}
