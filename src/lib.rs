@@ -8,11 +8,19 @@
 //!
 //! ## Pipeline
 //! ```text
-//!  structure + friction ─► model::ForwardModel (DR equilibrium)
+//!  structure + friction ─► model::ForwardModel (Newton + DR equilibrium)
 //!                                 │
 //!      command sequences ─► apply_payout in increments ─► states, forces
+//!                                 │
+//!  plan: responses d(gap, force)/d(payout) ─► QP step ─► confirming trial
+//!                                 │                  (trust region)
+//!  closed loop: send u/(1+ŝ) to the truth (sim::Plant) ─► measure ─►
+//!      payout scale ŝ (Kalman) · gap offsets · filtered force offsets
+//!                                 │
+//!  studies::evaluation: policies × seeded scenarios (shards, McNemar)
 //! ```
-//! (The planner, [`plan`], case memory and measurement tools build on this model.)
+//! The measurement tools ([`measure`]: compare, diagnose, calibrate) read
+//! the same model.
 //!
 //! ## Equations
 //! - Members: `T = k·(L − L0)` (struts both signs; cables and springs
@@ -24,6 +32,11 @@
 //!   Gershgorin fictitious masses; sliding relaxed by return mapping.
 //! - Convergence: `max |R_free| ≤ tol` and capstan violation `≤ tol`, with
 //!   `tol = tol_force_rel · max |T|`.
+//! - QP step: `min Σ w_p‖g_p + G⁺u⁺ − G⁻u⁻‖² + ρ‖u‖² + κΣ(u⁺ + u⁻)` over
+//!   `u± ≥ 0` within the trust region, stroke and step limits and the
+//!   linearised force limits `F + A⁺u⁺ − A⁻u⁻ ∈ [F_min + m, F_max − m]`.
+//! - Payout scale per bridge half: `Δy − g = ε·g + noise`, `ε̂ = (Σ g r/R) /
+//!   (1/P + Σ g²/R)` (see [`plan::estimation`]).
 //!
 //! ## Layout
 //! Layers, each depending only on those above it in this list (a test,
@@ -37,8 +50,8 @@
 //!   commands.
 //! - [`measure`]: logs in memory, the synthetic lab, compare, diagnose.
 //! - [`plan`]: the deployment planner: problem, limits, QP step, sequence
-//!   search, baselines, policies.
-//! - [`studies`]: what the experiments compute.
+//!   search, baselines, policies, and the closed loop with its estimation.
+//! - [`studies`]: what the experiments and `evaluate` compute.
 //! - [`io`]: file formats; with the CLI, the only code that touches files.
 //! - [`report`]: SVG drawings and figures.
 

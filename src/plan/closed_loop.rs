@@ -6,11 +6,19 @@
 //! state (the folded start on its model, then each command's confirmed
 //! trial, see [`super::planner::Trial`]) and, after the start and after
 //! every command, one noisy measurement of the plant. Model and
-//! measurement are reconciled as [`super::correction`] says: for every
-//! quantity the policy [`Policy::measures`], the offset measured −
-//! predicted is added to every later prediction of it, until the next
-//! measurement ([`model_correction`]). With midspan positions measured,
-//! the connection test therefore reads the *measured* gaps.
+//! measurement are reconciled in three ways:
+//! - the payout scale of each bridge half is estimated from the measured
+//!   midspan motion ([`super::estimation`]); commands are sent scaled by
+//!   it, and after each command the model state is re-solved to where the
+//!   command really took the bridge;
+//! - for every quantity the policy [`Policy::measures`], the offset
+//!   measured − predicted is added to every later prediction of it, until
+//!   the next measurement ([`model_correction`], [`super::correction`]);
+//!   with midspan positions measured, the connection test therefore reads
+//!   the *measured* gaps;
+//! - the load-cell offsets are filtered across measurements
+//!   ([`super::correction::ForceOffsetFilter`]), so that one noisy reading
+//!   does not move a force limit.
 //!
 //! The truth is checked too, as a supervisor would on the real bridge:
 //! every increment of every command is checked against the problem's
