@@ -559,13 +559,15 @@ pub fn deploy_closed_loop(
                 &reading,
                 &previous_state,
                 &model_state,
+                &c.command_m,
+                &sent_m,
             );
-            if update.command_correction.iter().any(|x| *x != 0.0) {
+            if update.motion_factor.iter().any(|f| *f != 1.0) {
                 let made: Vec<f64> = c
                     .command_m
                     .iter()
-                    .zip(&update.command_correction)
-                    .map(|(u, x)| u * (1.0 + x))
+                    .zip(&update.motion_factor)
+                    .map(|(u, f)| u * f)
                     .collect();
                 // Where the command really took the bridge; if the model
                 // cannot follow, its own prediction stands.
