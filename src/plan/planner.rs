@@ -9,7 +9,7 @@
 use std::time::Instant;
 
 use super::correction::ModelCorrection;
-use super::limits::{force_rows, LimitCheck, Limits};
+use super::limits::{LimitCheck, Limits};
 use super::outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 use super::policy::{PlannerKind, Policy, PolicyError};
 use super::problem::{DeploymentProblem, MotorLimits};
@@ -129,7 +129,6 @@ impl<'a> PlanContext<'a> {
         let mut next = state.clone();
         let mut watch = LimitWatch {
             context: self,
-            start_forces_n: force_rows(self.model, state),
             worst: None,
         };
         let status = match self.model.apply_payout(
@@ -184,18 +183,8 @@ impl Trial {
 }
 
 /// Collects the worst limit values over a command's increments.
-///
-/// Each force is checked with a margin of the policy's
-/// `force_change_margin_fraction` of its change since the command's start,
-/// toward its nearer bound: the bridge's stiffness is not the model's, so
-/// a predicted change of 140 N may be 180 N on the bridge. Near the
-/// designed state a millimetre of uneven payout moves a taut continuous
-/// cable's tension by some hundred newtons, and this margin is what keeps
-/// such a command from slackening a cable the model leaves at 10 N.
 struct LimitWatch<'c, 'a> {
     context: &'c PlanContext<'a>,
-    /// Force rows at the command's start, N.
-    start_forces_n: Vec<f64>,
     worst: Option<LimitCheck>,
 }
 
@@ -204,28 +193,12 @@ impl IncrementObserver for LimitWatch<'_, '_> {
         if !r.status.is_converged() {
             return;
         }
-        let context = self.context;
-        let fraction = context.policy.force_change_margin_fraction;
-        let offsets: Vec<f64> = if fraction > 0.0 {
-            force_rows(context.model, state)
-                .iter()
-                .zip(&self.start_forces_n)
-                .zip(&context.limits.force)
-                .enumerate()
-                .map(|(row, ((f, f0), b))| {
-                    let offset = context.correction.force_offset_n(row);
-                    let margin = fraction * (f - f0).abs();
-                    let corrected = f + offset;
-                    let toward_lower = corrected - b.lower_n <= b.upper_n - corrected;
-                    offset + if toward_lower { -margin } else { margin }
-                })
-                .collect()
-        } else {
-            context.correction.force_offsets_n.clone()
-        };
-        let c = context
-            .limits
-            .check(context.model, state, r.tolerance_n, &offsets);
+        let c = self.context.limits.check(
+            self.context.model,
+            state,
+            r.tolerance_n,
+            &self.context.correction.force_offsets_n,
+        );
         self.worst = Some(worst_along_path(self.worst.take(), c));
     }
 }

@@ -234,13 +234,6 @@ pub struct Policy {
     /// and mass errors of the plausible ranges move forces by up to about
     /// a fifth. Larger trusts each reading more.
     pub force_model_error_fraction: f64,
-    /// A trial checks each force with this fraction of its predicted
-    /// change over the command as a margin toward its nearer limit, 1.
-    /// Default 0.4: the plausible cable stiffness error reaches −40 %
-    /// (scale 0.6), and near the designed state an uneven millimetre of
-    /// payout changes a taut cable's tension by some hundred newtons. 0
-    /// checks the predicted forces as they are.
-    pub force_change_margin_fraction: f64,
 }
 
 impl Default for Policy {
@@ -265,7 +258,6 @@ impl Default for Policy {
             payout_scale_prior_sd: 0.05,
             payout_scale_drift_sd: 0.02,
             force_model_error_fraction: 0.2,
-            force_change_margin_fraction: 0.4,
         }
     }
 }
@@ -348,12 +340,6 @@ impl Policy {
             self.force_model_error_fraction,
             (0.0..=100.0).contains(&self.force_model_error_fraction),
             "a fraction in [0, 100]",
-        )?;
-        check(
-            "force_change_margin_fraction",
-            self.force_change_margin_fraction,
-            (0.0..=1.0).contains(&self.force_change_margin_fraction),
-            "a fraction in [0, 1]",
         )?;
         length("greedy_move_m", self.greedy_move_m)?;
         length("greedy_min_move_m", self.greedy_min_move_m)?;
