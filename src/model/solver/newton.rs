@@ -179,6 +179,7 @@ impl ForwardModel {
             }
         }
         let labels = probe.joint_slip;
+        ws.factorisations += 1;
         let Some(lu) = BlockLu::new(&k, self.dof_blocks()) else {
             return (None, labels);
         };
@@ -255,6 +256,7 @@ impl ForwardModel {
             }
             if factor.is_none() {
                 let (k, dofs) = tangent_stiffness(self, state, JointMode::AsMapped);
+                ws.factorisations += 1;
                 let Some(lu) = BlockLu::new(&k, self.dof_blocks()) else {
                     break true;
                 };
