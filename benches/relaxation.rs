@@ -5,6 +5,9 @@
 //! - a whole deployment: every cable reeled in 40 cm in 1 cm increments,
 //!   from the folded state (every cable paid out 40 cm), μ = 0 and 0.2;
 //! - the 7×7 cable net from its initial geometry to 1e-6 m accuracy;
+//! - N×N cable nets (N = 5, 11, 21; the peer benchmark's nets) from flat
+//!   to a 1e-3 N force tolerance, default settings and pure DR;
+//! - ten empty steps (no payout change) from an equilibrium, μ = 0.2;
 //! - cost per DR iteration on bridges of 2, 4, 8 and 16 modules per half
 //!   (a fixed 256 iterations from a perturbed state), to show it grows
 //!   linearly with the number of members.
@@ -121,6 +124,101 @@ fn cable_net_solve(c: &mut Criterion) {
     });
 }
 
+/// The peer benchmark's N×N net (scripts/peer-benchmark/nets.py): 1 m
+/// grid, perimeter pinned, tension-only cables, EA 1256.636 kN, rest length
+/// 0.998 × initial, −1 kN on every free node.
+fn square_net(n: usize, newton: bool) -> ForwardModel {
+    use nalgebra::Vector3;
+    use tensegrity_deploy::model::{Member, MemberKind, Node, Structure};
+    let mut nodes = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let edge = i == 0 || j == 0 || i == n - 1 || j == n - 1;
+            nodes.push(Node {
+                id: format!("n{i}_{j}"),
+                position_m: Vector3::new(i as f64, j as f64, 0.0),
+                mass_kg: 0.0,
+                fixed: [edge; 3],
+                load_n: Vector3::new(0.0, 0.0, if edge { 0.0 } else { -1000.0 }),
+            });
+        }
+    }
+    let mut members = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let k = j * n + i;
+            for (other, ok) in [(k + 1, i + 1 < n), (k + n, j + 1 < n)] {
+                if ok {
+                    members.push(Member {
+                        id: format!("c{}", members.len()),
+                        kind: MemberKind::Cable { ea_n: 1_256_636.0 },
+                        nodes: [k, other],
+                        rest_length_m: 0.998,
+                    });
+                }
+            }
+        }
+    }
+    let s = Structure::new("net", nodes, members, vec![], Vector3::zeros(), vec![]).unwrap();
+    let settings = RelaxSettings {
+        tol_force_rel: 1e-300,
+        tol_force_abs: 1e-3,
+        newton_max_iter: if newton { 12 } else { 0 },
+        ..RelaxSettings::default()
+    };
+    ForwardModel::new(s, JointFriction::frictionless(), settings).unwrap()
+}
+
+fn square_nets(c: &mut Criterion) {
+    let mut group = c.benchmark_group("net_from_flat");
+    group.sample_size(10);
+    for n in [5usize, 11, 21] {
+        for (newton, name) in [(true, "default"), (false, "pure_dr")] {
+            let model = square_net(n, newton);
+            let mut ws = Workspace::default();
+            let mut probe = model.reference_state();
+            let r = model.relax(&mut probe, &mut ws);
+            eprintln!(
+                "{n}×{n} net, {name}: {:?}, {} Newton + {} DR iterations",
+                r.status, r.newton_iterations, r.iterations
+            );
+            group.bench_function(format!("{n}x{n}_{name}"), |b| {
+                b.iter_batched(
+                    || model.reference_state(),
+                    |mut s| model.relax(&mut s, &mut ws),
+                    BatchSize::SmallInput,
+                )
+            });
+        }
+    }
+    group.finish();
+}
+
+/// Ten steps without payout change from an equilibrium with slid joints.
+fn empty_steps(c: &mut Criterion) {
+    let model = bridge_model(0.2);
+    let n = model.structure().continuous_cables.len();
+    let mut ws = Workspace::default();
+    let mut start = model.reference_state();
+    model
+        .apply_payout(&mut start, &mut ws, &vec![-0.01; n], 0.01, &mut ())
+        .unwrap();
+    c.bench_function("bridge_ten_empty_steps_mu0.2", |b| {
+        b.iter_batched(
+            || start.clone(),
+            |mut s| {
+                for _ in 0..10 {
+                    model
+                        .apply_payout(&mut s, &mut ws, &vec![0.0; n], 0.01, &mut ())
+                        .unwrap();
+                }
+                s
+            },
+            BatchSize::SmallInput,
+        )
+    });
+}
+
 fn per_iteration_scaling(c: &mut Criterion) {
     let mut group = c.benchmark_group("dr_256_iterations");
     for modules in [2usize, 4, 8, 16] {
@@ -168,6 +266,8 @@ criterion_group!(
     single_increment,
     whole_deployment,
     cable_net_solve,
+    square_nets,
+    empty_steps,
     per_iteration_scaling
 );
 criterion_main!(benches);

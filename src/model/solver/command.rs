@@ -163,6 +163,17 @@ impl ForwardModel {
             max_residual_n: 0.0,
             max_friction_residual_n: 0.0,
         };
+        // An empty command on a balanced state has nothing to solve: no
+        // tangent to assemble or factorise for a zero load (issue 12).
+        if largest == 0.0 {
+            if let Some(r) = self.balanced_as_is(state, ws) {
+                observer.on_increment(0, count, &r, state);
+                out.increments = 1;
+                out.max_residual_n = r.max_residual_n;
+                out.max_friction_residual_n = r.max_friction_residual_n;
+                return Ok(out);
+            }
+        }
         let increment: Vec<f64> = delta_payout_m.iter().map(|d| d / count as f64).collect();
         // Continuation steps carry over between the increments of one
         // command, not between commands.
@@ -184,5 +195,74 @@ impl ForwardModel {
             }
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::{JointFriction, RelaxSettings};
+
+    fn bridge(mu: f64) -> ForwardModel {
+        ForwardModel::new(
+            reference_bridge(&BridgeParameters::default()).unwrap(),
+            JointFriction::constant(mu).unwrap(),
+            RelaxSettings::default(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn an_empty_command_on_a_balanced_state_does_no_work() {
+        for mu in [0.0, 0.2] {
+            let model = bridge(mu);
+            let mut ws = Workspace::default();
+            let mut state = model.reference_state();
+            let n = model.structure().continuous_cables.len();
+            // A state with slid joints: reeled in 1 cm.
+            let r = model
+                .apply_payout(&mut state, &mut ws, &vec![-0.01; n], 0.01, &mut ())
+                .unwrap();
+            assert!(r.status.is_converged());
+            let before = state.clone();
+            let factorised = ws.factorisations;
+            let r = model
+                .apply_payout(&mut state, &mut ws, &vec![0.0; n], 0.01, &mut ())
+                .unwrap();
+            assert_eq!(ws.factorisations, factorised, "μ = {mu}");
+            assert_eq!(r.status, RelaxStatus::Converged, "μ = {mu}");
+            assert_eq!((r.iterations, r.newton_iterations), (0, 0), "μ = {mu}");
+            assert_eq!(r.increments, 1);
+            // The state is kept: positions exactly, and material moved by
+            // at most what the mapping tolerance allows (a force within
+            // the tolerance, ~1e-3 N, over EA ~ 1e6 N: ~1e-9 m).
+            assert_eq!(state.positions_m, before.positions_m);
+            for (a, b) in state
+                .segment_rest_lengths_m
+                .iter()
+                .zip(&before.segment_rest_lengths_m)
+            {
+                assert!((a - b).abs() < 1e-8, "μ = {mu}: {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_empty_command_on_an_unbalanced_state_still_solves() {
+        // What the seat-following of the plant does: rest lengths change,
+        // then a zero payout relaxes.
+        let model = bridge(0.2);
+        let mut ws = Workspace::default();
+        let mut state = model.reference_state();
+        let n = model.structure().continuous_cables.len();
+        for c in 0..n {
+            state.segment_rest_lengths_m[state.segment_offsets[c] + 1] -= 0.002;
+        }
+        let r = model
+            .apply_payout(&mut state, &mut ws, &vec![0.0; n], 0.01, &mut ())
+            .unwrap();
+        assert!(r.status.is_converged());
+        assert!(r.newton_iterations + r.iterations > 0);
     }
 }

@@ -159,6 +159,44 @@ impl ForwardModel {
         }
     }
 
+    /// The converged report of an increment with no command, if `state`
+    /// (joints stuck) is in equilibrium as it is: the residual with the
+    /// return mapping, one evaluation, no factorisation. `state` then holds
+    /// what that mapping left (material moved within the tolerance), as
+    /// [`Self::relax`] would after zero iterations. `None`, with `state`
+    /// untouched, where there is work to do.
+    pub(super) fn balanced_as_is(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+    ) -> Option<RelaxReport> {
+        let mut probe = state.clone();
+        probe.stick_all_joints();
+        ws.fit(
+            self.structure.nodes.len(),
+            probe.segment_rest_lengths_m.len(),
+        );
+        ws.start_increment(&probe);
+        let (max_t, friction_left) = self.residual(&mut probe, ws);
+        let tol = self.tolerance(max_t);
+        let max_r = self.max_free_residual(ws);
+        // `!(… > …)` would let a NaN through; these comparisons do not.
+        let balanced = max_t.is_finite() && max_r <= tol && friction_left <= tol;
+        if !(balanced && self.strain_is_plausible(&probe)) {
+            return None;
+        }
+        *state = probe;
+        Some(RelaxReport {
+            status: RelaxStatus::Converged,
+            iterations: 0,
+            newton_iterations: 0,
+            resets: 0,
+            max_residual_n: max_r,
+            max_friction_residual_n: friction_left,
+            tolerance_n: tol,
+        })
+    }
+
     fn update_masses(&self, state: &DeploymentState, ws: &mut Workspace) {
         let x = &state.positions_m;
         ws.mass.fill(Vector3::zeros());

@@ -38,9 +38,18 @@ pub struct RelaxSettings {
     /// the convergence test is the same either way.
     pub newton_max_iter: usize,
     /// Newton is skipped on structures with more free degrees of freedom
-    /// than this (its dense factorisation grows with their cube). Default
-    /// 1500.
+    /// than this (its dense tangent grows with their square in memory).
+    /// Default 1500.
     pub newton_max_dofs: usize,
+    /// Newton is skipped where one factorisation of the tangent is
+    /// estimated to cost more than this many DR iterations (see
+    /// `ForwardModel::newton_cost_ratio`): a dense factorisation grows with
+    /// the cube of the coupled DOFs, a DR iteration with the members.
+    /// Default 40: a solve takes about 5 factorisations and DR needs at
+    /// least about 200 iterations from rest on every benchmark structure,
+    /// so Newton is kept only where it cannot lose much. Lower: DR more
+    /// often; raise it to force Newton.
+    pub newton_max_cost_ratio: f64,
     /// Largest Newton step, as a fraction of the bounding-box diagonal;
     /// longer steps are shortened. Default 0.05: one step may not fold the
     /// structure into another equilibrium.
@@ -84,6 +93,7 @@ impl Default for RelaxSettings {
             max_displacement_rel: 0.5,
             newton_max_iter: 12,
             newton_max_dofs: 1500,
+            newton_max_cost_ratio: 40.0,
             newton_max_step_rel: 0.05,
             newton_watchdog: 100.0,
             newton_max_halvings: 6,
@@ -163,6 +173,12 @@ impl RelaxSettings {
             self.newton_max_step_rel,
             self.newton_max_step_rel > 0.0 && self.newton_max_step_rel <= 1.0,
             "in (0, 1]",
+        )?;
+        check(
+            "newton_max_cost_ratio",
+            self.newton_max_cost_ratio,
+            self.newton_max_cost_ratio > 0.0,
+            "positive",
         )?;
         check(
             "newton_watchdog",
