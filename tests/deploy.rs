@@ -345,7 +345,11 @@ fn the_same_seed_gives_the_same_bytes_at_any_thread_count() {
     std::fs::create_dir(dir.path().join("mine")).unwrap();
     std::fs::write(dir.path().join("mine/notes.txt"), "keep").unwrap();
     let e = failed_with(&tdeploy(&["deploy", "-o", "mine"], dir.path(), None), 2);
-    assert!(e.contains("mine: the folder is not empty"), "{e}");
+    assert!(e.contains("mine") && e.contains("--force"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("mine/notes.txt")).unwrap(),
+        "keep"
+    );
 }
 
 #[test]

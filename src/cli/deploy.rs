@@ -1,5 +1,5 @@
 //! `tdeploy deploy [--truth F] [--model F] [--policy P] [--problem F]
-//! [--seed S] [--threads N] [-o DIR] [--json]`: a closed-loop deployment
+//! [--seed S] [--threads N] [-o DIR] [--force] [--json]`: a closed-loop deployment
 //! of a simulated bridge (the truth) by the controller planning on its
 //! model, corrected by a noisy measurement after every command (see
 //! [`tensegrity_deploy::plan::closed_loop`]).
@@ -15,8 +15,8 @@
 //! planning time) and a verdict; exit 0 when connected, 1 when not, 2 on
 //! bad input. With `--json`, prints `summary.json` instead.
 //!
-//! Writes in DIR (every file atomically; refuses a folder that is not
-//! empty and holds no earlier deployment):
+//! Writes in DIR, as a whole (a crash leaves the old set or the new one;
+//! a folder holding files tdeploy did not write needs `--force`):
 //! - `commands.csv`: the command file (`tdeploy simulate -c` replays it):
 //!   step 0 is the fold from the designed state, steps 1… the commands;
 //! - `log/`: the measurement log (`tdeploy compare`/`diagnose` read it):
@@ -39,15 +39,16 @@
 //!   inputs and seed at any thread count.
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use tensegrity_deploy::io::log::write_log;
 use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
+use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::{write_atomically, write_json, CsvTable};
 use tensegrity_deploy::measure::log::{Cycle, MeasurementLog};
 use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction};
@@ -80,6 +81,7 @@ pub fn command() -> Command {
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
         .arg(Arg::new("threads").long("threads").value_parser(value_parser!(usize)).help("Worker threads, at least 1 (default: one per core); the results do not depend on it"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/deploy").value_parser(value_parser!(PathBuf)).help("Folder for commands.csv, log/, deployment.csv, summary.json, deployment.svg, timing.csv, truth.toml and model.toml"))
+        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files tdeploy did not write"))
         .arg(Arg::new("json").long("json").action(ArgAction::SetTrue).help("Print summary.json on stdout instead of the per-command lines and verdict (no progress bar)"))
 }
 
@@ -102,6 +104,8 @@ pub struct Options {
     pub out: PathBuf,
     /// Print the summary as JSON instead of lines.
     pub json: bool,
+    /// Replace a folder of other files.
+    pub force: bool,
 }
 
 impl Options {
@@ -120,6 +124,7 @@ impl Options {
             threads,
             out: value(m, "out")?,
             json: m.get_flag("json"),
+            force: m.get_flag("force"),
         })
     }
 }
@@ -138,34 +143,6 @@ fn absolute(file: ModelFile) -> Result<ModelFile> {
         },
         _ => file,
     })
-}
-
-/// Refuses to write into a folder that is not empty unless an earlier
-/// deployment wrote it (its `summary.json` has our format).
-fn check_out_dir(out: &Path) -> Result<()> {
-    let mut entries = match std::fs::read_dir(out) {
-        Ok(entries) => entries,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
-        Err(e) => {
-            return Err(anyhow!(
-                "{}: cannot use as the output folder: {e}",
-                out.display()
-            ))
-        }
-    };
-    if entries.next().is_none() {
-        return Ok(());
-    }
-    let ours = std::fs::read_to_string(out.join("summary.json"))
-        .is_ok_and(|s| s.contains(&format!("\"{SUMMARY_FORMAT}\"")));
-    if ours {
-        Ok(())
-    } else {
-        bail!(
-            "{}: the folder is not empty and holds no earlier deployment (no summary.json of `tdeploy deploy`); choose another -o",
-            out.display()
-        )
-    }
 }
 
 /// The truth's forward model as the plant builds it at its reference
@@ -401,7 +378,9 @@ fn deployment_log(
 
 /// Runs `tdeploy deploy`.
 pub fn run(o: &Options) -> Result<Outcome> {
-    check_out_dir(&o.out)?;
+    // Claimed before the work, so that a refusal costs nothing; the set
+    // is written whole (old or new, never a mix).
+    let folder = ResultsFolder::claim(&o.out, "deploy", o.force)?;
     let (truth_file, truth_words) = match &o.truth {
         Some(p) => (absolute(read_model(p)?)?, p.display().to_string()),
         None => {
@@ -495,8 +474,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Err(e) => return Err(e.into()),
     };
 
-    let out = &o.out;
-    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+    let out = folder.path();
     write_fold_and_commands(
         &out.join("commands.csv"),
         model.structure(),
@@ -508,8 +486,15 @@ pub fn run(o: &Options) -> Result<Outcome> {
         &deployment_log(&d, &truth, sensors.clone()),
         &truth.structure,
     )?;
-    write_atomically(&out.join("truth.toml"), truth_file.to_toml(out).as_bytes())?;
-    write_atomically(&out.join("model.toml"), model_file.to_toml(out).as_bytes())?;
+    // Paths in the model files are relative to where the set will be.
+    write_atomically(
+        &out.join("truth.toml"),
+        truth_file.to_toml(&o.out).as_bytes(),
+    )?;
+    write_atomically(
+        &out.join("model.toml"),
+        model_file.to_toml(&o.out).as_bytes(),
+    )?;
     deployment_table(&d).write(&out.join("deployment.csv"))?;
     timing_table(&d).write(&out.join("timing.csv"))?;
     let truth_model = truth_forward_model(&truth)?;
@@ -577,6 +562,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
         corrective_commands: d.corrective_commands,
     };
     write_json(&out.join("summary.json"), &summary)?;
+    folder.commit()?;
+    let out = &o.out;
 
     if o.json {
         say!(
