@@ -1,0 +1,108 @@
+//! The same inputs give the same bytes at 1, 2 and 4 threads: `lab`,
+//! `compare`, `diagnose` and `simulate` (issue "harden": what held and
+//! must keep holding). `deploy` and `evaluate` have their own tests.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn tdeploy(args: &[&str], dir: &Path, threads: usize) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
+        .args(args)
+        .current_dir(dir)
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .output()
+        .expect("tdeploy runs")
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Every file under `dir` (relative path, bytes), sorted; the marker
+/// files of results folders aside.
+fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let p = entry.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let name = p.strip_prefix(dir).unwrap().display().to_string();
+                out.push((name, std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn lab_compare_diagnose_and_simulate_give_the_same_bytes_at_1_2_and_4_threads() {
+    let (truth, baseline) = (
+        repo("experiments/lab/truth-friction.toml"),
+        repo("experiments/lab/baseline.toml"),
+    );
+    let run = |threads: usize| -> (Vec<(String, Vec<u8>)>, Vec<u8>) {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        let steps: [&[&str]; 4] = [
+            &[
+                "lab",
+                &truth,
+                "-o",
+                "log",
+                "--amplitudes",
+                "0.01,0.05",
+                "--steps",
+                "2",
+                "--seed",
+                "3",
+            ],
+            &["compare", &baseline, "log", "-o", "compare"],
+            &[
+                "diagnose",
+                &baseline,
+                "log",
+                "--rounds",
+                "1",
+                "--json",
+                "diagnose.json",
+            ],
+            &["simulate", "--mu", "0.2", "--quiet", "-o", "simulate"],
+        ];
+        let mut stdout = Vec::new();
+        for args in steps {
+            let out = tdeploy(args, dir, threads);
+            assert!(
+                matches!(out.status.code(), Some(0 | 1)),
+                "{args:?}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            // diagnose prints its own wall time and thread count.
+            let text = String::from_utf8_lossy(&out.stdout);
+            for line in text.lines().filter(|l| !l.contains(" s on ")) {
+                stdout.extend_from_slice(line.as_bytes());
+                stdout.push(b'\n');
+            }
+        }
+        (files(dir), stdout)
+    };
+    let one = run(1);
+    assert!(one.0.len() > 10, "{} files", one.0.len());
+    for threads in [2, 4] {
+        let other = run(threads);
+        assert_eq!(
+            one.0.iter().map(|f| &f.0).collect::<Vec<_>>(),
+            other.0.iter().map(|f| &f.0).collect::<Vec<_>>()
+        );
+        for (a, b) in one.0.iter().zip(&other.0) {
+            assert!(a.1 == b.1, "{} differs at {threads} threads", a.0);
+        }
+        assert!(
+            one.1 == other.1,
+            "printed output differs at {threads} threads"
+        );
+    }
+}
