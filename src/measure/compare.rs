@@ -372,30 +372,38 @@ pub fn residuals_of(log: &MeasurementLog, run: &Run) -> Comparison {
             }
         }
     }
-    let per_sensor = (0..log.sensors.len())
-        .map(|s| {
-            let mine = || residuals.iter().filter(move |r| r.sensor == s);
-            (
-                Stats::of(mine().map(|r| r.residual)),
-                Stats::of(mine().map(|r| r.z)),
-            )
-        })
-        .collect();
-    let per_direction = [Direction::Start, Direction::Folding, Direction::Deploying]
-        .into_iter()
-        .map(|d| {
-            (
-                d,
-                Stats::of(residuals.iter().filter(|r| r.direction == d).map(|r| r.z)),
-            )
-        })
-        .collect();
-    let overall = Stats::of(residuals.iter().map(|r| r.z));
-    Comparison {
-        residuals,
-        per_sensor,
-        per_direction,
-        overall,
+    Comparison::of_residuals(residuals, log.sensors.len())
+}
+
+impl Comparison {
+    /// The comparison made of `residuals` of a log with `sensors` sensors:
+    /// statistics per sensor, per direction and overall.
+    pub fn of_residuals(residuals: Vec<Residual>, sensors: usize) -> Comparison {
+        let per_sensor = (0..sensors)
+            .map(|s| {
+                let mine = || residuals.iter().filter(move |r| r.sensor == s);
+                (
+                    Stats::of(mine().map(|r| r.residual)),
+                    Stats::of(mine().map(|r| r.z)),
+                )
+            })
+            .collect();
+        let per_direction = [Direction::Start, Direction::Folding, Direction::Deploying]
+            .into_iter()
+            .map(|d| {
+                (
+                    d,
+                    Stats::of(residuals.iter().filter(|r| r.direction == d).map(|r| r.z)),
+                )
+            })
+            .collect();
+        let overall = Stats::of(residuals.iter().map(|r| r.z));
+        Comparison {
+            residuals,
+            per_sensor,
+            per_direction,
+            overall,
+        }
     }
 }
 

@@ -6,7 +6,9 @@
 pub mod compare;
 pub mod diagnose;
 pub mod evidence;
+pub mod fit;
 pub mod lab;
+pub mod local;
 pub mod log;
 pub mod tail_probability;
 
