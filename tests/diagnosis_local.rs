@@ -6,6 +6,10 @@
 //! fault no candidate holds (a load cell that clips) must be located at
 //! its sensor, never called "nothing missing" nor a confident effect.
 //!
+//! Two faults of the log rather than the bridge: rare spikes must be
+//! named as outliers and set aside, and a slow trend over the log
+//! (creep-like) must be seen as a trend, against the log's clock.
+//!
 //! One noise-only lab log (seed 41, the truth = the baseline) is shared;
 //! each sensor case edits a copy's readings, as the faulty sensor would
 //! have.
@@ -13,11 +17,11 @@
 use std::sync::OnceLock;
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::measure::compare::where_it_fails;
+use tensegrity_deploy::measure::compare::{compare, where_it_fails};
 use tensegrity_deploy::measure::diagnose::{
     diagnose, Candidate, DiagnoseSettings, Diagnosis, Verdict,
 };
-use tensegrity_deploy::measure::evidence::Subject;
+use tensegrity_deploy::measure::evidence::{evidence, Subject};
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
 use tensegrity_deploy::measure::local::{LocalKind, Term};
 use tensegrity_deploy::measure::log::MeasurementLog;
@@ -226,4 +230,80 @@ fn the_shared_log_itself_is_nothing_missing() {
     // the cases above fail because of their fault, not the seed.
     let d = diagnose(&baseline(), clean_log(), &DiagnoseSettings::default()).unwrap();
     assert_eq!(d.verdict, Verdict::NothingMissing);
+}
+
+#[test]
+fn rare_spikes_are_named_as_outliers_not_structure() {
+    // Three spikes of 20 to 30 noise SDs in 1224 readings: a load cell
+    // reading 175 N high, one reading 140 N low, a position 25 mm off.
+    let mut spiky = clean_log().clone();
+    let cell = first_sensor(&spiky, |t| matches!(t, SensorTarget::SegmentTension { .. }));
+    let x = first_sensor(&spiky, |t| {
+        matches!(t, SensorTarget::Position { axis: 0, .. })
+    });
+    let spikes = [(1, 3, cell, 175.0), (3, 1, cell, -140.0), (2, 5, x, 0.025)];
+    for &(c, k, s, add) in &spikes {
+        let v = &mut spiky.cycles[c].readings[k][s];
+        *v = v.map(|v| v + add);
+    }
+    // Taken as they are, they fail the per-sensor tests (the control: the
+    // rule, not the seed, makes the verdict below).
+    let raw = compare(&baseline(), &spiky).unwrap();
+    assert!(evidence(&raw, &spiky.sensors).any_significant());
+    let d = diagnose(&baseline(), &spiky, &DiagnoseSettings::default()).unwrap();
+    let mut named: Vec<(usize, usize, usize)> = d
+        .outliers
+        .iter()
+        .map(|o| (o.cycle, o.step, o.sensor))
+        .collect();
+    named.sort();
+    let mut want: Vec<(usize, usize, usize)> = spikes.iter().map(|s| (s.0, s.1, s.2)).collect();
+    want.sort();
+    assert_eq!(named, want);
+    assert_eq!(d.verdict, Verdict::NothingMissing);
+}
+
+#[test]
+fn a_slow_trend_is_seen_against_the_logs_clock() {
+    // Every midspan node sinks 4 mm over the log (creep of the whole
+    // bridge), as its ten vertical position sensors read. No candidate
+    // holds a creep: honest verdicts are a structured residual or an
+    // effect found without confidence; the residual goes with the log's
+    // clock (step index or cycle, which rise together), not temperature.
+    let mut creeping = clean_log().clone();
+    let verticals: Vec<usize> = (0..creeping.sensors.len())
+        .filter(|&s| {
+            matches!(
+                creeping.sensors[s].target,
+                SensorTarget::Position { axis: 2, .. }
+            )
+        })
+        .collect();
+    let mut k = 0;
+    for cycle in &mut creeping.cycles {
+        for step in &mut cycle.readings {
+            for &s in &verticals {
+                step[s] = step[s].map(|v| v - 0.004 * k as f64 / 35.0);
+            }
+            k += 1;
+        }
+    }
+    let d = diagnose(&baseline(), &creeping, &DiagnoseSettings::default()).unwrap();
+    match &d.verdict {
+        Verdict::NothingMissing => panic!("a trend is not noise"),
+        Verdict::Missing {
+            confident: true,
+            found,
+        } => panic!(
+            "a confident effect for a creep: {:?}",
+            found.iter().map(|c| &c.name).collect::<Vec<_>>()
+        ),
+        _ => {}
+    }
+    let w = where_it_fails(&d.final_comparison, &d.evidence).unwrap();
+    assert!(verticals.contains(&w.sensor), "{w:?}");
+    assert!(
+        matches!(w.feature.as_deref(), Some("step_index" | "cycle")),
+        "{w:?}"
+    );
 }

@@ -25,7 +25,7 @@ use tensegrity_deploy::measure::evidence::{Statistic, Subject};
 use tensegrity_deploy::measure::local::Term;
 use tensegrity_deploy::model::EffectKind;
 
-use super::compare::{number, signed_number, where_it_fails_in_words};
+use super::compare::{number, outliers_in_words, signed_number, where_it_fails_in_words};
 use super::{fitted_parameter, replay_stopped, value, Outcome};
 
 /// The `diagnose` subcommand's arguments.
@@ -100,6 +100,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         }
         Err(DiagnoseError::Log(e)) => anyhow::bail!("{}: {e}", o.log.display()),
     };
+    if let Some(words) = outliers_in_words(&log, &d.outliers) {
+        say!("{words}; removed before the search");
+    }
     for (i, round) in d.rounds.iter().enumerate() {
         say!(
             "round {}: model held-out RMS {:.2} σ, BIC {:.1}",

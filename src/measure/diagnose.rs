@@ -4,6 +4,11 @@
 //! is added and the search repeats. At the end, everything found is fitted
 //! again together.
 //!
+//! # Outliers
+//! Readings of the model's comparison beyond [`super::outliers::OUTLIER_LIMIT`]
+//! robust SDs from their sensor's median are removed (made missing) before
+//! anything is fitted, and listed in [`Diagnosis::outliers`].
+//!
 //! # Fitting
 //! Levenberg–Marquardt ([`super::fit`]) on the parameters of one candidate
 //! (the model's own effects and the candidates found held fixed),
@@ -91,6 +96,7 @@ use super::local::{
     compare_hypothesis, local_candidates, member_groups, with_reading_terms, Hypothesis, LocalKind,
     Term,
 };
+use super::outliers::{drop_outliers, find_outliers, without_outliers, Outlier};
 use crate::sim::{EffectModel, ReplayError};
 
 /// Why a diagnosis could not be made.
@@ -305,6 +311,9 @@ pub struct Diagnosis {
     pub verdict: Verdict,
     /// The model's effects and the local terms found, at their joint fit.
     pub hypothesis: Hypothesis,
+    /// Readings set aside as outliers before the search
+    /// ([`super::outliers`]); the comparisons leave them out.
+    pub outliers: Vec<Outlier>,
     /// The final comparison (model with the effects found) on all cycles.
     pub final_comparison: Comparison,
     /// Per-sensor and per-group tests of the final comparison.
@@ -626,12 +635,24 @@ pub fn diagnose(
     log.check_comparable()?;
     let cycles = log.cycles.len();
     let mut h = Hypothesis::of(model.effects);
+    // Outliers of the model as it is are set aside (as missing readings)
+    // before anything is fitted to them.
+    let raw = compare_hypothesis(model, &h, log)?;
+    let outliers = find_outliers(&raw, log.sensors.len());
+    let cleaned;
+    let log = if outliers.is_empty() {
+        log
+    } else {
+        cleaned = without_outliers(log, &outliers);
+        cleaned.check_comparable()?;
+        &cleaned
+    };
     let mut found: Vec<Candidate> = Vec::new();
     let mut rounds = Vec::new();
     let locals = local_candidates(&model.structure, &log.sensors);
     let groups = member_groups(&model.structure);
     // The model with the candidates found so far, compared once per change.
-    let mut current = compare_hypothesis(model, &h, log)?;
+    let mut current = drop_outliers(&raw, &outliers, log.sensors.len());
     let first_held = part(&current, cycles, true);
     while rounds.len() < settings.max_rounds {
         let held = part(&current, cycles, true);
@@ -774,6 +795,7 @@ pub fn diagnose(
         rounds,
         verdict,
         hypothesis: h,
+        outliers,
         final_comparison: current,
         evidence,
     })

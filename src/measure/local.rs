@@ -331,19 +331,6 @@ fn edited_structure(structure: &Structure, locals: &[(LocalKind, Vec<f64>)]) -> 
     s
 }
 
-/// The step index since the log started of every cycle's step 0.
-pub fn first_steps(log: &MeasurementLog) -> Vec<usize> {
-    let mut k = 0;
-    log.cycles
-        .iter()
-        .map(|c| {
-            let first = k;
-            k += c.readings.len();
-            first
-        })
-        .collect()
-}
-
 /// `c` with the reading terms of `locals` (load-cell gains, position
 /// drifts) added to its predictions: the residuals and `z` change, and the
 /// statistics are recomputed.
@@ -357,7 +344,6 @@ pub fn with_reading_terms(
     if terms.is_empty() {
         return c.clone();
     }
-    let first = first_steps(log);
     let mut residuals = c.residuals.clone();
     for r in &mut residuals {
         for (kind, v) in &terms {
@@ -366,8 +352,7 @@ pub fn with_reading_terms(
                     v[0] * r.predicted + v[1]
                 }
                 LocalKind::PositionDrift { sensor } if sensor == r.sensor => {
-                    let k = first.get(r.cycle).copied().unwrap_or(0) + r.step;
-                    r.predicted + v[0] + v[1] * k as f64
+                    r.predicted + v[0] + v[1] * r.step_index as f64
                 }
                 _ => continue,
             };

@@ -10,6 +10,7 @@ pub mod fit;
 pub mod lab;
 pub mod local;
 pub mod log;
+pub mod outliers;
 pub mod tail_probability;
 
 pub use log::{Cycle, MeasurementLog, StepCommand};
