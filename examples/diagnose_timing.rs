@@ -54,7 +54,7 @@ fn main() {
         fitted,
         match &d.verdict {
             tensegrity_deploy::measure::diagnose::Verdict::Missing { found: f, .. } =>
-                f.iter().map(|c| format!("{} {:?}", c.name, c.values)).collect::<Vec<_>>().join(", "),
+                f.iter().map(|c| format!("{} {:?} ± {:?}", c.name, c.values, c.std_errors)).collect::<Vec<_>>().join(", "),
             v => format!("{v:?}"),
         }
     );

@@ -111,7 +111,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             round.base_bic
         );
         say!(
-            "  {:<20} {:>10} {:>10} {:>10} {:>10}  parameters",
+            "  {:<34} {:>10} {:>10} {:>10} {:>10}  parameters",
             "candidate",
             "held-out σ",
             "explained",
@@ -120,7 +120,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         );
         for c in &round.ranking {
             say!(
-                "  {:<20} {:>10.2} {:>9.0}% {:>10.1} {:>10.1e}  {}{}",
+                "  {:<34} {:>10.2} {:>9.0}% {:>10.1} {:>10.1e}  {}{}",
                 c.name,
                 c.held_out_rms,
                 100.0 * c.explained,

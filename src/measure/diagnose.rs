@@ -26,8 +26,9 @@
 //! first tier. The local candidates are the second, screened in a round
 //! where no library effect removes at least [`EXPLAINED_SHARE`] of the
 //! held-out excess and the model is not yet clean (a local failure is what
-//! is left to explain); then the accepted candidate of either tier with the
-//! larger held-out gain beyond its penalty is taken. Member groups,
+//! is left to explain); then, of the accepted candidates of either tier,
+//! the one that leaves the model clean is taken, else the one with the
+//! larger held-out gain beyond its penalty. Member groups,
 //! motors and sensors first, then the single members of the
 //! [`MEMBER_GROUPS_OPENED`] groups whose screen predicted most. At most
 //! [`MAX_LOCAL_FITS`] local candidates, those predicted to gain most, are
@@ -65,10 +66,11 @@
 //! overall RMS dilutes still counts.
 //! - **nothing missing**: no candidate is accepted and the model is clean;
 //! - **effect X is missing** (X may be local, named with its member, motor
-//!   or sensor): the candidates accepted leave the model clean *and* remove
-//!   at least [`EXPLAINED_SHARE`] of the held-out mean square `z` above
-//!   noise (a weak fit that only nudges a near-noise residual is not a
-//!   finding). It is *confident* only if every fitted parameter is off its
+//!   or sensor): the candidates accepted leave the model clean *and* either
+//!   the model without them was not clean (they explain a failure the
+//!   tests saw, however diluted in the overall RMS) or they remove at least
+//!   [`EXPLAINED_SHARE`] of the held-out mean square `z` above noise (a
+//!   weak fit that only nudges a near-noise residual is not a finding). It is *confident* only if every fitted parameter is off its
 //!   search bounds (by [`NEAR_BOUND`] of the range), inside its plausible
 //!   range and identified ([`ParameterFlag`]); the flags are reported in
 //!   words;
@@ -156,6 +158,9 @@ pub struct Candidate {
     pub explained: f64,
     /// Whether the fit converged (else the values are the last iterate).
     pub converged: bool,
+    /// Whether the model with it is clean: held-out RMS within the noise
+    /// limit and no per-sensor test rejecting noise.
+    pub leaves_clean: bool,
     /// What keeps the fit from being trusted: parameters at a search bound,
     /// outside their plausible range, or not identified.
     pub flags: Vec<ParameterFlag>,
@@ -496,6 +501,7 @@ impl Base<'_> {
             penalty: own,
             explained: explained_share(base_held.overall.rms, held.overall.rms),
             converged: fit.converged,
+            leaves_clean: is_clean(&all, self.log),
         })
     }
 }
@@ -654,6 +660,7 @@ pub fn diagnose(
     // The model with the candidates found so far, compared once per change.
     let mut current = drop_outliers(&raw, &outliers, log.sensors.len());
     let first_held = part(&current, cycles, true);
+    let first_clean = is_clean(&current, log);
     while rounds.len() < settings.max_rounds {
         let held = part(&current, cycles, true);
         let base_fit = part(&current, cycles, false);
@@ -738,12 +745,18 @@ pub fn diagnose(
                 held.overall.count,
                 local_tier,
             );
-            // The larger held-out gain beyond its own penalty wins.
+            // The one that leaves the model clean wins; else the larger
+            // held-out gain beyond its own penalty.
             let margin = |c: &Candidate, tier: usize| {
                 c.held_out_gain - penalty(c.values.len(), held.overall.count, tier)
             };
             best = match (best, best_local) {
-                (Some(g), Some(l)) if margin(&l, local_tier) <= margin(&g, global_tier) => Some(g),
+                (Some(g), Some(l))
+                    if (g.leaves_clean, margin(&g, global_tier))
+                        >= (l.leaves_clean, margin(&l, local_tier)) =>
+                {
+                    Some(g)
+                }
                 (g, None) => g,
                 (_, l) => l,
             };
@@ -781,7 +794,7 @@ pub fn diagnose(
     } else if !found.is_empty()
         && clean
         && held.overall.rms <= EXPLAINED_RMS
-        && explained >= EXPLAINED_SHARE
+        && (explained >= EXPLAINED_SHARE || !first_clean)
     {
         let confident = found.iter().all(Candidate::trusted);
         Verdict::Missing { found, confident }
@@ -937,6 +950,7 @@ mod tests {
             bic: 0.0,
             explained: 1.0,
             converged: true,
+            leaves_clean: true,
             flags,
         };
         assert!(candidate(vec![]).trusted());
