@@ -16,6 +16,7 @@ use tensegrity_deploy::measure::diagnose::{
     diagnose, part, DiagnoseSettings, Verdict, EXPLAINED_RMS,
 };
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
+use tensegrity_deploy::measure::local::Term;
 use tensegrity_deploy::measure::log::MeasurementLog;
 use tensegrity_deploy::model::{EffectKind, Effects, MemberKind, RelaxSettings, Structure};
 use tensegrity_deploy::sim::standard_sensors;
@@ -83,13 +84,13 @@ fn hidden_effect_is_found(kind: EffectKind, seed: u64) {
     let round = &d.rounds[0];
     let best = &round.ranking[0];
     assert_eq!(
-        best.kind,
-        kind,
+        best.term,
+        Term::Global(kind),
         "truth {truth_values:?}; ranking {:?}",
         round
             .ranking
             .iter()
-            .map(|c| (c.kind.name(), c.held_out_rms))
+            .map(|c| (c.name.clone(), c.held_out_rms))
             .collect::<Vec<_>>()
     );
     assert!(
@@ -113,7 +114,7 @@ fn hidden_effect_is_found(kind: EffectKind, seed: u64) {
         );
     }
     assert!(
-        matches!(&d.verdict, Verdict::Missing { found, confident: true } if found.len() == 1 && found[0].kind == kind),
+        matches!(&d.verdict, Verdict::Missing { found, confident: true } if found.len() == 1 && found[0].term == Term::Global(kind)),
         "{:?}",
         d.verdict
     );
@@ -163,7 +164,9 @@ fn nothing_hidden_is_nothing_missing_on_19_of_20_seeds() {
     assert!(clean >= 19, "nothing missing on {clean} of 20 seeds");
 }
 
-/// Friction plus support flexibility: both are found, one per round.
+/// Friction plus support flexibility: both are found, one per round, and
+/// their joint refit puts both parameters within three joint standard
+/// errors of the truth.
 #[test]
 fn two_hidden_effects_are_found_in_two_rounds() {
     let truth_effects = Effects::default()
@@ -180,18 +183,30 @@ fn two_hidden_effects_are_found_in_two_rounds() {
     let Verdict::Missing { found, .. } = &d.verdict else {
         panic!("{:?}", d.verdict);
     };
-    let mut kinds: Vec<_> = found.iter().map(|c| c.kind).collect();
-    kinds.sort();
+    let mut terms: Vec<_> = found.iter().map(|c| c.term).collect();
+    terms.sort();
     assert_eq!(
-        kinds,
-        vec![EffectKind::JointFriction, EffectKind::SupportFlexibility]
+        terms,
+        vec![
+            Term::Global(EffectKind::JointFriction),
+            Term::Global(EffectKind::SupportFlexibility)
+        ]
     );
     assert_eq!(d.rounds.len(), 2);
-    let mu = found
-        .iter()
-        .find(|c| c.kind == EffectKind::JointFriction)
-        .unwrap();
-    assert!((mu.values[0] - 0.1).abs() <= (0.01f64).max(3.0 * mu.std_errors[0]));
+    for (kind, truth) in [
+        (EffectKind::JointFriction, 0.1),
+        (EffectKind::SupportFlexibility, 3e-5),
+    ] {
+        let c = found.iter().find(|c| c.term == Term::Global(kind)).unwrap();
+        let (v, se) = (c.values[0], c.std_errors[0]);
+        assert!(
+            (v - truth).abs() <= 3.0 * se,
+            "{}: {v} ± {se} (joint), truth {truth}",
+            kind.name()
+        );
+        // The joint values are what the final model holds.
+        assert_eq!(d.hypothesis.parameters(Term::Global(kind)), Some(vec![v]));
+    }
 }
 
 /// An effect outside the library: one strut of the truth is 4 mm too long

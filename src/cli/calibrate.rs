@@ -70,7 +70,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let context = || format!("fitting {name} to {}", o.log.display());
     let fitted = compare(&model, &log).and_then(|all| {
         let before = part(&all, log.cycles.len(), true);
-        fit_candidate(&model, model.effects, o.add, &log, &before).map(|c| (before, c))
+        fit_candidate(&model, model.effects, o.add, &log).map(|c| (before, c))
     });
     let (before, c) = match fitted {
         Ok(fitted) => fitted,

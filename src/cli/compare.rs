@@ -25,6 +25,7 @@ use tensegrity_deploy::measure::compare::{
 };
 use tensegrity_deploy::measure::evidence::{evidence, Evidence, NoiseTest, Statistic, Subject};
 use tensegrity_deploy::measure::log::MeasurementLog;
+use tensegrity_deploy::measure::outliers::{drop_outliers, find_outliers, Outlier, OUTLIER_LIMIT};
 use tensegrity_deploy::report::figures::{
     measured_vs_predicted_svg, residuals_over_steps_svg, residuals_vs_features_svg,
 };
@@ -77,6 +78,7 @@ struct CompareReport<'a> {
     log: &'a Path,
     sensors: Vec<&'a str>,
     comparison: &'a Comparison,
+    outliers: &'a [Outlier],
     evidence: &'a Evidence,
     verdict: &'a ComparisonVerdict,
 }
@@ -96,8 +98,14 @@ pub fn run(o: &Options) -> Result<Outcome> {
             return replay_stopped(e, context);
         }
     };
-    let e = evidence(&c, &log.sensors);
-    let v = verdict(&c, &e);
+    // Outliers are named and left out of the tests, not taken as structure.
+    let outliers = find_outliers(&c, log.sensors.len());
+    let tested = drop_outliers(&c, &outliers, log.sensors.len());
+    let e = evidence(&tested, &log.sensors);
+    let v = verdict(&tested, &e);
+    if let Some(words) = outliers_in_words(&log, &outliers) {
+        say!("{words}");
+    }
     print_tables(&log, &c, &e, &v);
     let folder = ResultsFolder::claim(&o.out, "compare", o.force)?;
     let out = folder.path();
@@ -122,6 +130,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             log: &o.log,
             sensors: log.sensors.iter().map(|s| s.id.as_str()).collect(),
             comparison: &c,
+            outliers: &outliers,
             evidence: &e,
             verdict: &v,
         };
@@ -130,6 +139,34 @@ pub fn run(o: &Options) -> Result<Outcome> {
     }
     say!("report in {}", o.out.display());
     Ok(Outcome::GoalReached)
+}
+
+/// A sentence naming the `outliers` of `log` (`None` if there are none).
+pub fn outliers_in_words(log: &MeasurementLog, outliers: &[Outlier]) -> Option<String> {
+    if outliers.is_empty() {
+        return None;
+    }
+    let named: Vec<String> = outliers
+        .iter()
+        .map(|o| {
+            let cycle = &log.cycles[o.cycle];
+            let step = match o.step {
+                0 => 0,
+                k => cycle.step_labels.get(k - 1).copied().unwrap_or(k as u64),
+            };
+            format!(
+                "{} (cycle {}, step {step}, z {})",
+                log.sensors[o.sensor].id,
+                cycle.label,
+                signed_number(o.z, 1)
+            )
+        })
+        .collect();
+    Some(format!(
+        "outliers: {} reading(s) beyond {OUTLIER_LIMIT} robust SDs of their sensor's median, left out of the tests: {}",
+        outliers.len(),
+        named.join(", ")
+    ))
 }
 
 /// The test of `statistic` about `subject` in `e`.

@@ -19,12 +19,13 @@ use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_json;
 use tensegrity_deploy::measure::compare::{where_it_fails, WhereItFails};
 use tensegrity_deploy::measure::diagnose::{
-    diagnose, Candidate, DiagnoseError, DiagnoseSettings, Diagnosis, Verdict,
+    diagnose, Candidate, DiagnoseError, DiagnoseSettings, Diagnosis, Screened, Verdict,
 };
 use tensegrity_deploy::measure::evidence::{Statistic, Subject};
+use tensegrity_deploy::measure::local::Term;
 use tensegrity_deploy::model::EffectKind;
 
-use super::compare::{number, signed_number, where_it_fails_in_words};
+use super::compare::{number, outliers_in_words, signed_number, where_it_fails_in_words};
 use super::{fitted_parameter, replay_stopped, value, Outcome};
 
 /// The `diagnose` subcommand's arguments.
@@ -78,7 +79,7 @@ struct DiagnoseReport<'a> {
 }
 
 fn params(c: &Candidate) -> String {
-    c.kind
+    c.term
         .parameters()
         .iter()
         .zip(c.values.iter().zip(&c.std_errors))
@@ -99,6 +100,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         }
         Err(DiagnoseError::Log(e)) => anyhow::bail!("{}: {e}", o.log.display()),
     };
+    if let Some(words) = outliers_in_words(&log, &d.outliers) {
+        say!("{words}; removed before the search");
+    }
     for (i, round) in d.rounds.iter().enumerate() {
         say!(
             "round {}: model held-out RMS {:.2} σ, BIC {:.1}",
@@ -107,7 +111,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             round.base_bic
         );
         say!(
-            "  {:<20} {:>10} {:>10} {:>10} {:>10}  parameters",
+            "  {:<34} {:>10} {:>10} {:>10} {:>10}  parameters",
             "candidate",
             "held-out σ",
             "explained",
@@ -116,8 +120,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
         );
         for c in &round.ranking {
             say!(
-                "  {:<20} {:>10.2} {:>9.0}% {:>10.1} {:>10.1e}  {}{}",
-                c.kind.name(),
+                "  {:<34} {:>10.2} {:>9.0}% {:>10.1} {:>10.1e}  {}{}",
+                c.name,
                 c.held_out_rms,
                 100.0 * c.explained,
                 c.bic,
@@ -129,21 +133,39 @@ pub fn run(o: &Options) -> Result<Outcome> {
                 say!("    warning: {f}");
             }
         }
+        let describe = |s: &Screened| {
+            format!(
+                "{} (predicted χ² gain {:.1} < {:.1})",
+                s.name, s.predicted_gain, s.threshold
+            )
+        };
         let unfitted: Vec<String> = round
             .screened
             .iter()
-            .filter(|s| !s.passed())
-            .map(|s| {
-                format!(
-                    "{} (predicted χ² gain {:.1} < {:.1})",
-                    s.kind.name(),
-                    s.predicted_gain,
-                    s.threshold
-                )
-            })
+            .filter(|s| !s.passed() && matches!(s.term, Term::Global(_)))
+            .map(describe)
             .collect();
         if !unfitted.is_empty() {
             say!("  not worth fitting: {}", unfitted.join(", "));
+        }
+        // The local tier is long: its count and the closest to passing.
+        let local: Vec<&Screened> = round
+            .screened
+            .iter()
+            .filter(|s| !s.passed() && matches!(s.term, Term::Local(_)))
+            .collect();
+        if let Some(first) = local.first() {
+            say!(
+                "  local candidates screened: {} of {} in the tier; {} not worth fitting, closest: {}",
+                round
+                    .screened
+                    .iter()
+                    .filter(|s| matches!(s.term, Term::Local(_)))
+                    .count(),
+                round.local_tier,
+                local.len(),
+                describe(first)
+            );
         }
     }
     let fails = match &d.verdict {
@@ -186,8 +208,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Verdict::Missing { found, confident } => {
             for c in found {
                 say!(
-                    "verdict: effect {} is missing ({}; explains {:.0}% of the held-out residual above noise)",
-                    c.kind.name(),
+                    "verdict: {} {} is missing ({}; explains {:.0}% of the held-out residual above noise)",
+                    if matches!(c.term, Term::Local(_)) { "local effect" } else { "effect" },
+                    c.name,
                     params(c),
                     100.0 * c.explained
                 );
@@ -206,7 +229,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             found,
             held_out_rms,
         } => {
-            let names: Vec<_> = found.iter().map(|c| c.kind.name()).collect();
+            let names: Vec<_> = found.iter().map(|c| c.name.as_str()).collect();
             let after = if names.is_empty() {
                 String::new()
             } else {

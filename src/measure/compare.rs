@@ -53,6 +53,9 @@ pub struct Residual {
     pub cycle: usize,
     /// Step index within the cycle (0 = before the first command).
     pub step: usize,
+    /// Steps since the log started, every cycle's step 0 counted: the
+    /// log's clock (logs carry no time stamps).
+    pub step_index: usize,
     /// Sensor index in the log's layout.
     pub sensor: usize,
     /// Measured value.
@@ -133,13 +136,17 @@ pub struct Comparison {
     pub overall: Stats,
 }
 
-/// The candidate explanatory features, by name, of a residual.
-pub const FEATURES: [&str; 5] = [
+/// The candidate explanatory features, by name, of a residual: the model
+/// state, the prediction, and the log's clock (step index since the log
+/// started, and cycle), so that a trend over the log is seen as one.
+pub const FEATURES: [&str; 7] = [
     "payout_m",
     "command_m",
     "joint_angle_deg",
     "temperature_c",
     "predicted",
+    "step_index",
+    "cycle",
 ];
 
 impl Residual {
@@ -150,7 +157,9 @@ impl Residual {
             1 => Some(self.features.command_m),
             2 => Some(self.features.joint_angle_rad.to_degrees()),
             3 => self.features.temperature_c,
-            _ => Some(self.predicted),
+            4 => Some(self.predicted),
+            5 => Some(self.step_index as f64),
+            _ => Some(self.cycle as f64),
         }
     }
 }
@@ -345,8 +354,10 @@ pub fn compare(model: &EffectModel, log: &MeasurementLog) -> Result<Comparison, 
 /// The comparison of a log with a model run made from it.
 pub fn residuals_of(log: &MeasurementLog, run: &Run) -> Comparison {
     let mut residuals = Vec::new();
+    let mut step_index = 0;
     for (c, cycle) in log.cycles.iter().enumerate() {
         for (k, readings) in cycle.readings.iter().enumerate() {
+            step_index += 1;
             let features = run.features[c][k];
             let direction = Direction::of(features.command_m, k);
             for (s, sensor) in log.sensors.iter().enumerate() {
@@ -361,6 +372,7 @@ pub fn residuals_of(log: &MeasurementLog, run: &Run) -> Comparison {
                 residuals.push(Residual {
                     cycle: c,
                     step: k,
+                    step_index: step_index - 1,
                     sensor: s,
                     measured,
                     predicted,
@@ -372,30 +384,38 @@ pub fn residuals_of(log: &MeasurementLog, run: &Run) -> Comparison {
             }
         }
     }
-    let per_sensor = (0..log.sensors.len())
-        .map(|s| {
-            let mine = || residuals.iter().filter(move |r| r.sensor == s);
-            (
-                Stats::of(mine().map(|r| r.residual)),
-                Stats::of(mine().map(|r| r.z)),
-            )
-        })
-        .collect();
-    let per_direction = [Direction::Start, Direction::Folding, Direction::Deploying]
-        .into_iter()
-        .map(|d| {
-            (
-                d,
-                Stats::of(residuals.iter().filter(|r| r.direction == d).map(|r| r.z)),
-            )
-        })
-        .collect();
-    let overall = Stats::of(residuals.iter().map(|r| r.z));
-    Comparison {
-        residuals,
-        per_sensor,
-        per_direction,
-        overall,
+    Comparison::of_residuals(residuals, log.sensors.len())
+}
+
+impl Comparison {
+    /// The comparison made of `residuals` of a log with `sensors` sensors:
+    /// statistics per sensor, per direction and overall.
+    pub fn of_residuals(residuals: Vec<Residual>, sensors: usize) -> Comparison {
+        let per_sensor = (0..sensors)
+            .map(|s| {
+                let mine = || residuals.iter().filter(move |r| r.sensor == s);
+                (
+                    Stats::of(mine().map(|r| r.residual)),
+                    Stats::of(mine().map(|r| r.z)),
+                )
+            })
+            .collect();
+        let per_direction = [Direction::Start, Direction::Folding, Direction::Deploying]
+            .into_iter()
+            .map(|d| {
+                (
+                    d,
+                    Stats::of(residuals.iter().filter(|r| r.direction == d).map(|r| r.z)),
+                )
+            })
+            .collect();
+        let overall = Stats::of(residuals.iter().map(|r| r.z));
+        Comparison {
+            residuals,
+            per_sensor,
+            per_direction,
+            overall,
+        }
     }
 }
 
@@ -480,6 +500,8 @@ mod tests {
                 residuals.push(Residual {
                     cycle: 0,
                     step: k + 1,
+                    // The clock scrambled: only the payout is linear in k.
+                    step_index: (7 * k) % 20,
                     sensor,
                     measured: z,
                     predicted: 0.0,

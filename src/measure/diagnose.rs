@@ -1,26 +1,45 @@
-//! Which physical effect is missing: every effect the model lacks is fitted
-//! to the log through the model, scored on cycles it was not fitted on,
-//! and ranked; the best is added and the search repeats.
+//! Which physical effect is missing: every effect the model lacks, and then
+//! every local candidate ([`super::local`]), is fitted to the log through
+//! the model, scored on cycles it was not fitted on, and ranked; the best
+//! is added and the search repeats. At the end, everything found is fitted
+//! again together.
+//!
+//! # Outliers
+//! Readings of the model's comparison beyond [`super::outliers::OUTLIER_LIMIT`]
+//! robust SDs from their sensor's median are removed (made missing) before
+//! anything is fitted, and listed in [`Diagnosis::outliers`].
 //!
 //! # Fitting
-//! Levenberg–Marquardt on the parameters of one effect (the model's own
-//! effects held fixed), minimising `χ² = Σ z²` over the *fit* cycles, with
-//! `z` the residual in noise SDs. The Jacobian is by forward differences
-//! of whole replays (each a warm run of the forward model), in parameters
-//! scaled by their plausible range. Parameters stay within twice their
-//! plausible range. At the optimum, `(JᵀJ)⁻¹` (σ = 1 in `z` units) gives
-//! each parameter's standard error, and the condition number of `JᵀJ`
-//! says how well the log identifies them.
+//! Levenberg–Marquardt ([`super::fit`]) on the parameters of one candidate
+//! (the model's own effects and the candidates found held fixed),
+//! minimising `χ² = Σ z²` over the *fit* cycles, with `z` the residual in
+//! noise SDs. The Jacobian is by forward differences of whole replays
+//! (each a warm run of the forward model); load-cell gains and position
+//! drifts act on the readings and need no replay. At the optimum,
+//! `(JᵀJ)⁻¹` gives each parameter's standard error, and the condition
+//! number of `JᵀJ` says how well the log identifies them.
 //!
-//! # Screening
-//! Before fitting, each candidate is screened where it is switched on at
-//! its neutral value (the model as it is): one Gauss–Newton step from there
-//! predicts how much `χ²` on the fit cycles it could remove. Only
-//! candidates whose predicted gain beats the BIC penalty `k·ln n` are
-//! fitted. Under pure noise the gain of `k` useless parameters is
-//! χ²-distributed with `k` degrees of freedom, so the screen passes such a
-//! candidate about once in a hundred logs (`k` = 1, n ≈ 600), and the
-//! held-out test below stops it.
+//! # Screening, in two tiers
+//! Each candidate is screened where it is switched on at its neutral value
+//! (the model as it is): one Gauss–Newton step from there predicts how much
+//! `χ²` on the fit cycles it could remove. The library effects are the
+//! first tier. The local candidates are the second, screened in a round
+//! where no library effect removes at least [`EXPLAINED_SHARE`] of the
+//! held-out excess and the model is not yet clean (a local failure is what
+//! is left to explain); then, of the accepted candidates of either tier,
+//! the one that leaves the model clean is taken, else the one with the
+//! larger held-out gain beyond its penalty. Member groups,
+//! motors and sensors first, then the single members of the
+//! [`MEMBER_GROUPS_OPENED`] groups whose screen predicted most. At most
+//! [`MAX_LOCAL_FITS`] local candidates, those predicted to gain most, are
+//! fitted.
+//!
+//! The penalty a candidate of `k` parameters must beat counts the `M`
+//! candidates of its tier (all of them, screened or not): `k·ln n + 2·ln M`.
+//! The largest of `M` useless candidates' gains exceeds `k·ln n` about `M`
+//! times as often as one does; the `2·ln M` takes that factor back (a χ²
+//! tail falls as `e^(−x/2)`), so trying 180 local candidates raises no
+//! more false alarms than trying one.
 //!
 //! # Scoring
 //! Cycles alternate between fitting and held out (the first, third, … are
@@ -28,9 +47,17 @@
 //! time, because friction carries each cycle's history into the next; the
 //! split decides which readings each score counts. A candidate is ranked by
 //! the held-out RMS of `z` it leaves; it is accepted only if it improves
-//! the Bayesian information criterion `χ² + k·ln n` on the fit cycles *and*
-//! lowers the held-out `χ²` by more than `k·ln n_held` (the same penalty,
-//! on readings it never saw).
+//! the information criterion `χ² + k·ln n + 2·ln M` on the fit cycles *and*
+//! lowers the held-out `χ²` by more than `k·ln n_held + 2·ln M` (the same
+//! penalty, on readings it never saw).
+//!
+//! # Joint refit
+//! Candidates found in turn were each fitted with the earlier ones held at
+//! their values, so an early one absorbs part of a later one's signal. At
+//! the end all of them are fitted together on the fit cycles (one
+//! Levenberg–Marquardt over all their parameters, starting where the
+//! search left them); the verdict reports these values and the standard
+//! errors of the joint fit, and its tests use the joint model.
 //!
 //! # Verdict
 //! "Clean" below means: the held-out RMS `z` is within [`noise_rms_limit`]
@@ -38,13 +65,15 @@
 //! noise ([`super::evidence`], Holm-controlled): a local failure that the
 //! overall RMS dilutes still counts.
 //! - **nothing missing**: no candidate is accepted and the model is clean;
-//! - **effect X is missing**: the effects accepted leave the model clean
-//!   *and* remove at least [`EXPLAINED_SHARE`] of the held-out mean square
-//!   `z` above noise (a weak fit that only nudges a near-noise residual is
-//!   not a finding). It is *confident* only if every fitted parameter is
-//!   off its search bounds (by [`NEAR_BOUND`] of the range), inside its
-//!   plausible range and identified ([`ParameterFlag`]); the flags are
-//!   reported in words;
+//! - **effect X is missing** (X may be local, named with its member, motor
+//!   or sensor): the candidates accepted leave the model clean *and* either
+//!   the model without them was not clean (they explain a failure the
+//!   tests saw, however diluted in the overall RMS) or they remove at least
+//!   [`EXPLAINED_SHARE`] of the held-out mean square `z` above noise (a
+//!   weak fit that only nudges a near-noise residual is not a finding). It is *confident* only if every fitted parameter is off its
+//!   search bounds (by [`NEAR_BOUND`] of the range), inside its plausible
+//!   range and identified ([`ParameterFlag`]); the flags are reported in
+//!   words;
 //! - **structured residual**: otherwise, with where it is.
 //!
 //! Search ranges are the plausible range widened by half its width on
@@ -62,8 +91,14 @@ use serde::{Deserialize, Serialize};
 use crate::measure::log::{LogProblem, MeasurementLog};
 use crate::model::{EffectKind, Effects};
 
-use super::compare::{compare, noise_rms_limit, Comparison};
+use super::compare::{noise_rms_limit, Comparison};
 use super::evidence::{evidence, Evidence};
+use super::fit::{levenberg_marquardt, predicted_gain, Fit, SearchBox};
+use super::local::{
+    compare_hypothesis, local_candidates, member_groups, with_reading_terms, Hypothesis, LocalKind,
+    Term,
+};
+use super::outliers::{drop_outliers, find_outliers, without_outliers, Outlier};
 use crate::sim::{EffectModel, ReplayError};
 
 /// Why a diagnosis could not be made.
@@ -77,8 +112,6 @@ pub enum DiagnoseError {
     Replay(#[from] ReplayError),
 }
 
-/// Levenberg–Marquardt iterations per fit.
-const MAX_LM_ITERATIONS: usize = 30;
 /// Held-out RMS `z` a found effect must reach, in noise SDs.
 pub const EXPLAINED_RMS: f64 = 1.5;
 /// Share of the held-out mean square `z` above noise that the effects found
@@ -87,34 +120,47 @@ pub const EXPLAINED_SHARE: f64 = 0.5;
 /// How near a search bound, as a share of the search range's width, a
 /// fitted parameter counts as sitting on it.
 pub const NEAR_BOUND: f64 = 0.02;
-/// Forward-difference step for sensitivities, as a fraction of each
-/// parameter's plausible range: large against solver noise (residuals move
-/// by ~1e-2 noise SDs, the solver's error by ~1e-6), small against the
-/// curvature of every effect's response.
-const DIFFERENCE_STEP: f64 = 1e-3;
+/// Member groups whose single members are screened: the two whose group
+/// screen predicted most (a single member's error shows, weaker, in its
+/// group's).
+pub const MEMBER_GROUPS_OPENED: usize = 2;
+/// Local candidates fitted per round at most, those the screen predicts to
+/// gain most (the screen is exact for the linear sensor terms and close
+/// for the others, while each fit costs tens of replays).
+pub const MAX_LOCAL_FITS: usize = 4;
 
-/// One candidate effect fitted to the log.
+/// One candidate fitted to the log.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Candidate {
-    /// The effect.
-    pub kind: EffectKind,
-    /// Fitted parameters ([`EffectKind::parameters`] order).
+    /// What was fitted.
+    pub term: Term,
+    /// Its name, a local one with its member, motor or sensor.
+    pub name: String,
+    /// Fitted parameters ([`Term::parameters`] order).
     pub values: Vec<f64>,
     /// Their standard errors (NaN where not identifiable).
     pub std_errors: Vec<f64>,
     /// Condition number of `JᵀJ` in scaled parameters.
     pub condition: f64,
-    /// RMS `z` on the held-out cycles with the effect.
+    /// RMS `z` on the held-out cycles with the candidate.
     pub held_out_rms: f64,
-    /// How much the effect lowers `χ²` on the held-out cycles.
+    /// How much the candidate lowers `χ²` on the held-out cycles.
     pub held_out_gain: f64,
-    /// BIC on the fit cycles with the effect.
+    /// Information criterion on the fit cycles with the candidate:
+    /// `χ² + k·ln n + 2·ln M` (`k` all parameters, `M` the candidates of
+    /// its tier).
     pub bic: f64,
-    /// Share of the held-out mean square `z` above noise that the effect
+    /// The penalty this candidate's own parameters pay: `k·ln n + 2·ln M`
+    /// on the fit cycles.
+    pub penalty: f64,
+    /// Share of the held-out mean square `z` above noise that the candidate
     /// removes, 0–1.
     pub explained: f64,
     /// Whether the fit converged (else the values are the last iterate).
     pub converged: bool,
+    /// Whether the model with it is clean: held-out RMS within the noise
+    /// limit and no per-sensor test rejecting noise.
+    pub leaves_clean: bool,
     /// What keeps the fit from being trusted: parameters at a search bound,
     /// outside their plausible range, or not identified.
     pub flags: Vec<ParameterFlag>,
@@ -200,32 +246,38 @@ impl Candidate {
 /// One round of the search.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Round {
-    /// The model's effects at the start of the round.
-    pub base: Effects,
+    /// The model's effects and local terms at the start of the round.
+    pub base: Hypothesis,
     /// Held-out RMS `z` of the model as it is.
     pub base_held_out_rms: f64,
     /// BIC of the model as it is on the fit cycles.
     pub base_bic: f64,
-    /// The screen of every effect the model lacked.
+    /// The screen of every candidate the model lacked (local ones only
+    /// where the second tier was screened), best first.
     pub screened: Vec<Screened>,
+    /// Local candidates in the tier (the `M` of the penalty); 0 where the
+    /// second tier was not screened.
+    pub local_tier: usize,
     /// Candidates that passed the screen, fitted, best first.
     pub ranking: Vec<Candidate>,
 }
 
-/// An effect screened at its neutral value (see the module notes).
+/// A candidate screened at its neutral value (see the module notes).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Screened {
-    /// The effect.
-    pub kind: EffectKind,
+    /// The candidate.
+    pub term: Term,
+    /// Its name.
+    pub name: String,
     /// `χ²` on the fit cycles that one Gauss–Newton step predicts the
-    /// effect removes (NaN where the model could not be run).
+    /// candidate removes (NaN where the model could not be run).
     pub predicted_gain: f64,
-    /// The gain it needs to be fitted: `k·ln n`.
+    /// The gain it needs to be fitted: `k·ln n + 2·ln M`.
     pub threshold: f64,
 }
 
 impl Screened {
-    /// Whether the effect is worth fitting.
+    /// Whether the candidate is worth fitting.
     pub fn passed(&self) -> bool {
         self.predicted_gain > self.threshold
     }
@@ -237,7 +289,7 @@ impl Screened {
 pub enum Verdict {
     /// The model explains the log to the noise.
     NothingMissing,
-    /// These effects were found, in order (with their fits).
+    /// These effects were found, in order (with their joint fit).
     Missing {
         /// The effects, in the order found.
         found: Vec<Candidate>,
@@ -248,7 +300,7 @@ pub enum Verdict {
     /// Residual structure that no candidate explains, after adding the
     /// effects found (possibly none).
     Unexplained {
-        /// Effects found before getting stuck.
+        /// Effects found before getting stuck (with their joint fit).
         found: Vec<Candidate>,
         /// Held-out RMS `z` left.
         held_out_rms: f64,
@@ -262,6 +314,11 @@ pub struct Diagnosis {
     pub rounds: Vec<Round>,
     /// The conclusion.
     pub verdict: Verdict,
+    /// The model's effects and the local terms found, at their joint fit.
+    pub hypothesis: Hypothesis,
+    /// Readings set aside as outliers before the search
+    /// ([`super::outliers`]); the comparisons leave them out.
+    pub outliers: Vec<Outlier>,
     /// The final comparison (model with the effects found) on all cycles.
     pub final_comparison: Comparison,
     /// Per-sensor and per-group tests of the final comparison.
@@ -322,298 +379,192 @@ fn chi2(c: &Comparison) -> (f64, usize) {
     )
 }
 
-fn bic(c: &Comparison, parameters: usize) -> f64 {
-    let (x2, n) = chi2(c);
-    x2 + parameters as f64 * (n.max(1) as f64).ln()
+fn ln_count(n: usize) -> f64 {
+    (n.max(1) as f64).ln()
 }
 
-fn with_effects(model: &EffectModel, effects: Effects) -> EffectModel {
-    EffectModel {
-        effects,
-        ..model.clone()
-    }
+/// The penalty of `k` parameters among `tier` candidates on `n` readings.
+fn penalty(k: usize, n: usize, tier: usize) -> f64 {
+    k as f64 * ln_count(n) + 2.0 * ln_count(tier)
 }
 
-/// The `z` residual vector of `effects` on the fitted readings of `log`.
-fn z_vector(model: &EffectModel, effects: Effects, log: &MeasurementLog) -> Option<Vec<f64>> {
-    let c = compare(&with_effects(model, effects), log).ok()?;
-    let fit = part(&c, log.cycles.len(), false);
-    Some(fit.residuals.iter().map(|r| r.z).collect())
-}
-
-/// Where a fit may look for an effect's parameters: half a plausible range
-/// beyond the plausible range, within the admissible one; and the scale
-/// (the plausible range) the search works in.
-struct SearchBox {
-    scale: Vec<f64>,
-    lower: Vec<f64>,
-    upper: Vec<f64>,
-}
-
-impl SearchBox {
-    fn of(kind: EffectKind) -> SearchBox {
-        let specs = kind.parameters();
-        let scale: Vec<f64> = specs
-            .iter()
-            .map(|p| (p.plausible.1 - p.plausible.0).abs().max(1e-12))
-            .collect();
-        // The neutral value (the effect absent) is always inside: a range
-        // that excludes it forces every fit onto a bound (thermal expansion's
-        // plausible range does not reach zero).
-        let lower = specs
-            .iter()
-            .zip(&scale)
-            .map(|(p, s)| (p.plausible.0 - 0.5 * s).min(p.neutral).max(p.admissible.0))
-            .collect();
-        let upper = specs
-            .iter()
-            .zip(&scale)
-            .map(|(p, s)| (p.plausible.1 + 0.5 * s).max(p.neutral).min(p.admissible.1))
-            .collect();
-        SearchBox {
-            scale,
-            lower,
-            upper,
-        }
-    }
-
-    fn clamp(&self, x: &mut [f64]) {
-        for (i, v) in x.iter_mut().enumerate() {
-            *v = v.clamp(self.lower[i], self.upper[i]);
-        }
-    }
-}
-
-/// Jacobian of `z` in scaled parameters at `x` by forward differences
-/// (backwards where a step forwards would leave `[lower, upper]`); `None`
-/// if a replay fails or changes which readings exist.
-fn jacobian(
-    eval: &dyn Fn(&[f64]) -> Option<Vec<f64>>,
+/// Replays (or, for a reading term, re-reads) the log with `term` at `x`
+/// on top of `h`, whose comparison is `current`.
+fn compare_with(
+    model: &EffectModel,
+    h: &Hypothesis,
+    current: &Comparison,
+    term: Term,
     x: &[f64],
-    r: &[f64],
-    scale: &[f64],
-    upper: &[f64],
-) -> Option<nalgebra::DMatrix<f64>> {
-    let mut jac = nalgebra::DMatrix::<f64>::zeros(r.len(), x.len());
-    for i in 0..x.len() {
-        let h = DIFFERENCE_STEP * scale[i];
-        let mut xp = x.to_vec();
-        xp[i] += if xp[i] + h <= upper[i] { h } else { -h };
-        let step = xp[i] - x[i];
-        let rp = eval(&xp)?;
-        if rp.len() != r.len() {
-            return None;
+    log: &MeasurementLog,
+) -> Result<Comparison, ReplayError> {
+    match term {
+        Term::Local(l) if l.on_readings() => {
+            Ok(with_reading_terms(current, &[(l, x.to_vec())], log))
         }
-        for (row, (a, b)) in rp.iter().zip(r).enumerate() {
-            jac[(row, i)] = (a - b) / step * scale[i];
-        }
+        _ => compare_hypothesis(model, &h.with(term, x), log),
     }
-    Some(jac)
 }
 
-/// Screens effect `kind` on top of `base`: the `χ²` on the fit cycles that
-/// one Gauss–Newton step from the neutral parameters predicts it removes,
-/// with the step kept admissible. `base_z` is the model's own `z` on the
-/// fit cycles.
+fn fit_z(c: &Comparison, cycles: usize) -> Vec<f64> {
+    part(c, cycles, false)
+        .residuals
+        .iter()
+        .map(|r| r.z)
+        .collect()
+}
+
+/// A round's model: its hypothesis and comparison.
+struct Base<'a> {
+    model: &'a EffectModel,
+    log: &'a MeasurementLog,
+    h: &'a Hypothesis,
+    current: &'a Comparison,
+}
+
+impl Base<'_> {
+    fn screen(&self, term: Term, tier: usize) -> Screened {
+        let specs = term.parameters();
+        let cycles = self.log.cycles.len();
+        let base_z = fit_z(self.current, cycles);
+        let neutral: Vec<f64> = specs.iter().map(|p| p.neutral).collect();
+        let eval = |x: &[f64]| {
+            compare_with(self.model, self.h, self.current, term, x, self.log)
+                .ok()
+                .map(|c| fit_z(&c, cycles))
+        };
+        let gain = predicted_gain(&eval, &neutral, &SearchBox::of(specs), base_z.len());
+        Screened {
+            term,
+            name: term.label(&self.model.structure, &self.log.sensors),
+            predicted_gain: gain.unwrap_or(f64::NAN),
+            threshold: penalty(specs.len(), base_z.len(), tier),
+        }
+    }
+
+    fn fit(&self, term: Term, tier: usize) -> Result<Candidate, ReplayError> {
+        let specs = term.parameters();
+        let cycles = self.log.cycles.len();
+        let bounds = SearchBox::of(specs);
+        // Start in the middle of the plausible range, but near the neutral
+        // value where it lies inside (a small effect is the likelier one).
+        let x0: Vec<f64> = specs
+            .iter()
+            .map(|p| {
+                if p.neutral >= p.plausible.0 && p.neutral <= p.plausible.1 {
+                    p.neutral + 0.1 * (p.plausible.1 - p.plausible.0)
+                } else {
+                    0.5 * (p.plausible.0 + p.plausible.1)
+                }
+            })
+            .collect();
+        let eval = |x: &[f64]| {
+            compare_with(self.model, self.h, self.current, term, x, self.log)
+                .ok()
+                .map(|c| fit_z(&c, cycles))
+        };
+        let mut start = x0;
+        bounds.clamp(&mut start);
+        // The start runs, or its error is the answer.
+        compare_with(self.model, self.h, self.current, term, &start, self.log)?;
+        let fit = levenberg_marquardt(&eval, &start, &bounds).unwrap_or(Fit {
+            std_errors: vec![f64::NAN; start.len()],
+            values: start,
+            condition: f64::INFINITY,
+            converged: false,
+        });
+        let all = compare_with(
+            self.model,
+            self.h,
+            self.current,
+            term,
+            &fit.values,
+            self.log,
+        )?;
+        let fitted = part(&all, cycles, false);
+        let held = part(&all, cycles, true);
+        let base_held = part(self.current, cycles, true);
+        let k = specs.len();
+        let own = penalty(k, fitted.overall.count, tier);
+        Ok(Candidate {
+            term,
+            name: term.label(&self.model.structure, &self.log.sensors),
+            flags: parameter_flags(term, &bounds, &fit.values, &fit.std_errors),
+            values: fit.values,
+            std_errors: fit.std_errors,
+            condition: fit.condition,
+            held_out_rms: held.overall.rms,
+            held_out_gain: chi2(&base_held).0 - chi2(&held).0,
+            bic: chi2(&fitted).0
+                + self.h.parameter_count() as f64 * ln_count(fitted.overall.count)
+                + own,
+            penalty: own,
+            explained: explained_share(base_held.overall.rms, held.overall.rms),
+            converged: fit.converged,
+            leaves_clean: is_clean(&all, self.log),
+        })
+    }
+}
+
+/// Screens effect `kind` on top of the model's effects `base`: the `χ²` on
+/// the fit cycles that one Gauss–Newton step from the neutral parameters
+/// predicts it removes, with the step kept admissible. The penalty counts
+/// the library's effects as the tier.
 pub fn screen_candidate(
     model: &EffectModel,
     base: Effects,
     kind: EffectKind,
     log: &MeasurementLog,
-    base_z: &[f64],
-) -> Screened {
-    let specs = kind.parameters();
-    let k = specs.len();
-    let threshold = k as f64 * (base_z.len().max(1) as f64).ln();
-    let neutral: Vec<f64> = specs.iter().map(|p| p.neutral).collect();
-    let scale: Vec<f64> = SearchBox::of(kind).scale;
-    let upper: Vec<f64> = specs.iter().map(|p| p.admissible.1).collect();
-    let eval = |x: &[f64]| z_vector(model, base.with_parameters(kind, x), log);
-    let gain = (|| {
-        // The neutral effect switched on is the model as it is, except that
-        // an effect may carry settings of its own (a thermal reference
-        // temperature): run it rather than assume.
-        let r0 = eval(&neutral)?;
-        if r0.len() != base_z.len() {
-            return None;
-        }
-        let jac = jacobian(&eval, &neutral, &r0, &scale, &upper)?;
-        let r = nalgebra::DVector::from_vec(r0);
-        let jtj = jac.transpose() * &jac;
-        let grad = jac.transpose() * &r;
-        // Unconstrained step, then the parameters it pushes out of their
-        // admissible range held at the bound and the rest solved again.
-        let solve = |free: &[bool]| -> nalgebra::DVector<f64> {
-            let idx: Vec<usize> = (0..k).filter(|i| free[*i]).collect();
-            let mut step = nalgebra::DVector::zeros(k);
-            if idx.is_empty() {
-                return step;
-            }
-            let a = nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |i, j| {
-                jtj[(idx[i], idx[j])]
-                    + if i == j {
-                        1e-12 * jtj[(idx[i], idx[i])].max(1e-300)
-                    } else {
-                        0.0
-                    }
-            });
-            let b = nalgebra::DVector::from_fn(idx.len(), |i, _| -grad[idx[i]]);
-            if let Some(d) = a.lu().solve(&b) {
-                for (i, &v) in idx.iter().zip(d.iter()) {
-                    step[*i] = v;
-                }
-            }
-            step
-        };
-        let mut free = vec![true; k];
-        let mut step = solve(&free);
-        for i in 0..k {
-            let lo = specs[i].admissible.0;
-            if neutral[i] + step[i] * scale[i] < lo {
-                free[i] = false;
-            }
-        }
-        if free.iter().any(|f| !f) {
-            step = solve(&free);
-        }
-        let predicted = &r + &jac * &step;
-        Some(r.norm_squared() - predicted.norm_squared())
-    })();
-    Screened {
-        kind,
-        predicted_gain: gain.unwrap_or(f64::NAN),
-        threshold,
-    }
+) -> Result<Screened, ReplayError> {
+    let h = Hypothesis::of(base);
+    let current = compare_hypothesis(model, &h, log)?;
+    let b = Base {
+        model,
+        log,
+        h: &h,
+        current: &current,
+    };
+    Ok(b.screen(Term::Global(kind), EffectKind::ALL.len()))
 }
 
-/// Fits effect `kind` on top of `base` to the fitted cycles of `log`, then
-/// scores it on the held-out ones. `base_held` is the model's own
-/// held-out part.
+/// Fits effect `kind` on top of the model's effects `base` to the fitted
+/// cycles of `log`, then scores it on the held-out ones (the penalty
+/// counts the library's effects as the tier).
 pub fn fit_candidate(
     model: &EffectModel,
     base: Effects,
     kind: EffectKind,
     log: &MeasurementLog,
-    base_held: &Comparison,
 ) -> Result<Candidate, ReplayError> {
-    let specs = kind.parameters();
-    let k = specs.len();
-    let bounds = SearchBox::of(kind);
-    // Start in the middle of the plausible range, but near the neutral
-    // value where it lies inside (a small effect is the likelier one).
-    let mut x: Vec<f64> = specs
-        .iter()
-        .map(|p| {
-            if p.neutral >= p.plausible.0 && p.neutral <= p.plausible.1 {
-                p.neutral + 0.1 * (p.plausible.1 - p.plausible.0)
-            } else {
-                0.5 * (p.plausible.0 + p.plausible.1)
-            }
-        })
-        .collect();
-    bounds.clamp(&mut x);
-    let eval = |x: &[f64]| z_vector(model, base.with_parameters(kind, x), log);
-    let start = compare(&with_effects(model, base.with_parameters(kind, &x)), log)?;
-    let mut r: Vec<f64> = part(&start, log.cycles.len(), false)
-        .residuals
-        .iter()
-        .map(|r| r.z)
-        .collect();
-    let mut cost: f64 = r.iter().map(|v| v * v).sum();
-    let mut lambda = 1e-2;
-    let mut converged = false;
-    let mut jtj = nalgebra::DMatrix::<f64>::zeros(k, k);
-    for _ in 0..MAX_LM_ITERATIONS {
-        let Some(jac) = jacobian(&eval, &x, &r, &bounds.scale, &bounds.upper) else {
-            break;
-        };
-        jtj = jac.transpose() * &jac;
-        let grad = jac.transpose() * nalgebra::DVector::from_vec(r.clone());
-        let mut improved = false;
-        for _ in 0..8 {
-            let mut a = jtj.clone();
-            for i in 0..k {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
-            }
-            let Some(delta) = a.lu().solve(&(-&grad)) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut trial: Vec<f64> = (0..k).map(|i| x[i] + delta[i] * bounds.scale[i]).collect();
-            bounds.clamp(&mut trial);
-            if let Some(rt) = eval(&trial) {
-                let c: f64 = rt.iter().map(|v| v * v).sum();
-                if rt.len() == r.len() && c < cost {
-                    let gain = cost - c;
-                    x = trial;
-                    r = rt;
-                    cost = c;
-                    lambda = (lambda / 3.0).max(1e-9);
-                    improved = true;
-                    if gain < 1e-6 * cost.max(1.0) {
-                        converged = true;
-                    }
-                    break;
-                }
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            converged = true;
-        }
-        if converged {
-            break;
-        }
-    }
-    let effects = base.with_parameters(kind, &x);
-    let all = compare(&with_effects(model, effects), log)?;
-    let fitted = part(&all, log.cycles.len(), false);
-    let held = part(&all, log.cycles.len(), true);
-    let (std_errors, condition) = match jtj.clone().try_inverse() {
-        Some(inv) => {
-            let eig = jtj.symmetric_eigen().eigenvalues;
-            let (lo, hi) = (eig.min(), eig.max());
-            (
-                (0..k)
-                    .map(|i| inv[(i, i)].max(0.0).sqrt() * bounds.scale[i])
-                    .collect(),
-                if lo > 0.0 { hi / lo } else { f64::INFINITY },
-            )
-        }
-        None => (vec![f64::NAN; k], f64::INFINITY),
+    let h = Hypothesis::of(base);
+    let current = compare_hypothesis(model, &h, log)?;
+    let b = Base {
+        model,
+        log,
+        h: &h,
+        current: &current,
     };
-    let flags = parameter_flags(kind, &bounds, &x, &std_errors);
-    Ok(Candidate {
-        kind,
-        flags,
-        values: x,
-        std_errors,
-        condition,
-        held_out_rms: held.overall.rms,
-        held_out_gain: chi2(base_held).0 - chi2(&held).0,
-        bic: bic(
-            &fitted,
-            base.enabled()
-                .iter()
-                .map(|e| e.parameters().len())
-                .sum::<usize>()
-                + k,
-        ),
-        explained: explained_share(base_held.overall.rms, held.overall.rms),
-        converged,
-    })
+    b.fit(Term::Global(kind), EffectKind::ALL.len())
 }
 
-/// The warnings on the fitted parameters `x` of `kind`.
+/// The warnings on the fitted parameters `x` of `term`.
 fn parameter_flags(
-    kind: EffectKind,
+    term: Term,
     bounds: &SearchBox,
     x: &[f64],
     std_errors: &[f64],
 ) -> Vec<ParameterFlag> {
     let mut flags = Vec::new();
-    for (i, spec) in kind.parameters().iter().enumerate() {
-        let parameter = format!("{}.{}", kind.name(), spec.name);
+    let prefix = match term {
+        Term::Global(k) => k.name(),
+        Term::Local(_) => "",
+    };
+    for (i, spec) in term.parameters().iter().enumerate() {
+        let parameter = if prefix.is_empty() {
+            spec.name.to_string()
+        } else {
+            format!("{prefix}.{}", spec.name)
+        };
         let se = std_errors[i];
         // A parameter the log cannot pin down to within its plausible
         // range says nothing by its value, at a bound or not.
@@ -656,7 +607,32 @@ fn explained_share(before: f64, after: f64) -> f64 {
     }
 }
 
-/// Runs the greedy search.
+/// Whether `c` is clean: held-out RMS within the noise limit and no
+/// per-sensor test significant.
+fn is_clean(c: &Comparison, log: &MeasurementLog) -> bool {
+    let held = part(c, log.cycles.len(), true);
+    held.overall.rms <= noise_rms_limit(held.overall.count)
+        && !evidence(c, &log.sensors).any_significant()
+}
+
+/// The best of `ranking` (held-out RMS order) among `tier`, if it is
+/// accepted: it improves the criterion on the fit cycles and lowers the
+/// held-out `χ²` by more than its penalty there.
+fn accepted(
+    ranking: &[Candidate],
+    local: bool,
+    base_bic: f64,
+    held_count: usize,
+    tier: usize,
+) -> Option<Candidate> {
+    ranking
+        .iter()
+        .find(|c| matches!(c.term, Term::Local(_)) == local)
+        .filter(|b| b.bic < base_bic && b.held_out_gain > penalty(b.values.len(), held_count, tier))
+        .cloned()
+}
+
+/// Runs the greedy search, then the joint refit.
 pub fn diagnose(
     model: &EffectModel,
     log: &MeasurementLog,
@@ -664,51 +640,151 @@ pub fn diagnose(
 ) -> Result<Diagnosis, DiagnoseError> {
     log.check_comparable()?;
     let cycles = log.cycles.len();
-    let mut effects = model.effects;
+    let mut h = Hypothesis::of(model.effects);
+    // Outliers of the model as it is are set aside (as missing readings)
+    // before anything is fitted to them.
+    let raw = compare_hypothesis(model, &h, log)?;
+    let outliers = find_outliers(&raw, log.sensors.len());
+    let cleaned;
+    let log = if outliers.is_empty() {
+        log
+    } else {
+        cleaned = without_outliers(log, &outliers);
+        cleaned.check_comparable()?;
+        &cleaned
+    };
     let mut found: Vec<Candidate> = Vec::new();
     let mut rounds = Vec::new();
-    // The model with the effects found so far, compared once per change.
-    let mut current = compare(model, log)?;
+    let locals = local_candidates(&model.structure, &log.sensors);
+    let groups = member_groups(&model.structure);
+    // The model with the candidates found so far, compared once per change.
+    let mut current = drop_outliers(&raw, &outliers, log.sensors.len());
     let first_held = part(&current, cycles, true);
-    let mut held = first_held.clone();
+    let first_clean = is_clean(&current, log);
     while rounds.len() < settings.max_rounds {
+        let held = part(&current, cycles, true);
         let base_fit = part(&current, cycles, false);
-        let base_z: Vec<f64> = base_fit.residuals.iter().map(|r| r.z).collect();
-        let base_k: usize = effects.enabled().iter().map(|e| e.parameters().len()).sum();
-        let base_bic = bic(&base_fit, base_k);
-        let missing: Vec<EffectKind> = EffectKind::ALL
+        let base_bic =
+            chi2(&base_fit).0 + h.parameter_count() as f64 * ln_count(base_fit.overall.count);
+        let base = Base {
+            model,
+            log,
+            h: &h,
+            current: &current,
+        };
+        let global_tier = EffectKind::ALL.len();
+        let missing: Vec<Term> = EffectKind::ALL
             .into_iter()
-            .filter(|k| effects.parameters(*k).is_none())
+            .map(Term::Global)
+            .filter(|t| h.parameters(*t).is_none())
             .collect();
         let mut screened: Vec<Screened> = missing
             .par_iter()
-            .map(|&kind| screen_candidate(model, effects, kind, log, &base_z))
+            .map(|&t| base.screen(t, global_tier))
             .collect();
-        screened.sort_by(|a, b| b.predicted_gain.total_cmp(&a.predicted_gain));
         let mut ranking: Vec<Candidate> = screened
             .par_iter()
             .filter(|s| s.passed())
-            .filter_map(|s| fit_candidate(model, effects, s.kind, log, &held).ok())
+            .filter_map(|s| base.fit(s.term, global_tier).ok())
             .collect();
         ranking.sort_by(|a, b| a.held_out_rms.total_cmp(&b.held_out_rms));
-        let held_penalty = |k: usize| k as f64 * (held.overall.count.max(1) as f64).ln();
-        let best = ranking
-            .first()
-            .filter(|b| b.bic < base_bic && b.held_out_gain > held_penalty(b.values.len()))
-            .cloned();
+        let mut best = accepted(&ranking, false, base_bic, held.overall.count, global_tier);
+        let mut local_tier = 0;
+        // A library effect that removes most of the excess is taken as it
+        // is; one that removes less competes with the local tier.
+        let strong = best
+            .as_ref()
+            .is_some_and(|b| b.explained >= EXPLAINED_SHARE);
+        if !strong && !is_clean(&current, log) {
+            local_tier = locals.len();
+            let open: Vec<Term> = locals
+                .iter()
+                .filter(|l| !matches!(l, LocalKind::MemberStiffness { .. }))
+                .map(|&l| Term::Local(l))
+                .filter(|t| h.parameters(*t).is_none())
+                .collect();
+            let mut local_screen: Vec<Screened> = open
+                .par_iter()
+                .map(|&t| base.screen(t, local_tier))
+                .collect();
+            // The single members of the groups that predicted most.
+            let mut by_group: Vec<&Screened> = local_screen
+                .iter()
+                .filter(|s| matches!(s.term, Term::Local(LocalKind::MemberGroupStiffness { .. })))
+                .collect();
+            by_group.sort_by(|a, b| b.predicted_gain.total_cmp(&a.predicted_gain));
+            let members: Vec<Term> = by_group
+                .iter()
+                .take(MEMBER_GROUPS_OPENED)
+                .filter_map(|s| match s.term {
+                    Term::Local(LocalKind::MemberGroupStiffness { group }) => groups.get(group),
+                    _ => None,
+                })
+                .flat_map(|g| g.members.iter())
+                .map(|&member| Term::Local(LocalKind::MemberStiffness { member }))
+                .filter(|t| h.parameters(*t).is_none())
+                .collect();
+            local_screen.extend(
+                members
+                    .par_iter()
+                    .map(|&t| base.screen(t, local_tier))
+                    .collect::<Vec<_>>(),
+            );
+            let mut passed: Vec<&Screened> = local_screen.iter().filter(|s| s.passed()).collect();
+            passed.sort_by(|a, b| b.predicted_gain.total_cmp(&a.predicted_gain));
+            let mut local_ranking: Vec<Candidate> = passed
+                .par_iter()
+                .take(MAX_LOCAL_FITS)
+                .filter_map(|s| base.fit(s.term, local_tier).ok())
+                .collect();
+            local_ranking.sort_by(|a, b| a.held_out_rms.total_cmp(&b.held_out_rms));
+            let best_local = accepted(
+                &local_ranking,
+                true,
+                base_bic,
+                held.overall.count,
+                local_tier,
+            );
+            // The one that leaves the model clean wins; else the larger
+            // held-out gain beyond its own penalty.
+            let margin = |c: &Candidate, tier: usize| {
+                c.held_out_gain - penalty(c.values.len(), held.overall.count, tier)
+            };
+            best = match (best, best_local) {
+                (Some(g), Some(l))
+                    if (g.leaves_clean, margin(&g, global_tier))
+                        >= (l.leaves_clean, margin(&l, local_tier)) =>
+                {
+                    Some(g)
+                }
+                (g, None) => g,
+                (_, l) => l,
+            };
+            screened.extend(local_screen);
+            ranking.extend(local_ranking);
+            ranking.sort_by(|a, b| a.held_out_rms.total_cmp(&b.held_out_rms));
+        }
+        screened.sort_by(|a, b| b.predicted_gain.total_cmp(&a.predicted_gain));
         rounds.push(Round {
-            base: effects,
+            base: h.clone(),
             base_held_out_rms: held.overall.rms,
             base_bic,
             screened,
+            local_tier,
             ranking,
         });
         let Some(b) = best else { break };
-        effects = effects.with_parameters(b.kind, &b.values);
-        current = compare(&with_effects(model, effects), log)?;
-        held = part(&current, cycles, true);
+        h = h.with(b.term, &b.values);
+        current = compare_hypothesis(model, &h, log)?;
         found.push(b);
     }
+    if !found.is_empty() {
+        if let Some((joint_h, joint)) = joint_refit(model, &h, &mut found, log) {
+            h = joint_h;
+            current = joint;
+        }
+    }
+    let held = part(&current, cycles, true);
     let noise_like = held.overall.rms <= noise_rms_limit(held.overall.count);
     let evidence = evidence(&current, &log.sensors);
     let clean = noise_like && !evidence.any_significant();
@@ -718,7 +794,7 @@ pub fn diagnose(
     } else if !found.is_empty()
         && clean
         && held.overall.rms <= EXPLAINED_RMS
-        && explained >= EXPLAINED_SHARE
+        && (explained >= EXPLAINED_SHARE || !first_clean)
     {
         let confident = found.iter().all(Candidate::trusted);
         Verdict::Missing { found, confident }
@@ -731,21 +807,83 @@ pub fn diagnose(
     Ok(Diagnosis {
         rounds,
         verdict,
+        hypothesis: h,
+        outliers,
         final_comparison: current,
         evidence,
     })
 }
 
-/// The model's effects after a diagnosis: `base` plus every effect found.
+/// Fits every candidate of `found` together on the fit cycles, from their
+/// values in `h`; on success, sets their values, standard errors,
+/// condition numbers and flags to the joint fit's and returns the joint
+/// hypothesis and its comparison. `None` (the search's values kept) when
+/// only one was found, or the joint fit could not be run or did not
+/// lower the fit cycles' `χ²`.
+fn joint_refit(
+    model: &EffectModel,
+    h: &Hypothesis,
+    found: &mut [Candidate],
+    log: &MeasurementLog,
+) -> Option<(Hypothesis, Comparison)> {
+    if found.len() < 2 {
+        return None;
+    }
+    let cycles = log.cycles.len();
+    let terms: Vec<Term> = found.iter().map(|c| c.term).collect();
+    let sizes: Vec<usize> = terms.iter().map(|t| t.parameters().len()).collect();
+    let boxes: Vec<SearchBox> = terms
+        .iter()
+        .map(|t| SearchBox::of(t.parameters()))
+        .collect();
+    let bounds = SearchBox::concat(&boxes);
+    let with = |x: &[f64]| {
+        let mut out = h.clone();
+        let mut at = 0;
+        for (t, k) in terms.iter().zip(&sizes) {
+            out = out.with(*t, &x[at..at + k]);
+            at += k;
+        }
+        out
+    };
+    let eval = |x: &[f64]| {
+        compare_hypothesis(model, &with(x), log)
+            .ok()
+            .map(|c| fit_z(&c, cycles))
+    };
+    let x0: Vec<f64> = found.iter().flat_map(|c| c.values.clone()).collect();
+    let before: f64 = eval(&x0)?.iter().map(|v| v * v).sum();
+    let fit = levenberg_marquardt(&eval, &x0, &bounds)?;
+    let after: f64 = eval(&fit.values)?.iter().map(|v| v * v).sum();
+    if after > before {
+        return None;
+    }
+    let joint_h = with(&fit.values);
+    let joint = compare_hypothesis(model, &joint_h, log).ok()?;
+    let mut at = 0;
+    for (c, (k, b)) in found.iter_mut().zip(sizes.iter().zip(&boxes)) {
+        c.values = fit.values[at..at + k].to_vec();
+        c.std_errors = fit.std_errors[at..at + k].to_vec();
+        c.condition = fit.condition;
+        c.flags = parameter_flags(c.term, b, &c.values, &c.std_errors);
+        at += k;
+    }
+    Some((joint_h, joint))
+}
+
+/// The model's effects after a diagnosis: `base` plus every library
+/// effect found (local terms are not effects of the model file; see
+/// [`Diagnosis::hypothesis`]).
 pub fn effects_found(base: Effects, verdict: &Verdict) -> Effects {
     let found = match verdict {
         Verdict::NothingMissing => return base,
         Verdict::Missing { found, .. } => found,
         Verdict::Unexplained { found, .. } => found,
     };
-    found
-        .iter()
-        .fold(base, |e, c| e.with_parameters(c.kind, &c.values))
+    found.iter().fold(base, |e, c| match c.term {
+        Term::Global(k) => e.with_parameters(k, &c.values),
+        Term::Local(_) => e,
+    })
 }
 
 #[cfg(test)]
@@ -757,7 +895,7 @@ mod tests {
         // Thermal expansion's plausible range (1.0e-5 to 1.4e-5 /K) does
         // not reach 0: without the rule every thermal fit sat on a bound.
         for kind in EffectKind::ALL {
-            let b = SearchBox::of(kind);
+            let b = SearchBox::of(kind.parameters());
             for (i, p) in kind.parameters().iter().enumerate() {
                 if p.neutral >= p.admissible.0 && p.neutral <= p.admissible.1 {
                     assert!(
@@ -774,11 +912,12 @@ mod tests {
     #[test]
     fn fits_at_a_bound_or_implausible_are_flagged_and_not_trusted() {
         let kind = EffectKind::Thermal;
-        let b = SearchBox::of(kind);
+        let term = Term::Global(kind);
+        let b = SearchBox::of(kind.parameters());
         let p = kind.parameters()[0];
         let se = 1e-7;
         // At the lower bound (the neutral 0).
-        let flags = parameter_flags(kind, &b, &[b.lower[0]], &[se]);
+        let flags = parameter_flags(term, &b, &[b.lower[0]], &[se]);
         assert!(
             matches!(
                 flags[..],
@@ -791,16 +930,18 @@ mod tests {
         );
         // Inside the plausible range: no flag.
         let mid = 0.5 * (p.plausible.0 + p.plausible.1);
-        assert!(parameter_flags(kind, &b, &[mid], &[se]).is_empty());
+        assert!(parameter_flags(term, &b, &[mid], &[se]).is_empty());
         // Just outside, by less than two standard errors: sampling, no flag.
         let near = p.plausible.1 + 1.5 * se;
-        assert!(parameter_flags(kind, &b, &[near], &[se]).is_empty());
+        assert!(parameter_flags(term, &b, &[near], &[se]).is_empty());
         // A standard error wider than the plausible range: not identified,
         // and nothing else said about its value.
-        let wide = parameter_flags(kind, &b, &[b.lower[0]], &[1.0]);
+        let wide = parameter_flags(term, &b, &[b.lower[0]], &[1.0]);
         assert!(matches!(wide[..], [ParameterFlag::NotIdentified { .. }]));
         let candidate = |flags: Vec<ParameterFlag>| Candidate {
-            kind,
+            term,
+            name: kind.name().into(),
+            penalty: 0.0,
             values: vec![mid],
             std_errors: vec![se],
             condition: 1.0,
@@ -809,6 +950,7 @@ mod tests {
             bic: 0.0,
             explained: 1.0,
             converged: true,
+            leaves_clean: true,
             flags,
         };
         assert!(candidate(vec![]).trusted());

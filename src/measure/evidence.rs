@@ -269,6 +269,7 @@ mod tests {
                 residuals.push(Residual {
                     cycle: 0,
                     step: k,
+                    step_index: k,
                     sensor: s,
                     measured: z,
                     predicted: 0.0,

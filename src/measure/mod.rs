@@ -6,8 +6,11 @@
 pub mod compare;
 pub mod diagnose;
 pub mod evidence;
+pub mod fit;
 pub mod lab;
+pub mod local;
 pub mod log;
+pub mod outliers;
 pub mod tail_probability;
 
 pub use log::{Cycle, MeasurementLog, StepCommand};

@@ -174,9 +174,9 @@ pub fn residuals_over_steps_svg(
 pub fn residuals_vs_features_svg(comparison: &Comparison) -> Result<String, DrawingError> {
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (1100, 700)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (1400, 700)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
-        let areas = root.split_evenly((2, 3));
+        let areas = root.split_evenly((2, 4));
         for (f, area) in areas.iter().enumerate().take(FEATURES.len()) {
             let points: Vec<(f64, f64, Direction)> = comparison
                 .residuals

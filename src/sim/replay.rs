@@ -2,8 +2,11 @@
 //! deployment-fold cycles, and reading its sensors.
 //!
 //! The structure carries its history from cycle to cycle: the first cycle
-//! starts from the as-built state, every later one from where the previous
-//! one ended, as on the real bridge. A [`Plant`] steps it: before each step
+//! starts at the as-built payout (where logs start), settled into the
+//! model's own equilibrium there under its effects and at the first
+//! logged temperature (a model with, say, heavier joints hangs lower than
+//! the as-built geometry), so its first readings are fair; every later
+//! cycle starts from where the previous one ended, as on the real bridge. A [`Plant`] steps it: before each step
 //! the temperature of that step (if the schedule has one) sets the thermal
 //! strain; commands go through the motor model (slip, backlash) and are
 //! applied in increments; the cable-seat arcs are followed (see
