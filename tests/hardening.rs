@@ -595,3 +595,86 @@ fn simulate_writes_the_steps_that_converged_before_a_failing_step() {
         .collect();
     assert_eq!(labels, ["0", "1", "2"], "{steps}");
 }
+
+#[test]
+fn compare_and_diagnose_json_reports_do_not_overwrite_a_users_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = format!(
+        "{}/experiments/lab/truth-friction.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let baseline = format!(
+        "{}/experiments/lab/baseline.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let lab = tdeploy(
+        &[
+            "lab",
+            &truth,
+            "-o",
+            "log",
+            "--amplitudes",
+            "0.01,0.05",
+            "--steps",
+            "2",
+        ],
+        dir.path(),
+    );
+    assert_eq!(lab.status.code(), Some(0));
+    std::fs::write(dir.path().join("mine.json"), "keep").unwrap();
+    for args in [
+        vec![
+            "compare",
+            &baseline,
+            "log",
+            "-o",
+            "cmp",
+            "--json",
+            "mine.json",
+        ],
+        vec![
+            "diagnose",
+            &baseline,
+            "log",
+            "--rounds",
+            "1",
+            "--json",
+            "mine.json",
+        ],
+    ] {
+        let e = failed_with(&tdeploy(&args, dir.path()), 2);
+        assert!(e.contains("mine.json") && e.contains("--force"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("mine.json")).unwrap(),
+            "keep"
+        );
+    }
+    // With --force it is replaced; the same report again needs no --force.
+    let mut forced = vec![
+        "diagnose",
+        &baseline,
+        "log",
+        "--rounds",
+        "1",
+        "--json",
+        "mine.json",
+    ];
+    forced.push("--force");
+    assert_eq!(tdeploy(&forced, dir.path()).status.code(), Some(0));
+    assert!(std::fs::read_to_string(dir.path().join("mine.json"))
+        .unwrap()
+        .starts_with('{'));
+    let again = tdeploy(
+        &[
+            "diagnose",
+            &baseline,
+            "log",
+            "--rounds",
+            "1",
+            "--json",
+            "mine.json",
+        ],
+        dir.path(),
+    );
+    assert_eq!(again.status.code(), Some(0));
+}

@@ -19,7 +19,7 @@ use serde::Serialize;
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::output::ResultsFolder;
-use tensegrity_deploy::io::{write_atomically, write_json, CsvTable};
+use tensegrity_deploy::io::{write_atomically, write_new_json, CsvTable};
 use tensegrity_deploy::measure::compare::{
     compare as compare_runs, verdict, Comparison, ComparisonVerdict, WhereItFails,
 };
@@ -39,7 +39,7 @@ pub fn command() -> Command {
         .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
         .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/compare").value_parser(value_parser!(PathBuf)).help("Report folder (CSV and SVG)"))
-        .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the comparison and its verdict as JSON to this file"))
+        .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the comparison and its verdict as JSON to this file (an existing file with other contents needs --force)"))
         .arg(Arg::new("force").long("force").action(clap::ArgAction::SetTrue).help("Replace the report folder even if it holds files tdeploy did not write"))
 }
 
@@ -134,7 +134,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             evidence: &e,
             verdict: &v,
         };
-        write_json(json, &report)?;
+        write_new_json(json, &report, o.force)?;
         say!("JSON report in {}", json.display());
     }
     say!("report in {}", o.out.display());

@@ -16,7 +16,7 @@ use serde::Serialize;
 
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
-use tensegrity_deploy::io::write_json;
+use tensegrity_deploy::io::write_new_json;
 use tensegrity_deploy::measure::compare::{where_it_fails, WhereItFails};
 use tensegrity_deploy::measure::diagnose::{
     diagnose, Candidate, DiagnoseError, DiagnoseSettings, Diagnosis, Screened, Verdict,
@@ -35,7 +35,8 @@ pub fn command() -> Command {
         .arg(Arg::new("model").required(true).value_parser(value_parser!(PathBuf)).help("Model file (TOML)"))
         .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
         .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects to look for at most, one per round (1 to the number of effects)"))
-        .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the diagnosis as JSON to this file"))
+        .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the diagnosis as JSON to this file (an existing file with other contents needs --force)"))
+        .arg(Arg::new("force").long("force").action(clap::ArgAction::SetTrue).help("Overwrite the --json file even if it holds something else"))
 }
 
 /// Options of `tdeploy diagnose`.
@@ -49,6 +50,8 @@ pub struct Options {
     pub settings: DiagnoseSettings,
     /// JSON report file, if asked for.
     pub json: Option<PathBuf>,
+    /// Overwrite an existing JSON file.
+    pub force: bool,
 }
 
 impl Options {
@@ -64,6 +67,7 @@ impl Options {
             log: value(m, "log")?,
             settings: DiagnoseSettings { max_rounds },
             json: m.get_one::<PathBuf>("json").cloned(),
+            force: m.get_flag("force"),
         })
     }
 }
@@ -257,7 +261,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             diagnosis: &d,
             where_it_fails: fails,
         };
-        write_json(json, &report)?;
+        write_new_json(json, &report, o.force)?;
         say!("JSON report in {}", json.display());
     }
     Ok(Outcome::GoalReached)

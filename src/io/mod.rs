@@ -207,10 +207,30 @@ pub(crate) fn csv_records<'a>(
 /// Writes `value` as pretty-printed JSON to `path`, atomically. Non-finite
 /// numbers (a standard error that could not be estimated) become `null`.
 pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), FileError> {
+    write_atomically(path, &json_bytes(path, value)?)
+}
+
+/// Writes `value` as [`write_json`] does, but only where no file is, where
+/// the file already holds exactly these bytes, or with `force`
+/// ([`output::check_new_file`]): a report file the user named must not
+/// replace a file of theirs.
+pub fn write_new_json<T: serde::Serialize + ?Sized>(
+    path: &Path,
+    value: &T,
+    force: bool,
+) -> Result<(), FileError> {
+    let bytes = json_bytes(path, value)?;
+    output::check_new_file(path, &bytes, force)?;
+    write_atomically(path, &bytes)
+}
+
+/// `value` as pretty-printed JSON text with a final newline; `path` names
+/// the file in errors.
+fn json_bytes<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Result<Vec<u8>, FileError> {
     let mut bytes =
         serde_json::to_vec_pretty(value).map_err(|e| FileError::write(path, e.into()))?;
     bytes.push(b'\n');
-    write_atomically(path, &bytes)
+    Ok(bytes)
 }
 
 /// Writes `bytes` to `path` atomically: a temporary sibling, flushed, then
