@@ -23,8 +23,7 @@ use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use tensegrity_deploy::io::evaluation_files::{
-    fingerprint, read_distribution, EvaluationRecord, EvaluationRuns, ScenarioRow,
-    EVALUATION_FORMAT,
+    fingerprint, read_distribution, EvaluationRecord, EvaluationRuns, EVALUATION_FORMAT,
 };
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::model::JointFriction;
@@ -205,24 +204,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         None => sweep(),
     };
     bar.finish_and_clear();
-    let runs = EvaluationRuns {
-        drawn_names: distribution.drawn_names(),
-        policy_names: names,
-        scenarios: scenarios
-            .iter()
-            .map(|s| {
-                (
-                    s.index,
-                    ScenarioRow {
-                        index: s.index,
-                        seed: s.seed,
-                        drawn: s.drawn_values(&distribution),
-                    },
-                )
-            })
-            .collect(),
-        results,
-    };
+    let runs = EvaluationRuns::new(&distribution, names, &scenarios, results);
     let violations = report(&record, &runs, folder.path())?;
     folder.commit()?;
     say!(

@@ -10,7 +10,7 @@ use clap::{value_parser, Arg, ArgMatches, Command};
 use tensegrity_deploy::design::friction_rig::{modelled_slip_ratio, RigError};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::evaluation_files::{
-    EvaluationRecord, EvaluationRuns, ScenarioRow, EVALUATION_FORMAT,
+    EvaluationRecord, EvaluationRuns, EVALUATION_FORMAT,
 };
 use tensegrity_deploy::io::experiment_file::{
     read_experiment, DeploymentExperiment, Experiment, FrictionEffectExperiment,
@@ -445,24 +445,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         model: format!("reference, joint friction mu = {}", e.model_mu),
         distribution: distribution.clone(),
     };
-    let runs = EvaluationRuns {
-        drawn_names: distribution.drawn_names(),
-        policy_names: names,
-        scenarios: scenarios
-            .iter()
-            .map(|s| {
-                (
-                    s.index,
-                    ScenarioRow {
-                        index: s.index,
-                        seed: s.seed,
-                        drawn: s.drawn_values(&distribution),
-                    },
-                )
-            })
-            .collect(),
-        results,
-    };
+    let runs = EvaluationRuns::new(&distribution, names, &scenarios, results);
     results_folder(&e.out)?;
     report(&record, &runs, &e.out)?;
     say!(

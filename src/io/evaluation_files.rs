@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use super::problem_file::{field_line, parse_versioned};
 use super::toml_text::{field_error, parse_toml};
 use super::{csv_records, csv_with_header, read_text, CsvTable, FileError};
-use crate::studies::evaluation::{RunResult, ScenarioDistribution, Shard};
+use crate::studies::evaluation::{RunResult, Scenario, ScenarioDistribution, Shard};
 
 /// The `format` of a scenario-distribution file.
 pub const DISTRIBUTION_FORMAT: &str = "tensegrity-deploy/scenarios/1";
@@ -185,6 +185,32 @@ pub struct EvaluationRuns {
 }
 
 impl EvaluationRuns {
+    /// The rows of `results` on `scenarios` drawn from `distribution`,
+    /// for the policies named `policy_names`.
+    pub fn new(
+        distribution: &ScenarioDistribution,
+        policy_names: Vec<String>,
+        scenarios: &[Scenario],
+        results: Vec<RunResult>,
+    ) -> Self {
+        EvaluationRuns {
+            drawn_names: distribution.drawn_names(),
+            policy_names,
+            scenarios: scenarios
+                .iter()
+                .map(|s| {
+                    let row = ScenarioRow {
+                        index: s.index,
+                        seed: s.seed,
+                        drawn: s.drawn_values(distribution),
+                    };
+                    (s.index, row)
+                })
+                .collect(),
+            results,
+        }
+    }
+
     /// `runs.csv` as a table.
     pub fn runs_table(&self) -> CsvTable {
         let mut header: Vec<&str> = vec!["scenario", "seed"];

@@ -208,13 +208,9 @@ mod tests {
     use crate::model::{JointFriction, RelaxSettings, Workspace};
     use crate::sim::standard_sensors;
 
-    /// A noise-free measurement of a command that moved the cables 4 %
-    /// less than planned: the estimate recovers −0.04 in each half to the
-    /// linearisation error of a 5 cm step, and a second identical command
-    /// sent through the estimator's compensation is then met almost
-    /// exactly.
-    #[test]
-    fn recovers_a_uniform_slip_from_noise_free_motion() {
+    /// The frictionless reference bridge, its standard sensors, and its
+    /// state with every motor paid out 20 cm.
+    fn half_folded_bridge() -> (ForwardModel, Vec<Sensor>, DeploymentState) {
         let s = reference_bridge(&BridgeParameters::default()).unwrap();
         let model = ForwardModel::new(
             s,
@@ -222,22 +218,43 @@ mod tests {
             RelaxSettings::default(),
         )
         .unwrap();
-        let sensors: Vec<Sensor> = standard_sensors(model.structure());
+        let sensors = standard_sensors(model.structure());
         let motors = model.structure().continuous_cables.len();
-        let mut ws = Workspace::default();
         let mut start = model.reference_state();
         model
-            .apply_payout(&mut start, &mut ws, &vec![0.20; motors], 0.01, &mut ())
+            .apply_payout(
+                &mut start,
+                &mut Workspace::default(),
+                &vec![0.20; motors],
+                0.01,
+                &mut (),
+            )
             .unwrap();
-        let read = |state: &DeploymentState| -> Vec<Option<f64>> {
-            sensors
-                .iter()
-                .map(|s| match s.target {
-                    SensorTarget::Position { node, axis } => Some(state.positions_m[node][axis]),
-                    _ => None,
-                })
-                .collect()
-        };
+        (model, sensors, start)
+    }
+
+    /// Exact readings of the position sensors at `state` (others missing).
+    fn noise_free_positions(sensors: &[Sensor], state: &DeploymentState) -> Vec<Option<f64>> {
+        sensors
+            .iter()
+            .map(|s| match s.target {
+                SensorTarget::Position { node, axis } => Some(state.positions_m[node][axis]),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// A noise-free measurement of a command that moved the cables 4 %
+    /// less than planned: the estimate recovers −0.04 in each half to the
+    /// linearisation error of a 5 cm step, and a second identical command
+    /// sent through the estimator's compensation is then met almost
+    /// exactly.
+    #[test]
+    fn recovers_a_uniform_slip_from_noise_free_motion() {
+        let (model, sensors, start) = half_folded_bridge();
+        let motors = model.structure().continuous_cables.len();
+        let mut ws = Workspace::default();
+        let read = |state: &DeploymentState| noise_free_positions(&sensors, state);
         let planned = vec![-0.05; motors];
         let mut predicted = start.clone();
         model
@@ -292,29 +309,10 @@ mod tests {
     /// further slip of −0.04).
     #[test]
     fn a_command_cut_by_the_step_limit_is_not_read_as_slip() {
-        let s = reference_bridge(&BridgeParameters::default()).unwrap();
-        let model = ForwardModel::new(
-            s,
-            JointFriction::constant(0.0).unwrap(),
-            RelaxSettings::default(),
-        )
-        .unwrap();
-        let sensors: Vec<Sensor> = standard_sensors(model.structure());
+        let (model, sensors, start) = half_folded_bridge();
         let motors = model.structure().continuous_cables.len();
         let mut ws = Workspace::default();
-        let mut start = model.reference_state();
-        model
-            .apply_payout(&mut start, &mut ws, &vec![0.20; motors], 0.01, &mut ())
-            .unwrap();
-        let read = |state: &DeploymentState| -> Vec<Option<f64>> {
-            sensors
-                .iter()
-                .map(|s| match s.target {
-                    SensorTarget::Position { node, axis } => Some(state.positions_m[node][axis]),
-                    _ => None,
-                })
-                .collect()
-        };
+        let read = |state: &DeploymentState| noise_free_positions(&sensors, state);
         let scale = -0.04;
         let planned = vec![-0.05; motors];
         let sent = vec![-0.05; motors];
