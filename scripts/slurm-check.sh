@@ -62,9 +62,19 @@ cleanup() {
 }
 trap cleanup EXIT
 
-# A free TCP port for each daemon.
+# A TCP port nothing listens on, for each daemon (bash alone: a connect
+# to it is refused).
 free_port() {
-    python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+    local port
+    for _ in $(seq 100); do
+        port=$((20000 + RANDOM % 40000))
+        if ! (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null; then
+            echo "$port"
+            return
+        fi
+    done
+    say "no free port found"
+    exit 1
 }
 
 # MUNGE: its own key, socket and files in the folder.
@@ -80,12 +90,15 @@ for _ in $(seq 50); do [ -S "$work/munge/munge.socket" ] && break; sleep 0.1; do
 [ -S "$work/munge/munge.socket" ] || { say "munged did not start"; exit 1; }
 
 host=$(hostname -s)
+ctld_port=$(free_port)
+slurmd_port=$(free_port)
+while [ "$slurmd_port" = "$ctld_port" ]; do slurmd_port=$(free_port); done
 mkdir -p "$work/state" "$work/spool"
 cat > "$work/slurm.conf" <<EOF
 ClusterName=tdeploy-check
 SlurmctldHost=$host
-SlurmctldPort=$(free_port)
-SlurmdPort=$(free_port)
+SlurmctldPort=$ctld_port
+SlurmdPort=$slurmd_port
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
