@@ -51,12 +51,14 @@
 //! - [`measure`]: logs in memory, the synthetic lab, compare, diagnose.
 //! - [`plan`]: the deployment planner: problem, limits, QP step, sequence
 //!   search, baselines, policies, and the closed loop with its estimation.
+//! - [`learn`]: the case memory of past deployment cycles.
 //! - [`studies`]: what the experiments and `evaluate` compute.
 //! - [`io`]: file formats; with the CLI, the only code that touches files.
 //! - [`report`]: SVG drawings and figures.
 
 pub mod design;
 pub mod io;
+pub mod learn;
 pub mod measure;
 pub mod model;
 pub mod numerics;

@@ -31,11 +31,13 @@ use tensegrity_deploy::io::evaluation_files::parse_distribution;
 use tensegrity_deploy::io::experiment_file::parse_experiment;
 use tensegrity_deploy::io::friction_table::parse_friction_table;
 use tensegrity_deploy::io::log::read_log;
+use tensegrity_deploy::io::memory_file::{append_case, parse_memory};
 use tensegrity_deploy::io::model_file::parse_model;
 use tensegrity_deploy::io::policy_file::parse_policy;
 use tensegrity_deploy::io::problem_file::parse_problem;
 use tensegrity_deploy::io::structure_file::{parse_structure, structure_to_json};
 use tensegrity_deploy::io::FileError;
+use tensegrity_deploy::learn::{Case, CaseConditions, CaseOutcome};
 use tensegrity_deploy::model::Structure;
 
 /// Inputs per target in the smoke run.
@@ -353,6 +355,34 @@ fn policy_files() {
 fn scenario_distribution_files() {
     let seeds = [repo("scenarios/default.toml")];
     fuzz_text("scenarios.toml", &seeds, parse_distribution);
+}
+
+#[test]
+fn memory_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("memory.tdm");
+    for k in 0..2 {
+        let case = Case {
+            conditions: CaseConditions {
+                temperature_c: Some(10.0 + k as f64),
+                fold_m: vec![0.4; 10],
+                start_gap_m: Some(0.142),
+                payout_scale: vec![-0.03, 0.04],
+            },
+            commands_m: vec![vec![-0.05; 10]],
+            measured_gaps_m: vec![vec![Some(0.1), None, Some(0.3), Some(0.4), Some(0.5)]],
+            prediction_error_m: vec![Some(1e-3)],
+            outcome: CaseOutcome {
+                status: "connected".into(),
+                commands: 1,
+                corrective_commands: Some(0),
+                final_gap_m: Some(0.008),
+            },
+        };
+        append_case(&path, &case).unwrap();
+    }
+    let seeds = [std::fs::read_to_string(&path).unwrap()];
+    fuzz_text("memory.tdm", &seeds, parse_memory);
 }
 
 #[test]

@@ -12,6 +12,7 @@ pub mod evaluation_files;
 pub mod experiment_file;
 pub mod friction_table;
 pub mod log;
+pub mod memory_file;
 pub mod model_file;
 pub mod number_range;
 pub mod output;

@@ -1,0 +1,55 @@
+//! Speed of the case memory: retrieving the 5 nearest of 10 000 stored
+//! cases (issue target: one retrieval and adaptation ≤ 5 ms), and reading
+//! a memory file of 1 000 cases with every checksum verified.
+//!
+//!     cargo bench --bench memory
+
+use criterion::{criterion_group, criterion_main, Criterion};
+
+use tensegrity_deploy::io::memory_file::{append_case, read_memory};
+use tensegrity_deploy::learn::{Case, CaseConditions, CaseMemory, CaseOutcome, FeatureScales};
+
+fn case(k: usize) -> Case {
+    // Spread over temperature and payout scale by a fixed pattern.
+    let t = (k * 37 % 400) as f64 / 10.0;
+    let s = ((k * 53 % 100) as f64 - 50.0) / 1000.0;
+    Case {
+        conditions: CaseConditions {
+            temperature_c: Some(t),
+            fold_m: vec![0.4; 10],
+            start_gap_m: Some(0.142),
+            payout_scale: vec![s, -s],
+        },
+        commands_m: vec![vec![-0.05; 10]; 9],
+        measured_gaps_m: vec![vec![Some(0.1); 5]; 9],
+        prediction_error_m: vec![Some(0.002); 9],
+        outcome: CaseOutcome {
+            status: "connected".into(),
+            commands: 9,
+            corrective_commands: Some(1),
+            final_gap_m: Some(0.008),
+        },
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let memory = CaseMemory {
+        cases: (0..10_000).map(case).collect(),
+    };
+    let query = case(12_345).conditions;
+    let scales = FeatureScales::default();
+    c.bench_function("memory/nearest_5_of_10000", |b| {
+        b.iter(|| memory.nearest(&query, 5, &scales))
+    });
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let path = dir.path().join("memory.tdm");
+    for k in 0..1000 {
+        append_case(&path, &case(k)).expect("append");
+    }
+    c.bench_function("memory/read_1000_cases", |b| {
+        b.iter(|| read_memory(&path).expect("read"))
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

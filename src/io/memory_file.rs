@@ -1,0 +1,258 @@
+//! The case-memory file: one case per line, each with its own checksum,
+//! appended atomically.
+//!
+//! ```text
+//! tensegrity-deploy/memory/1
+//! fnv1a:3f0c2b5e9a1d4c77 {"conditions":{…},"commands_m":[…],…}
+//! fnv1a:…
+//! ```
+//!
+//! Line 1 is the format and its version. Every further line is one
+//! [`Case`] as compact JSON, preceded by the FNV-1a (64 bit) checksum of
+//! exactly those JSON bytes and a space; every line ends in `\n`.
+//!
+//! - **Validated on load**: a wrong header, a checksum that does not match
+//!   its line, JSON that is not a case, or a last line without its `\n`
+//!   is an error naming the file and line; the file is never changed by a
+//!   load, and a corrupted case is never used.
+//! - **Appends are atomic**: a new file is written whole (temporary file,
+//!   then rename); a case is appended as one `write` of a whole line,
+//!   flushed to disk before the call returns. A crash during an append
+//!   can leave only a last line without its `\n`: every case before it is
+//!   intact, the load names the torn line, and [`drop_torn_tail`] removes
+//!   it (atomically). Appending to a file with a torn tail is refused.
+
+use std::io::Write;
+use std::path::Path;
+
+use super::evaluation_files::fingerprint;
+use super::{read_text, write_atomically, FileError};
+use crate::learn::{Case, CaseMemory};
+
+/// The first line of a memory file.
+pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/1";
+
+/// The checksum prefix of a case line.
+const CHECKSUM_PREFIX: &str = "fnv1a:";
+
+/// One case as its line (with the `\n`).
+fn case_line(path: &Path, case: &Case) -> Result<String, FileError> {
+    let json = serde_json::to_string(case).map_err(|e| FileError::write(path, e.into()))?;
+    Ok(format!(
+        "{CHECKSUM_PREFIX}{} {json}\n",
+        fingerprint(json.as_bytes())
+    ))
+}
+
+/// Reads and validates a memory file (see the module documentation).
+pub fn read_memory(path: &Path) -> Result<CaseMemory, FileError> {
+    let text = read_text(path)?;
+    parse_memory(&text, path)
+}
+
+/// Parses a memory file's text; `path` names it in errors.
+pub fn parse_memory(text: &str, path: &Path) -> Result<CaseMemory, FileError> {
+    let lines: Vec<&str> = text.split_inclusive('\n').collect();
+    match lines.first() {
+        Some(l) if l.trim_end_matches('\n') == MEMORY_FORMAT => {}
+        _ => {
+            return Err(FileError::field(
+                path,
+                1,
+                "format",
+                format!("the first line must be `{MEMORY_FORMAT}`"),
+            ))
+        }
+    }
+    let mut memory = CaseMemory::default();
+    for (i, raw) in lines.iter().enumerate().skip(1) {
+        let line = i + 1;
+        let Some(content) = raw.strip_suffix('\n') else {
+            return Err(FileError::field(
+                path,
+                line,
+                "case",
+                "incomplete (an append was interrupted); the cases before it are intact: remove this line (`drop_torn_tail`) to use them".into(),
+            ));
+        };
+        let corrupted = |why: &str| {
+            FileError::field(
+                path,
+                line,
+                "checksum",
+                format!("{why}: the file is corrupted and this case is not used"),
+            )
+        };
+        let (sum, json) = content
+            .split_once(' ')
+            .ok_or_else(|| corrupted("no checksum"))?;
+        let sum = sum
+            .strip_prefix(CHECKSUM_PREFIX)
+            .ok_or_else(|| corrupted("no checksum"))?;
+        if sum != fingerprint(json.as_bytes()) {
+            return Err(corrupted("the checksum does not match the case"));
+        }
+        let case: Case = serde_json::from_str(json)
+            .map_err(|e| FileError::field(path, line, "case", format!("not a case: {e}")))?;
+        memory.cases.push(case);
+    }
+    Ok(memory)
+}
+
+/// Appends `case` to the memory file at `path`, creating it if missing
+/// (see the module documentation for what a crash can leave).
+pub fn append_case(path: &Path, case: &Case) -> Result<(), FileError> {
+    let line = case_line(path, case)?;
+    let existing = match std::fs::read(path) {
+        Ok(bytes) => Some(bytes),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(FileError::read(path, e)),
+    };
+    match existing {
+        None => write_atomically(path, format!("{MEMORY_FORMAT}\n{line}").as_bytes()),
+        Some(bytes) => {
+            if !bytes.starts_with(MEMORY_FORMAT.as_bytes()) {
+                return Err(FileError::field(
+                    path,
+                    1,
+                    "format",
+                    format!("not a memory file (the first line must be `{MEMORY_FORMAT}`); nothing appended"),
+                ));
+            }
+            if bytes.last() != Some(&b'\n') {
+                let line = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
+                return Err(FileError::field(
+                    path,
+                    line,
+                    "case",
+                    "incomplete (an earlier append was interrupted); remove it (`drop_torn_tail`) before appending".into(),
+                ));
+            }
+            let mut file = std::fs::OpenOptions::new()
+                .append(true)
+                .open(path)
+                .map_err(|e| FileError::write(path, e))?;
+            file.write_all(line.as_bytes())
+                .and_then(|()| file.sync_all())
+                .map_err(|e| FileError::write(path, e))
+        }
+    }
+}
+
+/// Removes a last line without its `\n` (a torn append), rewriting the
+/// file atomically; returns whether there was one. The cases before it
+/// are kept as they are.
+pub fn drop_torn_tail(path: &Path) -> Result<bool, FileError> {
+    let bytes = std::fs::read(path).map_err(|e| FileError::read(path, e))?;
+    if bytes.is_empty() || bytes.last() == Some(&b'\n') {
+        return Ok(false);
+    }
+    let keep = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    write_atomically(path, &bytes[..keep])?;
+    Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::learn::{CaseConditions, CaseOutcome};
+
+    fn case(k: usize) -> Case {
+        Case {
+            conditions: CaseConditions {
+                temperature_c: Some(10.0 + k as f64),
+                fold_m: vec![0.4; 10],
+                start_gap_m: Some(0.1415926),
+                payout_scale: vec![-0.031, 0.0427],
+            },
+            commands_m: vec![vec![-0.05; 10], vec![-0.0123456789; 10]],
+            measured_gaps_m: vec![vec![Some(0.1), None, Some(0.3), Some(0.4), Some(0.5)]],
+            prediction_error_m: vec![Some(1e-3), None],
+            outcome: CaseOutcome {
+                status: "connected".into(),
+                commands: 2,
+                corrective_commands: None,
+                final_gap_m: Some(0.0081),
+            },
+        }
+    }
+
+    fn stored(dir: &Path, n: usize) -> std::path::PathBuf {
+        let path = dir.join("memory.tdm");
+        for k in 0..n {
+            append_case(&path, &case(k)).unwrap();
+        }
+        path
+    }
+
+    #[test]
+    fn the_memory_round_trips_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = stored(dir.path(), 3);
+        let memory = read_memory(&path).unwrap();
+        assert_eq!(memory.cases, (0..3).map(case).collect::<Vec<_>>());
+    }
+
+    /// One changed byte inside a case: refused at its line, the file left
+    /// as it was.
+    #[test]
+    fn a_corrupted_case_is_rejected_naming_its_line_and_the_file_is_left_as_it_was() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = stored(dir.path(), 3);
+        let mut bytes = std::fs::read(&path).unwrap();
+        let third_line = bytes
+            .iter()
+            .enumerate()
+            .filter(|(_, &b)| b == b'\n')
+            .nth(1)
+            .unwrap()
+            .0
+            + 1;
+        let at = third_line + 60;
+        bytes[at] = if bytes[at] == b'1' { b'2' } else { b'1' };
+        std::fs::write(&path, &bytes).unwrap();
+        let e = read_memory(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("memory.tdm") && e.contains("line 3") && e.contains("checksum"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read(&path).unwrap(), bytes);
+    }
+
+    /// A crash mid-append leaves a line without its `\n`: the load names
+    /// it, appending is refused, nothing earlier is lost, and dropping
+    /// the torn tail gives back every earlier case.
+    #[test]
+    fn an_interrupted_append_loses_nothing_stored_before_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = stored(dir.path(), 2);
+        let line = case_line(&path, &case(2)).unwrap();
+        let mut file = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .unwrap();
+        file.write_all(&line.as_bytes()[..line.len() / 2]).unwrap();
+        drop(file);
+        let torn = std::fs::read(&path).unwrap();
+        let e = read_memory(&path).unwrap_err().to_string();
+        assert!(e.contains("line 4") && e.contains("interrupted"), "{e}");
+        assert!(append_case(&path, &case(3)).is_err());
+        assert_eq!(std::fs::read(&path).unwrap(), torn);
+        assert!(drop_torn_tail(&path).unwrap());
+        assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), case(1)]);
+        assert!(!drop_torn_tail(&path).unwrap());
+    }
+
+    #[test]
+    fn a_file_that_is_not_a_memory_is_refused_and_not_appended_to() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("notes.txt");
+        std::fs::write(&path, "my notes\n").unwrap();
+        assert!(read_memory(&path)
+            .unwrap_err()
+            .to_string()
+            .contains("line 1"));
+        assert!(append_case(&path, &case(0)).is_err());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "my notes\n");
+    }
+}
