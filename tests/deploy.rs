@@ -201,24 +201,9 @@ fn failed_with(out: &Output, code: i32) -> String {
     e
 }
 
-/// Every file under `dir` (relative path, bytes), sorted.
-fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let name = p.strip_prefix(dir).unwrap().display().to_string();
-                out.push((name, std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
-}
+#[path = "common/files.rs"]
+mod common_files;
+use common_files::files;
 
 #[test]
 fn the_same_seed_gives_the_same_bytes_at_any_thread_count() {

@@ -18,25 +18,9 @@ fn repo(path: &str) -> String {
     format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
 }
 
-/// Every file under `dir` (relative path, bytes), sorted; the marker
-/// files of results folders aside.
-fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).unwrap() {
-            let p = entry.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let name = p.strip_prefix(dir).unwrap().display().to_string();
-                out.push((name, std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out.sort();
-    out
-}
+#[path = "common/files.rs"]
+mod common_files;
+use common_files::files;
 
 #[test]
 fn lab_compare_diagnose_and_simulate_give_the_same_bytes_at_1_2_and_4_threads() {

@@ -381,7 +381,8 @@ pub fn model_correction(
 }
 
 /// Filters `correction`'s load-cell offsets through `filter`: the rows
-/// read this time carry their sensor's noise.
+/// read this time (when `measures` has the load cells) carry their
+/// sensor's noise.
 fn filter_force_offsets(
     filter: &mut ForceOffsetFilter,
     correction: &mut ModelCorrection,
@@ -389,14 +390,14 @@ fn filter_force_offsets(
     state: &DeploymentState,
     sensors: &[Sensor],
     readings: &[Option<f64>],
+    measures: &[Measurement],
 ) {
     let predicted = force_rows(model, state);
     let mut noise_sd_n = vec![None; predicted.len()];
-    for (sensor, reading) in sensors.iter().zip(readings) {
-        if let (Some(row), Some(_)) = (load_cell_row(model, state, sensor.target), reading) {
-            // Rows without a load-cell offset (load cells not measured by
-            // the policy) have a zero raw offset: nothing to filter.
-            if correction.force_offsets_n[row] != 0.0 {
+    // Load cells the policy does not measure left no offset to filter.
+    if measures.contains(&Measurement::LoadCells) {
+        for (sensor, reading) in sensors.iter().zip(readings) {
+            if let (Some(row), Some(_)) = (load_cell_row(model, state, sensor.target), reading) {
                 noise_sd_n[row] = Some(sensor.noise_sd);
             }
         }
@@ -478,6 +479,7 @@ pub fn deploy_closed_loop(
         &model_state,
         setup.sensors,
         &first,
+        &policy.measures,
     );
     let gaps = |readings: &[Option<f64>]| -> Vec<Option<f64>> {
         measured_gap_vectors(truth_structure, setup.sensors, readings)
@@ -591,6 +593,7 @@ pub fn deploy_closed_loop(
             &model_state,
             setup.sensors,
             &reading,
+            &policy.measures,
         );
         let record = DeployRecord {
             index,
