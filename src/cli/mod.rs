@@ -40,6 +40,7 @@ macro_rules! say {
 
 mod calibrate;
 mod compare;
+mod cycles;
 mod deploy;
 mod diagnose;
 mod evaluate;
@@ -93,6 +94,7 @@ pub fn command() -> Command {
         .subcommand(deploy::command())
         .subcommand(evaluate::command())
         .subcommand(merge::command())
+        .subcommand(cycles::command())
 }
 
 /// The typed options of one subcommand.
@@ -120,6 +122,8 @@ pub enum Options {
     Evaluate(evaluate::Options),
     /// `tdeploy merge`.
     Merge(merge::Options),
+    /// `tdeploy cycles`.
+    Cycles(cycles::Options),
 }
 
 impl Options {
@@ -137,6 +141,7 @@ impl Options {
             Some(("deploy", a)) => Options::Deploy(deploy::Options::from_matches(a)?),
             Some(("evaluate", a)) => Options::Evaluate(evaluate::Options::from_matches(a)?),
             Some(("merge", a)) => Options::Merge(merge::Options::from_matches(a)?),
+            Some(("cycles", a)) => Options::Cycles(cycles::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -157,6 +162,7 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Deploy(o) => deploy::run(o),
         Options::Evaluate(o) => evaluate::run(o),
         Options::Merge(o) => merge::run(o),
+        Options::Cycles(o) => cycles::run(o),
     }
 }
 

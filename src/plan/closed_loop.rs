@@ -44,7 +44,9 @@ use super::correction::{ForceOffsetFilter, ModelCorrection};
 use super::estimation::PayoutScaleEstimator;
 use super::limits::{force_rows, LimitCheck, Limits};
 use super::outcome::{PlanError, PlanStatus};
-use super::planner::{folded_start, planner_for, worst_along_path, Decision, PlanContext};
+use super::planner::{
+    folded_start, planner_for, worst_along_path, Decision, PlanContext, PlannedCommand,
+};
 use super::policy::{Measurement, Policy};
 use super::problem::DeploymentProblem;
 use super::qp_step::QpStepStatus;
@@ -201,6 +203,14 @@ pub struct Deployment {
     pub first_below_corrective_gap: Option<usize>,
     /// Commands after that one: the corrective commands.
     pub corrective_commands: Option<usize>,
+    /// Commands of the first approach: with a feedforward
+    /// ([`Guidance::feedforward_m`]), the feedforward commands sent;
+    /// otherwise the commands up to the first the controller predicted
+    /// would connect (`None`: it never predicted so).
+    pub approach_commands: Option<usize>,
+    /// The payout scale of each independent part as estimated at the end
+    /// (index = part id; empty without an estimator), 1.
+    pub final_payout_scale: Vec<f64>,
 }
 
 impl Deployment {
@@ -214,6 +224,16 @@ impl Deployment {
         match self.records.last() {
             Some(r) => r.largest_measured_gap_m(),
             None => self.start.largest_measured_gap_m(),
+        }
+    }
+
+    /// Largest measured gap after the first approach, m (`None` without
+    /// an approach or a reading).
+    pub fn approach_gap_m(&self) -> Option<f64> {
+        let k = self.approach_commands?;
+        match k {
+            0 => self.start.largest_measured_gap_m(),
+            k => self.records.get(k - 1)?.largest_measured_gap_m(),
         }
     }
 
@@ -432,6 +452,26 @@ fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployE
     Ok(())
 }
 
+/// What past cycles tell a deployment (from the case memory, see
+/// `crate::learn`). The default is no guidance: the memoryless controller.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Guidance {
+    /// Drum commands to send first, in order, m per motor: the learnt
+    /// approach. Each is tried on the controller's model before it is sent
+    /// (as cable motion `sent·(1 + ŝ)`); the first the model finds beyond
+    /// a limit or a motor's stroke ends the feedforward, and the planner
+    /// takes over. The connection test waits until the feedforward is sent
+    /// unless the next feedforward command is predicted not to reduce the
+    /// largest gap.
+    pub feedforward_m: Vec<Vec<f64>>,
+    /// Payout scale per independent part to start the estimator from
+    /// (index = part id), 1; `None`: start at 0.
+    pub payout_scale_prior: Option<Vec<f64>>,
+    /// Standard deviation of that prior, 1 (used with `payout_scale_prior`;
+    /// 0 or less: the policy's own prior).
+    pub payout_scale_prior_sd: f64,
+}
+
 /// Deploys the truth from the folded start in closed loop: plan on the
 /// model, send to the truth, measure, correct the model's predictions,
 /// until the measured gaps are within the connection tolerance less the
@@ -443,6 +483,19 @@ pub fn deploy_closed_loop(
     setup: &ClosedLoopSetup,
     observer: &mut dyn DeployObserver,
 ) -> Result<Deployment, DeployError> {
+    deploy_guided(setup, &Guidance::default(), None, observer)
+}
+
+/// [`deploy_closed_loop`] with `guidance` from past cycles, on `plant`
+/// where given (a truth as a previous cycle's fold left it; it is left
+/// where this deployment ends) or else on a fresh fold of the setup's
+/// truth.
+pub fn deploy_guided(
+    setup: &ClosedLoopSetup,
+    guidance: &Guidance,
+    plant: Option<&mut Plant>,
+    observer: &mut dyn DeployObserver,
+) -> Result<Deployment, DeployError> {
     let (model, policy) = (setup.model, setup.policy);
     let s = model.structure();
     check_same_bridge(s, &setup.truth.structure)?;
@@ -452,12 +505,19 @@ pub fn deploy_closed_loop(
         .map_err(PlanError::from)?;
     let mut model_state = folded_start(model, setup.problem, policy.increment_m)?;
     let mut context = PlanContext::new(model, setup.problem, policy, &model_state)?;
-    let mut plant = Plant::new(
-        setup.truth,
-        Some(&motors.start_payout_m),
-        setup.temperature_c,
-    )
-    .map_err(DeployError::TruthStart)?;
+    let mut fresh_plant;
+    let plant = match plant {
+        Some(p) => p,
+        None => {
+            fresh_plant = Plant::new(
+                setup.truth,
+                Some(&motors.start_payout_m),
+                setup.temperature_c,
+            )
+            .map_err(DeployError::TruthStart)?;
+            &mut fresh_plant
+        }
+    };
     // The temperature holds for the whole deployment, so the truth's
     // model is the same after every command: one copy serves the watch.
     let truth_model = plant.model().clone();
@@ -500,44 +560,119 @@ pub fn deploy_closed_loop(
 
     let mut estimator = (policy.payout_scale_prior_sd > 0.0
         && policy.measures.contains(&Measurement::MidspanPositions))
-    .then(|| {
-        PayoutScaleEstimator::new(
+    .then(|| match &guidance.payout_scale_prior {
+        Some(prior) => PayoutScaleEstimator::with_prior(
+            model,
+            prior,
+            if guidance.payout_scale_prior_sd > 0.0 {
+                guidance.payout_scale_prior_sd
+            } else {
+                policy.payout_scale_prior_sd
+            },
+            policy.payout_scale_drift_sd,
+        ),
+        None => PayoutScaleEstimator::new(
             model,
             policy.payout_scale_prior_sd,
             policy.payout_scale_drift_sd,
-        )
+        ),
     });
+    let mut feedforward = guidance.feedforward_m.iter().peekable();
+    let mut feedforward_sent = 0;
+    let mut approach_commands = None;
     let mut planner = planner_for(&context, &model_state);
     let mut records: Vec<DeployRecord> = Vec::new();
     let status = loop {
-        if context.connected(&model_state) {
+        let clock = Instant::now();
+        // The next feedforward command as cable motion, tried on the
+        // model; `None` once the feedforward is sent or given up.
+        let fed = feedforward.peek().and_then(|sent| {
+            let scale = estimator.as_ref().map(|e| e.motor_scale());
+            let cable: Vec<f64> = sent
+                .iter()
+                .enumerate()
+                .map(|(m, u)| u * (1.0 + scale.as_ref().map_or(0.0, |s| s[m])))
+                .collect();
+            // The step limit binds the drum, the stroke the cable.
+            let m = &context.motors;
+            let admissible = sent.iter().zip(&cable).enumerate().all(|(c, (u, d))| {
+                let p = model_state.payout_m[c] + d;
+                u.abs() <= m.max_step_m[c] * (1.0 + 1e-9)
+                    && p >= m.min_payout_m[c] - 1e-9
+                    && p <= m.max_payout_m[c] + 1e-9
+            });
+            if !admissible {
+                return None;
+            }
+            let trial = context.trial(&model_state, &cable);
+            trial.admissible().then(|| (sent.to_vec(), cable, trial))
+        });
+        if fed.is_none() && feedforward.peek().is_some() {
+            // Beyond a limit on the model: the planner takes over.
+            feedforward.by_ref().for_each(drop);
+        }
+        let connected = context.connected(&model_state);
+        let fed = match fed {
+            Some((_, _, ref trial)) if connected => {
+                let now = context.gaps_m(&model_state).into_iter().fold(0.0, f64::max);
+                let next = context.gaps_m(&trial.state).into_iter().fold(0.0, f64::max);
+                (next < now).then_some(fed).flatten()
+            }
+            fed => fed,
+        };
+        if connected && fed.is_none() {
             break PlanStatus::Connected;
         }
         if records.len() >= policy.max_commands {
             break PlanStatus::CommandLimit;
         }
-        let clock = Instant::now();
-        let decision = planner.next_command(&context, &model_state);
-        let planning_time_s = clock.elapsed().as_secs_f64();
-        let c = match decision {
-            Decision::Stop(status) => break status,
-            Decision::Command(c) => c,
+        let (c, feedforward_m) = match fed {
+            Some((sent, cable, trial)) => {
+                feedforward.next();
+                feedforward_sent += 1;
+                let planned = PlannedCommand {
+                    command_m: cable,
+                    predicted_gaps_m: None,
+                    trial,
+                    active_constraints: Vec::new(),
+                    qp_status: None,
+                    trust_region_m: None,
+                    rejected_trials: 0,
+                    linearisations: 0,
+                };
+                (Box::new(planned), Some(sent))
+            }
+            None => {
+                feedforward.by_ref().for_each(drop);
+                match planner.next_command(&context, &model_state) {
+                    Decision::Stop(status) => break status,
+                    Decision::Command(c) => (c, None),
+                }
+            }
         };
+        let planning_time_s = clock.elapsed().as_secs_f64();
         let index = records.len() + 1;
         let predicted_gaps_m = context.gaps_m(&c.trial.state);
+        if guidance.feedforward_m.is_empty()
+            && approach_commands.is_none()
+            && context.connected(&c.trial.state)
+        {
+            approach_commands = Some(index);
+        }
         let mut watch = TruthWatch::new(&truth_model, &truth_limits);
         // The planner plans cable motion; the drums are sent what should
         // make it, as far as the estimate knows.
         // The step limit binds the drum, which the planner's check (on
         // cable motion) does not see.
-        let sent_m = match &estimator {
-            Some(e) => e
+        let sent_m = match (feedforward_m, &estimator) {
+            (Some(sent), _) => sent,
+            (None, Some(e)) => e
                 .motor_command(&c.command_m)
                 .iter()
                 .zip(&motors.max_step_m)
                 .map(|(u, max)| u.clamp(-max, *max))
                 .collect(),
-            None => c.command_m.clone(),
+            (None, None) => c.command_m.clone(),
         };
         let report = plant.apply(&sent_m, setup.temperature_c, &mut watch);
         if let Err(e) = report {
@@ -630,7 +765,14 @@ pub fn deploy_closed_loop(
                 })
                 .map(|r| r.index)
         };
+    if !guidance.feedforward_m.is_empty() {
+        approach_commands = Some(feedforward_sent);
+    }
     Ok(Deployment {
+        approach_commands,
+        final_payout_scale: estimator
+            .as_ref()
+            .map_or_else(Vec::new, |e| e.part_scale().to_vec()),
         status,
         truth_limit_violations: records.iter().map(|r| r.truth_violations.len()).sum(),
         corrective_commands: first_below_corrective_gap.map(|k| records.len() - k),
