@@ -10,8 +10,9 @@ use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::CaseMemory;
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::DeploymentProblem;
-use tensegrity_deploy::sim::{default_truth, standard_sensors};
+use tensegrity_deploy::sim::{default_truth, standard_sensors, EffectModel};
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleResult, CyclesSetup};
+use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
 
 fn tdeploy(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_tdeploy"))
@@ -22,13 +23,17 @@ fn tdeploy(args: &[&str]) -> Output {
 
 fn cycles(policy: &str, n: usize) -> Vec<CycleResult> {
     let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    cycles_on(policy, n, default_truth(structure))
+}
+
+fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
     let model = ForwardModel::new(
         structure.clone(),
         JointFriction::frictionless(),
         RelaxSettings::default(),
     )
     .unwrap();
-    let truth = default_truth(structure.clone());
     let sensors = standard_sensors(&structure);
     let policy = read_policy(Path::new(policy)).unwrap();
     let problem = DeploymentProblem::default();
@@ -151,4 +156,33 @@ fn the_cycles_command_writes_the_curve_and_appends_to_the_memory() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("bridge.tdm"), "{err}");
     assert_eq!(std::fs::read(&memory).unwrap(), bytes);
+}
+
+/// Paired with the memoryless policy on the same drawn truths (the first
+/// eight scenarios of the default distribution, seed 1: friction up to
+/// μ = 0.3, slip up to ±5 %, stiffness and mass errors) and the same
+/// noise, over three cycles each: wherever the memoryless policy connects
+/// without breaking a limit, so does the memory policy (McNemar's
+/// discordant count "only memoryless" is 0).
+#[test]
+fn the_memory_policy_is_never_worse_than_the_memoryless_one_on_paired_scenarios() {
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let distribution = ScenarioDistribution::default();
+    let ok = |c: &CycleResult| c.status == "connected" && c.truth_limit_violations == 0;
+    let mut only_memoryless = Vec::new();
+    let mut both = 0;
+    for i in 0..8 {
+        let effects = distribution.draw(1, i).effects;
+        let truth = || EffectModel::for_measurement(structure.clone(), effects);
+        let plain = cycles_on("policies/qp.toml", 3, truth());
+        let learnt = cycles_on("policies/memory.toml", 3, truth());
+        for (p, m) in plain.iter().zip(&learnt) {
+            if ok(p) && !ok(m) {
+                only_memoryless.push((i, p.cycle));
+            }
+            both += usize::from(ok(p) && ok(m));
+        }
+    }
+    assert!(only_memoryless.is_empty(), "{only_memoryless:?}");
+    assert!(both >= 20, "{both} of 24 runs connected under both");
 }

@@ -6,7 +6,8 @@
 //! `u_j + Δu_j`, with the update
 //!
 //! ```text
-//!   Δu = argmin ½ Σ_p w_p ‖e_p + G_p·Σ_j Δu_j‖² + ½ ρ Σ_j ‖Δu_j‖²
+//!   Δu = argmin ½ Σ_p w_p ‖e_p + G_p·Σ_j Δu_j‖² + ½ Σ_j ρ_j ‖Δu_j‖²
+//!   ρ_j = ρ·(J/j)²
 //!   subject to   |u_jm + Δu_jm| ≤ step_m                      (drum step)
 //!                min_m ≤ p0_m + Σ_{i≤j} (u_im + Δu_im) ≤ max_m   (stroke)
 //!                lower_l ≤ f_l + L_l·Σ_j Δu_j ≤ upper_l          (members)
@@ -19,9 +20,15 @@
 //! one trial, with the terminal error only: the path between start and
 //! connection is the planner's business, the learnt part is where the
 //! commands end. ρ trades how much of the last error one update removes
-//! (the learning gain `GᵀG/(GᵀG + ρ/J)`) against how far a noisy error
-//! moves the commands. The minimum-norm term spreads the correction
-//! evenly over the commands until a drum's step limit binds.
+//! (the learning gain `GᵀG/(GᵀG + ρ_eff)`, `1/ρ_eff = Σ_j 1/ρ_j`) against
+//! how far a noisy error moves the commands. The weights grow towards the
+//! first command, so the correction goes mostly into the last commands:
+//! the case showed its path safe, and changing an early command moves
+//! every state after it, while changing the last moves only the end.
+//! (Spread evenly, a correction of a few millimetres shifted the whole
+//! path of a high-friction bridge enough for the model to refuse a
+//! command the case had sent.) A drum's step limit moves the rest to
+//! earlier commands.
 //!
 //! [`formulate`] builds the QP (pure, inspected by tests); [`learn_commands`]
 //! solves it through the one Clarabel adapter.
@@ -162,7 +169,10 @@ pub fn formulate(data: &IlcData, regularisation: f64) -> IlcFormulation {
     }
     // P = AᵀGᵀWGA + ρI, q = AᵀGᵀWe.
     let gtwg = data.gap_sensitivity.transpose() * &weighted_g;
-    let hessian = sum.transpose() * gtwg * &sum + DMatrix::identity(n, n) * regularisation;
+    let mut hessian = sum.transpose() * gtwg * &sum;
+    for v in 0..n {
+        hessian[(v, v)] += command_weight(v / m, j_count, regularisation);
+    }
     let linear = sum.transpose() * (weighted_g.transpose() * e);
 
     let mut rows = Vec::new();
@@ -236,6 +246,11 @@ pub fn formulate(data: &IlcData, regularisation: f64) -> IlcFormulation {
         },
         rows,
     }
+}
+
+/// ρ_j of command `j` (0-based) of `count`: `ρ·(count/(j+1))²`.
+pub fn command_weight(j: usize, count: usize, regularisation: f64) -> f64 {
+    regularisation * (count as f64 / (j + 1) as f64).powi(2)
 }
 
 /// How an ILC update ended.
@@ -328,27 +343,33 @@ mod tests {
     }
 
     /// Without binding limits the update is the regularised least-squares
-    /// solution by hand: for motor 0 the total change `s` minimises
-    /// ½(e + 0.3 s)² + ½ρ s²/J (the correction spread evenly over J
-    /// commands), so s = −0.3 e / (0.09 + ρ/J), each command s/J.
+    /// solution by hand: a total change `s` of a motor is shared as
+    /// `Δu_j = s·(1/ρ_j)/Σ_i(1/ρ_i)` (the cheapest split), which costs
+    /// ½ρ_eff s² with `1/ρ_eff = Σ_i 1/ρ_i`; for motor 0, s minimises
+    /// ½(e + 0.3 s)² + ½ρ_eff s², so s = −0.3 e / (0.09 + ρ_eff).
     #[test]
     fn an_unconstrained_update_is_the_regularised_least_squares_solution() {
-        let (j, rho, e) = (4, 1e-4, 0.006);
+        let (j, rho, e) = (4, 1e-4, 0.003);
         let d = data(j, [e, -0.006, 0.0]);
         let u = learn_commands(&d, rho);
         assert!(u.status.is_solved(), "{:?}", u.status);
-        let s0 = -0.3 * e / (0.09 + rho / j as f64);
-        let s1 = -0.2 * -0.006 / (0.04 + rho / j as f64);
-        for cmd in &u.commands_m {
-            // Clarabel's default tolerances (1e-8 relative) on a 1e-2 m
-            // solution: 1e-7 m is far below any drum's resolution.
-            assert!((cmd[0] - (-0.04 + s0 / j as f64)).abs() < 1e-7, "{cmd:?}");
-            assert!((cmd[1] - (-0.04 + s1 / j as f64)).abs() < 1e-7, "{cmd:?}");
+        let inverse: Vec<f64> = (0..j).map(|k| 1.0 / command_weight(k, j, rho)).collect();
+        let rho_eff = 1.0 / inverse.iter().sum::<f64>();
+        let s0 = -0.3 * e / (0.09 + rho_eff);
+        let s1 = -0.2 * -0.006 / (0.04 + rho_eff);
+        for (k, cmd) in u.commands_m.iter().enumerate() {
+            let share = inverse[k] * rho_eff;
+            // The planner's tight solver settings leave ~1e-10 m; 1e-8 m
+            // is far below any drum's resolution.
+            assert!((cmd[0] - (-0.04 + s0 * share)).abs() < 1e-8, "{cmd:?}");
+            assert!((cmd[1] - (-0.04 + s1 * share)).abs() < 1e-8, "{cmd:?}");
         }
+        // The last command takes the largest share: J² times the first's.
+        assert!((inverse[j - 1] / inverse[0] - (j * j) as f64).abs() < 1e-9);
         // The predicted end gap is what is left of e by the learning gain.
         let left0 = e + 0.3 * s0;
         let left1 = -0.006 + 0.2 * s1;
-        assert!((u.predicted_end_gap_m - left0.hypot(left1)).abs() < 1e-7);
+        assert!((u.predicted_end_gap_m - left0.hypot(left1)).abs() < 1e-8);
         assert!((u.last_end_gap_m - e.hypot(0.006)).abs() < 1e-15);
     }
 
