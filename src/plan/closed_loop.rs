@@ -32,19 +32,17 @@
 //! count. Planning times are the only values that are not a function of
 //! the inputs.
 
-use std::time::Instant;
-
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 use serde::Serialize;
 use thiserror::Error;
 
+use super::controller::{Controller, ControllerDecision};
 use super::correction::{ForceOffsetFilter, ModelCorrection};
-use super::estimation::PayoutScaleEstimator;
 use super::limits::{force_rows, LimitCheck, Limits};
 use super::outcome::{PlanError, PlanStatus};
-use super::planner::{folded_start, planner_for, worst_along_path, Decision, PlanContext};
+use super::planner::worst_along_path;
 use super::policy::{Measurement, Policy};
 use super::problem::DeploymentProblem;
 use super::qp_step::QpStepStatus;
@@ -383,7 +381,7 @@ pub fn model_correction(
 /// Filters `correction`'s load-cell offsets through `filter`: the rows
 /// read this time (when `measures` has the load cells) carry their
 /// sensor's noise.
-fn filter_force_offsets(
+pub(super) fn filter_force_offsets(
     filter: &mut ForceOffsetFilter,
     correction: &mut ModelCorrection,
     model: &ForwardModel,
@@ -436,6 +434,7 @@ fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployE
 /// model, send to the truth, measure, correct the model's predictions,
 /// until the measured gaps are within the connection tolerance less the
 /// policy's margin, the command budget is spent or the planner stops.
+/// The controller is a [`Controller`]; this drives it against the truth.
 ///
 /// Errors only when the run cannot start; a failure during the run (a
 /// solver, the truth plant) ends it with a status saying so.
@@ -450,8 +449,6 @@ pub fn deploy_closed_loop(
         .problem
         .motor_limits(s.continuous_cables.len())
         .map_err(PlanError::from)?;
-    let mut model_state = folded_start(model, setup.problem, policy.increment_m)?;
-    let mut context = PlanContext::new(model, setup.problem, policy, &model_state)?;
     let mut plant = Plant::new(
         setup.truth,
         Some(&motors.start_payout_m),
@@ -466,21 +463,7 @@ pub fn deploy_closed_loop(
 
     let mut rng = StdRng::seed_from_u64(setup.seed);
     let first = plant.measure(setup.sensors, &mut rng);
-    let mut force_filter = ForceOffsetFilter::new(
-        s.members.len() + s.segment_count(),
-        policy.force_model_error_fraction,
-    );
-    context.correction =
-        model_correction(model, &model_state, setup.sensors, &first, &policy.measures);
-    filter_force_offsets(
-        &mut force_filter,
-        &mut context.correction,
-        model,
-        &model_state,
-        setup.sensors,
-        &first,
-        &policy.measures,
-    );
+    let mut controller = Controller::new(model, setup.problem, policy, setup.sensors, &first)?;
     let gaps = |readings: &[Option<f64>]| -> Vec<Option<f64>> {
         measured_gap_vectors(truth_structure, setup.sensors, readings)
             .iter()
@@ -489,7 +472,7 @@ pub fn deploy_closed_loop(
     };
     let start = DeployStart {
         start_payout_m: motors.start_payout_m.clone(),
-        model_gaps_m: model_state.midspan_gaps_m(s),
+        model_gaps_m: controller.state().midspan_gaps_m(s),
         measured_gaps_m: gaps(&first),
         true_gaps_m: plant.state().midspan_gaps_m(truth_structure),
         max_commands: policy.max_commands,
@@ -498,48 +481,15 @@ pub fn deploy_closed_loop(
     let mut readings = vec![first];
     let start_true_state = plant.state().clone();
 
-    let mut estimator = (policy.payout_scale_prior_sd > 0.0
-        && policy.measures.contains(&Measurement::MidspanPositions))
-    .then(|| {
-        PayoutScaleEstimator::new(
-            model,
-            policy.payout_scale_prior_sd,
-            policy.payout_scale_drift_sd,
-        )
-    });
-    let mut planner = planner_for(&context, &model_state);
     let mut records: Vec<DeployRecord> = Vec::new();
     let status = loop {
-        if context.connected(&model_state) {
-            break PlanStatus::Connected;
-        }
-        if records.len() >= policy.max_commands {
-            break PlanStatus::CommandLimit;
-        }
-        let clock = Instant::now();
-        let decision = planner.next_command(&context, &model_state);
-        let planning_time_s = clock.elapsed().as_secs_f64();
-        let c = match decision {
-            Decision::Stop(status) => break status,
-            Decision::Command(c) => c,
+        let p = match controller.decide() {
+            ControllerDecision::Stop(status) => break status,
+            ControllerDecision::Send(p) => p,
         };
         let index = records.len() + 1;
-        let predicted_gaps_m = context.gaps_m(&c.trial.state);
         let mut watch = TruthWatch::new(&truth_model, &truth_limits);
-        // The planner plans cable motion; the drums are sent what should
-        // make it, as far as the estimate knows.
-        // The step limit binds the drum, which the planner's check (on
-        // cable motion) does not see.
-        let sent_m = match &estimator {
-            Some(e) => e
-                .motor_command(&c.command_m)
-                .iter()
-                .zip(&motors.max_step_m)
-                .map(|(u, max)| u.clamp(-max, *max))
-                .collect(),
-            None => c.command_m.clone(),
-        };
-        let report = plant.apply(&sent_m, setup.temperature_c, &mut watch);
+        let report = plant.apply(&p.sent_m, setup.temperature_c, &mut watch);
         if let Err(e) = report {
             break PlanStatus::SolverFailure {
                 reason: format!("the truth plant failed on command {index}: {e}"),
@@ -553,52 +503,18 @@ pub fn deploy_closed_loop(
             violations: Vec::new(),
         });
         let reading = plant.measure(setup.sensors, &mut rng);
-        let previous_state = std::mem::replace(&mut model_state, c.trial.state);
-        if let (Some(e), Some(before)) = (estimator.as_mut(), readings.last()) {
-            let update = e.update(
-                setup.sensors,
-                before,
-                &reading,
-                &previous_state,
-                &model_state,
-                &c.command_m,
-                &sent_m,
-            );
-            if update.motion_factor.iter().any(|f| *f != 1.0) {
-                let made: Vec<f64> = c
-                    .command_m
-                    .iter()
-                    .zip(&update.motion_factor)
-                    .map(|(u, f)| u * f)
-                    .collect();
-                // Where the command really took the bridge; if the model
-                // cannot follow, its own prediction stands.
-                let followed = context.trial(&previous_state, &made);
-                if followed.status.is_converged() {
-                    model_state = followed.state;
-                }
-            }
+        // The controller's own decision: its trial is the prediction, so
+        // this cannot fail to follow; a failure would be a bug, reported
+        // as the run's end rather than a panic.
+        if let Err(e) = controller.observe(&p.sent_m, &reading) {
+            break PlanStatus::SolverFailure {
+                reason: format!("command {index}: {e}"),
+            };
         }
-        context.correction = model_correction(
-            model,
-            &model_state,
-            setup.sensors,
-            &reading,
-            &policy.measures,
-        );
-        filter_force_offsets(
-            &mut force_filter,
-            &mut context.correction,
-            model,
-            &model_state,
-            setup.sensors,
-            &reading,
-            &policy.measures,
-        );
         let record = DeployRecord {
             index,
-            command_m: sent_m,
-            predicted_gaps_m,
+            command_m: p.sent_m,
+            predicted_gaps_m: p.predicted_gaps_m,
             measured_gaps_m: gaps(&reading),
             true_gaps_m: plant.state().midspan_gaps_m(truth_structure),
             truth_worst_utilisation: check.worst_utilisation,
@@ -606,12 +522,12 @@ pub fn deploy_closed_loop(
             truth_violations: check.violations,
             truth_increments,
             truth_increments_checked: watch.checked,
-            model_worst_utilisation: c.trial.check.worst_utilisation,
-            qp_status: c.qp_status,
-            trust_region_m: c.trust_region_m,
-            rejected_trials: c.rejected_trials,
-            active_constraints: c.active_constraints,
-            planning_time_s,
+            model_worst_utilisation: p.model_worst_utilisation,
+            qp_status: p.qp_status,
+            trust_region_m: p.trust_region_m,
+            rejected_trials: p.rejected_trials,
+            active_constraints: p.active_constraints,
+            planning_time_s: p.planning_time_s,
         };
         observer.on_command(&record);
         records.push(record);
@@ -640,7 +556,7 @@ pub fn deploy_closed_loop(
         readings,
         start_true_state,
         final_true_state: plant.state().clone(),
-        final_model_state: model_state,
+        final_model_state: controller.into_state(),
     })
 }
 
