@@ -565,6 +565,7 @@ mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
     use crate::model::{JointFriction, RelaxSettings};
+    use crate::plan::planner::{folded_start, PlanContext};
     use crate::plan::PerMotor;
     use crate::sim::{default_truth, standard_sensors};
 
