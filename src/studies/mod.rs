@@ -5,6 +5,7 @@
 pub mod evaluation;
 pub mod friction_effect;
 pub mod friction_study;
+pub mod replay;
 pub mod statistics;
 
 pub use friction_effect::{friction_effect, FrictionEffect, FrictionEffectSettings, StudyError};
