@@ -12,7 +12,7 @@
 //! Subcommands: `structure` ([`structure`]), `simulate` ([`simulate`]),
 //! `experiment` ([`experiment`]), `lab` ([`lab`]), `compare` ([`compare`]),
 //! `diagnose` ([`diagnose`]), `calibrate` ([`calibrate`]), `plan`
-//! ([`plan`]), `deploy` ([`deploy`]).
+//! ([`plan`]), `deploy` ([`deploy`]), `replay` ([`replay`]).
 //!
 //! # Exit codes
 //! | code | meaning |
@@ -48,6 +48,7 @@ mod experiment;
 mod lab;
 mod merge;
 mod plan;
+mod replay;
 mod simulate;
 mod structure;
 
@@ -93,6 +94,7 @@ pub fn command() -> Command {
         .subcommand(deploy::command())
         .subcommand(evaluate::command())
         .subcommand(merge::command())
+        .subcommand(replay::command())
 }
 
 /// The typed options of one subcommand.
@@ -120,6 +122,8 @@ pub enum Options {
     Evaluate(evaluate::Options),
     /// `tdeploy merge`.
     Merge(merge::Options),
+    /// `tdeploy replay`.
+    Replay(replay::Options),
 }
 
 impl Options {
@@ -137,6 +141,7 @@ impl Options {
             Some(("deploy", a)) => Options::Deploy(deploy::Options::from_matches(a)?),
             Some(("evaluate", a)) => Options::Evaluate(evaluate::Options::from_matches(a)?),
             Some(("merge", a)) => Options::Merge(merge::Options::from_matches(a)?),
+            Some(("replay", a)) => Options::Replay(replay::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -157,6 +162,7 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Deploy(o) => deploy::run(o),
         Options::Evaluate(o) => evaluate::run(o),
         Options::Merge(o) => merge::run(o),
+        Options::Replay(o) => replay::run(o),
     }
 }
 
