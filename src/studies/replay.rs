@@ -681,3 +681,97 @@ pub fn counterfactual(
         &mut (),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::measure::log::Cycle;
+    use crate::sim::Sensor;
+
+    fn log(cycles: Vec<Cycle>) -> MeasurementLog {
+        MeasurementLog {
+            structure: "b".into(),
+            sensors: vec![
+                Sensor {
+                    id: "z".into(),
+                    target: SensorTarget::Position { node: 0, axis: 2 },
+                    noise_sd: 0.001,
+                },
+                Sensor {
+                    id: "t".into(),
+                    target: SensorTarget::Temperature,
+                    noise_sd: 0.1,
+                },
+            ],
+            cycles,
+        }
+    }
+
+    fn cycle(label: u64, commands: Vec<Vec<f64>>, step0_measured: bool) -> Cycle {
+        let n = commands.len();
+        let mut readings: Vec<Vec<Option<f64>>> = (0..=n)
+            .map(|k| vec![Some(k as f64), Some(20.0 + k as f64)])
+            .collect();
+        if !step0_measured {
+            readings[0] = vec![None, None];
+        }
+        Cycle {
+            label,
+            step_labels: (1..=n as u64).collect(),
+            commands,
+            readings,
+        }
+    }
+
+    #[test]
+    fn a_deploy_cycle_starts_at_its_fold_and_a_lab_cycle_at_its_largest_payout() {
+        // Deploy layout: step 0 unmeasured, step 1 the fold.
+        let d = log(vec![cycle(
+            1,
+            vec![vec![0.4, 0.3], vec![-0.1, -0.1], vec![0.05, 0.0]],
+            false,
+        )]);
+        let s = deployment_start(&d, 1).unwrap();
+        assert_eq!(
+            (s.layout, s.start_reading, s.start_step),
+            (LogLayout::Deploy, 1, 1)
+        );
+        assert_eq!(s.start_payout_m, vec![0.4, 0.3]);
+        assert_eq!(s.temperature_c, Some(21.0));
+
+        // Lab layout: two cycles; the second starts from where the first
+        // ended (+0.01 left over) and peaks after its second pay-out.
+        let up_down =
+            |a: f64, rest: f64| vec![vec![a; 2], vec![a; 2], vec![-a; 2], vec![-a + rest; 2]];
+        let l = log(vec![
+            cycle(1, up_down(0.02, 0.01), true),
+            cycle(2, up_down(0.05, 0.0), true),
+        ]);
+        let s = deployment_start(&l, 2).unwrap();
+        assert_eq!(
+            (s.layout, s.start_reading, s.start_step),
+            (LogLayout::Lab, 2, 2)
+        );
+        for p in &s.start_payout_m {
+            assert!((p - (0.01 + 0.10)).abs() < 1e-15, "{p}");
+        }
+        assert_eq!(default_cycle(&l), Some(2));
+
+        // Nothing after the peak, an unknown cycle: refused, naming the
+        // file and field.
+        let e = deployment_start(&log(vec![cycle(3, vec![vec![0.1; 2]], true)]), 3).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ReplayInputError::NoCommandsAfterStart {
+                    cycle: 3,
+                    start_step: 1
+                }
+            ),
+            "{e}"
+        );
+        assert_eq!((e.file(), e.field()), ("commands.csv", "step"));
+        let e = deployment_start(&l, 9).unwrap_err();
+        assert_eq!((e.file(), e.field()), ("commands.csv", "cycle"));
+    }
+}
