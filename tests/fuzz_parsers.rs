@@ -371,6 +371,7 @@ fn memory_files() {
             },
             commands_m: vec![vec![-0.05; 10]],
             measured_gaps_m: vec![vec![Some(0.1), None, Some(0.3), Some(0.4), Some(0.5)]],
+            final_gap_vectors_m: vec![Some([0.01, 0.0, 0.0])],
             prediction_error_m: vec![Some(1e-3)],
             outcome: CaseOutcome {
                 status: "connected".into(),

@@ -40,6 +40,7 @@ macro_rules! say {
 
 mod calibrate;
 mod compare;
+mod cycles;
 mod deploy;
 mod diagnose;
 mod evaluate;
@@ -95,6 +96,7 @@ pub fn command() -> Command {
         .subcommand(evaluate::command())
         .subcommand(merge::command())
         .subcommand(replay::command())
+        .subcommand(cycles::command())
 }
 
 /// The typed options of one subcommand.
@@ -124,6 +126,8 @@ pub enum Options {
     Merge(merge::Options),
     /// `tdeploy replay`.
     Replay(replay::Options),
+    /// `tdeploy cycles`.
+    Cycles(cycles::Options),
 }
 
 impl Options {
@@ -142,6 +146,7 @@ impl Options {
             Some(("evaluate", a)) => Options::Evaluate(evaluate::Options::from_matches(a)?),
             Some(("merge", a)) => Options::Merge(merge::Options::from_matches(a)?),
             Some(("replay", a)) => Options::Replay(replay::Options::from_matches(a)?),
+            Some(("cycles", a)) => Options::Cycles(cycles::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -163,6 +168,7 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Evaluate(o) => evaluate::run(o),
         Options::Merge(o) => merge::run(o),
         Options::Replay(o) => replay::run(o),
+        Options::Cycles(o) => cycles::run(o),
     }
 }
 

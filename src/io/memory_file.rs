@@ -167,6 +167,7 @@ mod tests {
             },
             commands_m: vec![vec![-0.05; 10], vec![-0.0123456789; 10]],
             measured_gaps_m: vec![vec![Some(0.1), None, Some(0.3), Some(0.4), Some(0.5)]],
+            final_gap_vectors_m: vec![Some([0.01, -0.002, 0.0]), None],
             prediction_error_m: vec![Some(1e-3), None],
             outcome: CaseOutcome {
                 status: "connected".into(),

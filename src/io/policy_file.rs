@@ -52,6 +52,7 @@ mod tests {
                 include_str!("../../policies/greedy-tree.toml"),
             ),
             ("qp", include_str!("../../policies/qp.toml")),
+            ("memory", include_str!("../../policies/memory.toml")),
         ] {
             let p = parse_policy(text, Path::new(name)).unwrap_or_else(|e| panic!("{e}"));
             assert!(!p.name.is_empty());

@@ -2,7 +2,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::plan::closed_loop::Deployment;
+use crate::model::Structure;
+use crate::plan::closed_loop::{measured_gap_vectors, Deployment};
+use crate::sim::Sensor;
 
 /// What a cycle started from, as the controller knew it: the features
 /// retrieval compares.
@@ -46,6 +48,10 @@ pub struct Case {
     /// Measured gap of each midspan pair after each command, m (`None`:
     /// a reading missing).
     pub measured_gaps_m: Vec<Vec<Option<f64>>>,
+    /// Measured gap vector `x_a − x_b` of each midspan pair at the end, m
+    /// (`None`: a reading missing): the error the next cycle's ILC update
+    /// removes (see [`super::ilc`]).
+    pub final_gap_vectors_m: Vec<Option<[f64; 3]>>,
     /// The model's prediction error after each command: the largest
     /// |predicted − measured| gap over the pairs, m.
     pub prediction_error_m: Vec<Option<f64>>,
@@ -54,13 +60,19 @@ pub struct Case {
 }
 
 impl Case {
-    /// The case of a closed-loop deployment `d` run at `temperature_c`,
-    /// with the payout scale per half the controller ended with.
+    /// The case of a closed-loop deployment `d` of `structure` read by
+    /// `sensors`, run at `temperature_c`.
     pub fn of_deployment(
         d: &Deployment,
+        structure: &Structure,
+        sensors: &[Sensor],
         temperature_c: Option<f64>,
-        payout_scale: Vec<f64>,
     ) -> Case {
+        let last_readings = d.readings.last().map_or(&[][..], |r| &r[..]);
+        let final_gap_vectors_m = measured_gap_vectors(structure, sensors, last_readings)
+            .into_iter()
+            .map(|g| g.map(|g| [g.x, g.y, g.z]))
+            .collect();
         let prediction_error_m = d
             .records
             .iter()
@@ -77,7 +89,7 @@ impl Case {
                 temperature_c,
                 fold_m: d.start.start_payout_m.clone(),
                 start_gap_m: d.start.largest_measured_gap_m(),
-                payout_scale,
+                payout_scale: d.final_payout_scale.clone(),
             },
             commands_m: d.commands(),
             measured_gaps_m: d
@@ -85,6 +97,7 @@ impl Case {
                 .iter()
                 .map(|r| r.measured_gaps_m.clone())
                 .collect(),
+            final_gap_vectors_m,
             prediction_error_m,
             outcome: CaseOutcome {
                 status: d.status.label().to_string(),

@@ -6,11 +6,20 @@
 //! - [`memory`]: the cases of many cycles and the retrieval of the nearest
 //!   by scaled features of their conditions.
 //!
+//! - [`ilc`]: the norm-optimal ILC update of a case's commands, a QP
+//!   within the motor and member limits;
+//! - [`adaptation`]: retrieval, linearisation at the case's end and the
+//!   update: the guidance a new cycle's deployment runs with.
+//!
 //! The memory file's format (versioned, a checksum per case, atomic
 //! appends) is in [`crate::io::memory_file`]. Pure: no files here.
 
+pub mod adaptation;
 pub mod case;
+pub mod ilc;
 pub mod memory;
 
+pub use adaptation::{adapt, retrieve, AdaptError, Adaptation};
 pub use case::{Case, CaseConditions, CaseOutcome};
+pub use ilc::{learn_commands, IlcData, IlcUpdate};
 pub use memory::{CaseMemory, FeatureScales, Neighbour};

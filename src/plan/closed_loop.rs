@@ -199,6 +199,14 @@ pub struct Deployment {
     pub first_below_corrective_gap: Option<usize>,
     /// Commands after that one: the corrective commands.
     pub corrective_commands: Option<usize>,
+    /// Commands of the first approach: with a feedforward
+    /// ([`Guidance::feedforward_m`]), the feedforward commands sent;
+    /// otherwise the commands up to the first the controller predicted
+    /// would connect (`None`: it never predicted so).
+    pub approach_commands: Option<usize>,
+    /// The payout scale of each independent part as estimated at the end
+    /// (index = part id; empty without an estimator), 1.
+    pub final_payout_scale: Vec<f64>,
 }
 
 impl Deployment {
@@ -212,6 +220,16 @@ impl Deployment {
         match self.records.last() {
             Some(r) => r.largest_measured_gap_m(),
             None => self.start.largest_measured_gap_m(),
+        }
+    }
+
+    /// Largest measured gap after the first approach, m (`None` without
+    /// an approach or a reading).
+    pub fn approach_gap_m(&self) -> Option<f64> {
+        let k = self.approach_commands?;
+        match k {
+            0 => self.start.largest_measured_gap_m(),
+            k => self.records.get(k - 1)?.largest_measured_gap_m(),
         }
     }
 
@@ -430,16 +448,48 @@ fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployE
     Ok(())
 }
 
+/// What past cycles tell a deployment (from the case memory, see
+/// `crate::learn`). The default is no guidance: the memoryless controller.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Guidance {
+    /// Drum commands to send first, in order, m per motor: the learnt
+    /// approach. Each is tried on the controller's model before it is sent
+    /// (as cable motion `sent·(1 + ŝ)`); the first the model finds beyond
+    /// a limit or a motor's stroke ends the feedforward, and the planner
+    /// takes over. The connection test waits until the feedforward is sent
+    /// unless the next feedforward command is predicted not to reduce the
+    /// largest gap.
+    pub feedforward_m: Vec<Vec<f64>>,
+    /// Payout scale per independent part to start the estimator from
+    /// (index = part id), 1; `None`: start at 0.
+    pub payout_scale_prior: Option<Vec<f64>>,
+    /// Standard deviation of that prior, 1 (used with `payout_scale_prior`;
+    /// 0 or less: the policy's own prior).
+    pub payout_scale_prior_sd: f64,
+}
+
 /// Deploys the truth from the folded start in closed loop: plan on the
 /// model, send to the truth, measure, correct the model's predictions,
 /// until the measured gaps are within the connection tolerance less the
 /// policy's margin, the command budget is spent or the planner stops.
-/// The controller is a [`Controller`]; this drives it against the truth.
 ///
 /// Errors only when the run cannot start; a failure during the run (a
 /// solver, the truth plant) ends it with a status saying so.
 pub fn deploy_closed_loop(
     setup: &ClosedLoopSetup,
+    observer: &mut dyn DeployObserver,
+) -> Result<Deployment, DeployError> {
+    deploy_guided(setup, &Guidance::default(), None, observer)
+}
+
+/// [`deploy_closed_loop`] with `guidance` from past cycles, on `plant`
+/// where given (a truth as a previous cycle's fold left it; it is left
+/// where this deployment ends) or else on a fresh fold of the setup's
+/// truth.
+pub fn deploy_guided(
+    setup: &ClosedLoopSetup,
+    guidance: &Guidance,
+    plant: Option<&mut Plant>,
     observer: &mut dyn DeployObserver,
 ) -> Result<Deployment, DeployError> {
     let (model, policy) = (setup.model, setup.policy);
@@ -449,12 +499,19 @@ pub fn deploy_closed_loop(
         .problem
         .motor_limits(s.continuous_cables.len())
         .map_err(PlanError::from)?;
-    let mut plant = Plant::new(
-        setup.truth,
-        Some(&motors.start_payout_m),
-        setup.temperature_c,
-    )
-    .map_err(DeployError::TruthStart)?;
+    let mut fresh_plant;
+    let plant = match plant {
+        Some(p) => p,
+        None => {
+            fresh_plant = Plant::new(
+                setup.truth,
+                Some(&motors.start_payout_m),
+                setup.temperature_c,
+            )
+            .map_err(DeployError::TruthStart)?;
+            &mut fresh_plant
+        }
+    };
     // The temperature holds for the whole deployment, so the truth's
     // model is the same after every command: one copy serves the watch.
     let truth_model = plant.model().clone();
@@ -463,7 +520,14 @@ pub fn deploy_closed_loop(
 
     let mut rng = StdRng::seed_from_u64(setup.seed);
     let first = plant.measure(setup.sensors, &mut rng);
-    let mut controller = Controller::new(model, setup.problem, policy, setup.sensors, &first)?;
+    let mut controller = Controller::guided(
+        model,
+        setup.problem,
+        policy,
+        setup.sensors,
+        &first,
+        guidance,
+    )?;
     let gaps = |readings: &[Option<f64>]| -> Vec<Option<f64>> {
         measured_gap_vectors(truth_structure, setup.sensors, readings)
             .iter()
@@ -547,6 +611,8 @@ pub fn deploy_closed_loop(
                 .map(|r| r.index)
         };
     Ok(Deployment {
+        approach_commands: controller.approach_commands(),
+        final_payout_scale: controller.part_payout_scale(),
         status,
         truth_limit_violations: records.iter().map(|r| r.truth_violations.len()).sum(),
         corrective_commands: first_below_corrective_gap.map(|k| records.len() - k),

@@ -26,7 +26,9 @@ use std::time::Instant;
 
 use thiserror::Error;
 
-use super::closed_loop::{filter_force_offsets, model_correction};
+use std::collections::VecDeque;
+
+use super::closed_loop::{filter_force_offsets, model_correction, Guidance};
 use super::correction::ForceOffsetFilter;
 use super::estimation::PayoutScaleEstimator;
 use super::outcome::{PlanError, PlanStatus};
@@ -137,6 +139,15 @@ pub struct Controller<'a> {
     last_readings: Vec<Option<f64>>,
     commands_observed: usize,
     pending: Option<Pending>,
+    /// Feedforward drum commands not yet sent (see [`Guidance`]).
+    feedforward: VecDeque<Vec<f64>>,
+    /// Whether the guidance had a feedforward at all.
+    guided_approach: bool,
+    /// Feedforward commands decided so far.
+    feedforward_sent: usize,
+    /// Without a feedforward, the number of the first command predicted
+    /// to connect.
+    first_connecting: Option<usize>,
 }
 
 impl<'a> Controller<'a> {
@@ -151,6 +162,26 @@ impl<'a> Controller<'a> {
         policy: &'a Policy,
         sensors: &'a [Sensor],
         start_readings: &[Option<f64>],
+    ) -> Result<Self, PlanError> {
+        Self::guided(
+            model,
+            problem,
+            policy,
+            sensors,
+            start_readings,
+            &Guidance::default(),
+        )
+    }
+
+    /// [`Self::new`] with `guidance` from past cycles: a feedforward of
+    /// drum commands to send first and a prior of the payout scale.
+    pub fn guided(
+        model: &'a ForwardModel,
+        problem: &'a DeploymentProblem,
+        policy: &'a Policy,
+        sensors: &'a [Sensor],
+        start_readings: &[Option<f64>],
+        guidance: &Guidance,
     ) -> Result<Self, PlanError> {
         let s = model.structure();
         let state = folded_start(model, problem, policy.increment_m)?;
@@ -174,12 +205,22 @@ impl<'a> Controller<'a> {
         // it there is nothing to learn from.
         let estimator = (policy.payout_scale_prior_sd > 0.0
             && policy.measures.contains(&Measurement::MidspanPositions))
-        .then(|| {
-            PayoutScaleEstimator::new(
+        .then(|| match &guidance.payout_scale_prior {
+            Some(prior) => PayoutScaleEstimator::with_prior(
+                model,
+                prior,
+                if guidance.payout_scale_prior_sd > 0.0 {
+                    guidance.payout_scale_prior_sd
+                } else {
+                    policy.payout_scale_prior_sd
+                },
+                policy.payout_scale_drift_sd,
+            ),
+            None => PayoutScaleEstimator::new(
                 model,
                 policy.payout_scale_prior_sd,
                 policy.payout_scale_drift_sd,
-            )
+            ),
         });
         let planner = planner_for(&context, &state);
         Ok(Controller {
@@ -192,6 +233,10 @@ impl<'a> Controller<'a> {
             last_readings: start_readings.to_vec(),
             commands_observed: 0,
             pending: None,
+            feedforward: guidance.feedforward_m.iter().cloned().collect(),
+            guided_approach: !guidance.feedforward_m.is_empty(),
+            feedforward_sent: 0,
+            first_connecting: None,
         })
     }
 
@@ -220,6 +265,25 @@ impl<'a> Controller<'a> {
         }
     }
 
+    /// The payout scale of each independent part as estimated now (index
+    /// = part id; empty without an estimator), 1.
+    pub fn part_payout_scale(&self) -> Vec<f64> {
+        self.estimator
+            .as_ref()
+            .map_or_else(Vec::new, |e| e.part_scale().to_vec())
+    }
+
+    /// Commands of the first approach: with a feedforward, the
+    /// feedforward commands decided; otherwise the number of the first
+    /// command the controller predicted would connect (`None`: none yet).
+    pub fn approach_commands(&self) -> Option<usize> {
+        if self.guided_approach {
+            Some(self.feedforward_sent)
+        } else {
+            self.first_connecting
+        }
+    }
+
     /// The controller's model state, consumed.
     pub fn into_state(self) -> DeploymentState {
         self.state
@@ -233,30 +297,77 @@ impl<'a> Controller<'a> {
         if let Some(p) = &self.pending {
             return ControllerDecision::Send(p.proposal.clone());
         }
-        if self.context.connected(&self.state) {
+        let clock = Instant::now();
+        // The next feedforward command as cable motion, tried on the
+        // model; `None` once the feedforward is sent or given up.
+        let fed = self.next_feedforward();
+        if fed.is_none() {
+            // Beyond a limit on the model (or all sent): the planner
+            // takes over.
+            self.feedforward.clear();
+        }
+        let connected = self.context.connected(&self.state);
+        let fed = match fed {
+            // Connected already: the feedforward goes on only while it is
+            // predicted to reduce the largest gap.
+            Some((_, _, ref trial)) if connected => {
+                let largest = |g: Vec<f64>| g.into_iter().fold(0.0, f64::max);
+                let now = largest(self.context.gaps_m(&self.state));
+                let next = largest(self.context.gaps_m(&trial.state));
+                (next < now).then_some(fed).flatten()
+            }
+            fed => fed,
+        };
+        if connected && fed.is_none() {
             return ControllerDecision::Stop(PlanStatus::Connected);
         }
         if self.commands_observed >= self.context.policy.max_commands {
             return ControllerDecision::Stop(PlanStatus::CommandLimit);
         }
-        let clock = Instant::now();
-        let decision = self.planner.next_command(&self.context, &self.state);
-        let planning_time_s = clock.elapsed().as_secs_f64();
-        let c = match decision {
-            Decision::Stop(status) => return ControllerDecision::Stop(status),
-            Decision::Command(c) => c,
+        let (c, feedforward_m) = match fed {
+            Some((sent, cable, trial)) => {
+                self.feedforward.pop_front();
+                self.feedforward_sent += 1;
+                let planned = PlannedCommand {
+                    command_m: cable,
+                    predicted_gaps_m: None,
+                    trial,
+                    active_constraints: Vec::new(),
+                    qp_status: None,
+                    trust_region_m: None,
+                    rejected_trials: 0,
+                    linearisations: 0,
+                };
+                (Box::new(planned), Some(sent))
+            }
+            None => {
+                self.feedforward.clear();
+                match self.planner.next_command(&self.context, &self.state) {
+                    Decision::Stop(status) => return ControllerDecision::Stop(status),
+                    Decision::Command(c) => (c, None),
+                }
+            }
         };
+        let planning_time_s = clock.elapsed().as_secs_f64();
+        if !self.guided_approach
+            && self.first_connecting.is_none()
+            && self.context.connected(&c.trial.state)
+        {
+            self.first_connecting = Some(self.commands_observed + 1);
+        }
         // The planner plans cable motion; the drums are sent what should
         // make it, as far as the estimate knows. The step limit binds the
         // drum, which the planner's check (on cable motion) does not see.
-        let sent_m = match &self.estimator {
-            Some(e) => e
+        // A feedforward command is sent as it was learnt.
+        let sent_m = match (feedforward_m, &self.estimator) {
+            (Some(sent), _) => sent,
+            (None, Some(e)) => e
                 .motor_command(&c.command_m)
                 .iter()
                 .zip(&self.context.motors.max_step_m)
                 .map(|(u, max)| u.clamp(-max, *max))
                 .collect(),
-            None => c.command_m.clone(),
+            (None, None) => c.command_m.clone(),
         };
         let proposal = Proposal {
             planned_m: c.command_m.clone(),
@@ -274,6 +385,31 @@ impl<'a> Controller<'a> {
             proposal: proposal.clone(),
         });
         ControllerDecision::Send(proposal)
+    }
+
+    /// The next feedforward command (drum, cable motion `sent·(1 + ŝ)`,
+    /// its trial on the model) if the model takes it within every limit.
+    fn next_feedforward(&self) -> Option<(Vec<f64>, Vec<f64>, Trial)> {
+        let sent = self.feedforward.front()?;
+        let scale = self.payout_scale();
+        let cable: Vec<f64> = sent
+            .iter()
+            .zip(&scale)
+            .map(|(u, s)| u * (1.0 + s))
+            .collect();
+        // The step limit binds the drum, the stroke the cable.
+        let m = &self.context.motors;
+        let admissible = sent.iter().zip(&cable).enumerate().all(|(c, (u, d))| {
+            let p = self.state.payout_m[c] + d;
+            u.abs() <= m.max_step_m[c] * (1.0 + 1e-9)
+                && p >= m.min_payout_m[c] - 1e-9
+                && p <= m.max_payout_m[c] + 1e-9
+        });
+        if !admissible {
+            return None;
+        }
+        let trial = self.context.trial(&self.state, &cable);
+        trial.admissible().then(|| (sent.clone(), cable, trial))
     }
 
     /// Advances with the drum command `sent_m` that was really sent and

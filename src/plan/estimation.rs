@@ -91,6 +91,28 @@ impl PayoutScaleEstimator {
         }
     }
 
+    /// An estimator that starts from what a past cycle learnt: `ŝ` per
+    /// part from `prior_scale` (index = part id, as [`Self::part_scale`]
+    /// gives it), with standard deviation `prior_sd`. A `prior_scale` of
+    /// another length is a different bridge: the estimator starts at 0.
+    pub fn with_prior(
+        model: &ForwardModel,
+        prior_scale: &[f64],
+        prior_sd: f64,
+        drift_sd: f64,
+    ) -> Self {
+        let mut e = Self::new(model, prior_sd, drift_sd);
+        if prior_scale.len() == e.scale.len() && prior_scale.iter().all(|s| s.is_finite()) {
+            e.scale = prior_scale.to_vec();
+        }
+        e
+    }
+
+    /// Estimated scale `ŝ` of each independent part (index = part id), 1.
+    pub fn part_scale(&self) -> &[f64] {
+        &self.scale
+    }
+
     /// Estimated scale `ŝ` of each motor's part, 1.
     pub fn motor_scale(&self) -> Vec<f64> {
         self.part_of_motor

@@ -37,8 +37,8 @@ pub mod response;
 pub mod search;
 
 pub use closed_loop::{
-    deploy_closed_loop, model_correction, ClosedLoopSetup, DeployError, DeployObserver,
-    DeployRecord, DeployStart, Deployment, TruthWatch,
+    deploy_closed_loop, deploy_guided, model_correction, ClosedLoopSetup, DeployError,
+    DeployObserver, DeployRecord, DeployStart, Deployment, Guidance, TruthWatch,
 };
 pub use controller::{
     Controller, ControllerDecision, ControllerError, Observation, Proposal, OWN_COMMAND_TOLERANCE_M,
@@ -51,7 +51,8 @@ pub use planner::{
     PlanContext, PlannedCommand, Trial,
 };
 pub use policy::{
-    Measurement, PlannerKind, Policy, PolicyError, SensitivityKind, TrustRegion, Weights,
+    Measurement, MemorySettings, PlannerKind, Policy, PolicyError, SensitivityKind, TrustRegion,
+    Weights,
 };
 pub use problem::{DeploymentProblem, MotorLimits, PerMotor, ProblemError};
 pub use qp_step::{formulate, solve_step, QpStep, QpStepStatus, StepData, StepWeights};

@@ -158,6 +158,43 @@ impl Default for Weights {
     }
 }
 
+/// How a policy learns from past cycles (`[memory]`; absent: it does
+/// not). Used by `crate::learn`: the case retrieved for a new cycle and the
+/// norm-optimal ILC update of its commands.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MemorySettings {
+    /// How many nearest cases are looked at. Default 8.
+    pub neighbours: usize,
+    /// Scaled distance (see `learn::memory`) within which a case's
+    /// conditions count as this cycle's: of those, the most recent is
+    /// learnt from (iterative learning continues from the last trial);
+    /// with none that near, the nearest. Default 1: within one feature
+    /// scale (5 °C, 5 cm of fold, 10 mm of start gap).
+    pub match_distance: f64,
+    /// ρ on ‖Δu‖² in the ILC update, per command and motor, dimensionless
+    /// (gaps and commands in m). Default 1e-4: a tenth of the squared
+    /// sensitivity of the gaps to the whole bridge's payout (~1e-3 per
+    /// motor), so one update removes most of the last error and a noisy
+    /// one moves the commands little. Larger learns more slowly.
+    pub ilc_regularisation: f64,
+    /// Standard deviation of the payout-scale prior taken from the case,
+    /// 1. Default 0.01: the spread of the estimate between cycles of one
+    /// bridge.
+    pub payout_scale_prior_sd: f64,
+}
+
+impl Default for MemorySettings {
+    fn default() -> Self {
+        MemorySettings {
+            neighbours: 8,
+            match_distance: 1.0,
+            ilc_regularisation: 1e-4,
+            payout_scale_prior_sd: 0.01,
+        }
+    }
+}
+
 /// A control policy.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -234,6 +271,8 @@ pub struct Policy {
     /// and mass errors of the plausible ranges move forces by up to about
     /// a fifth. Larger trusts each reading more.
     pub force_model_error_fraction: f64,
+    /// Learning from past cycles (`None`: the policy has no memory).
+    pub memory: Option<MemorySettings>,
 }
 
 impl Default for Policy {
@@ -258,6 +297,7 @@ impl Default for Policy {
             payout_scale_prior_sd: 0.05,
             payout_scale_drift_sd: 0.02,
             force_model_error_fraction: 0.2,
+            memory: None,
         }
     }
 }
@@ -416,6 +456,32 @@ impl Policy {
             w.soft_limit_penalty >= 0.0,
             "a non-negative weight",
         )?;
+        if let Some(m) = &self.memory {
+            check(
+                "memory.neighbours",
+                m.neighbours as f64,
+                (1..=10_000).contains(&m.neighbours),
+                "a count from 1 to 10000",
+            )?;
+            check(
+                "memory.match_distance",
+                m.match_distance,
+                m.match_distance >= 0.0,
+                "a non-negative distance",
+            )?;
+            check(
+                "memory.ilc_regularisation",
+                m.ilc_regularisation,
+                m.ilc_regularisation > 0.0 && m.ilc_regularisation <= 1.0,
+                "a weight in (0, 1] (positive keeps the QP strictly convex)",
+            )?;
+            check(
+                "memory.payout_scale_prior_sd",
+                m.payout_scale_prior_sd,
+                m.payout_scale_prior_sd > 0.0 && m.payout_scale_prior_sd <= 1.0,
+                "a standard deviation in (0, 1]",
+            )?;
+        }
         Ok(())
     }
 

@@ -2,6 +2,7 @@
 //! model compared with each other or with a synthetic measurement. They
 //! read the other layers and are read only by the CLI. Pure: no files.
 
+pub mod cycles;
 pub mod evaluation;
 pub mod friction_effect;
 pub mod friction_study;

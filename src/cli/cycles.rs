@@ -1,0 +1,300 @@
+//! `tdeploy cycles [--truth T] [--model M] [--policy P] [--problem F]
+//! [--cycles N] [--memory FILE] [--seed S] [-o DIR] [--force]`: repeated
+//! deployment-fold cycles on one truth, learning into a case memory
+//! ([`tensegrity_deploy::studies::cycles`]).
+//!
+//! Defaults: the truth of `tdeploy deploy` (μ = 0.2, 3 mm backlash), the
+//! frictionless reference bridge as the controller's model, the policy
+//! `policies/memory.toml` (built in), 10 cycles, seed 1.
+//!
+//! Writes in DIR (as a whole): `cycles.csv` (one row per cycle: status,
+//! commands, corrective commands, the first approach's commands and the
+//! largest measured gap after it, final measured and true gaps, truth
+//! violations, the case learnt from and the gap the ILC update
+//! predicted), `cycles.svg` (the learning curve), `timing.csv` (planning
+//! time per cycle, the only file that changes from run to run), and,
+//! without `--memory`, `memory.tdm` with the cycles' cases. With
+//! `--memory FILE` the cases already in FILE are learnt from and each new
+//! case is appended to it as its cycle ends (atomically: a crash loses
+//! nothing stored before).
+//!
+//! Exit 0 when every cycle connected with no truth limit broken, 1
+//! otherwise, 2 on bad input.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Result};
+use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+
+use tensegrity_deploy::io::csv_table::CsvTable;
+use tensegrity_deploy::io::memory_file::{append_case, read_memory};
+use tensegrity_deploy::io::model_file::read_model;
+use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::io::FileError;
+use tensegrity_deploy::learn::{Case, CaseMemory};
+use tensegrity_deploy::model::JointFriction;
+use tensegrity_deploy::plan::Policy;
+use tensegrity_deploy::report::figures::grouped_bars_svg;
+use tensegrity_deploy::sim::default_truth::default_truth;
+use tensegrity_deploy::sim::standard_sensors;
+use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult, CyclesSetup};
+
+use super::plan::{planning_model, problem_or_default};
+use super::{value, Outcome};
+use tensegrity_deploy::io::output::ResultsFolder;
+use tensegrity_deploy::io::policy_file::parse_policy;
+
+/// The built-in default policy of `cycles`: `policies/memory.toml`.
+const MEMORY_POLICY: &str = include_str!("../../policies/memory.toml");
+
+/// Most cycles one run may have: a bound on the work a flag can ask for.
+pub const MAX_CYCLES: usize = 10_000;
+
+/// The `cycles` subcommand's arguments.
+pub fn command() -> Command {
+    Command::new("cycles")
+        .about("Repeated deployment-fold cycles on one truth with hidden effects, learning into a case memory: the learning curve; exit code 1 if a cycle did not connect or broke a truth limit")
+        .arg(Arg::new("truth").long("truth").value_parser(value_parser!(PathBuf)).help("Truth model file (TOML). Default: the reference bridge with joint friction μ = 0.2 (wrap angle) and 3 mm motor backlash"))
+        .arg(Arg::new("model").long("model").value_parser(value_parser!(PathBuf)).help("Model file the controller plans on. Default: the reference bridge without friction"))
+        .arg(Arg::new("policy").long("policy").value_parser(value_parser!(PathBuf)).help("Policy file. Default: policies/memory.toml's settings, built in (the QP planner with the case memory)"))
+        .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (fold, connection, limits)"))
+        .arg(Arg::new("cycles").long("cycles").default_value("10").value_parser(value_parser!(usize)).help("Cycles to run (1 to 10000)"))
+        .arg(Arg::new("memory").long("memory").value_parser(value_parser!(PathBuf)).help("Memory file to learn from and append each cycle's case to (created if missing). Default: a new memory, written to DIR/memory.tdm"))
+        .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise (cycle k uses a seed derived from it)"))
+        .arg(Arg::new("out").long("out").short('o').default_value("out/cycles").value_parser(value_parser!(PathBuf)).help("Folder for cycles.csv, cycles.svg, timing.csv (and memory.tdm without --memory)"))
+        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files this command did not write"))
+}
+
+/// Options of `tdeploy cycles`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Truth model file; `None`: the default truth.
+    pub truth: Option<PathBuf>,
+    /// Controller's model file; `None`: frictionless reference bridge.
+    pub model: Option<PathBuf>,
+    /// Policy file; `None`: the built-in memory policy.
+    pub policy: Option<PathBuf>,
+    /// Problem file; `None`: the default problem.
+    pub problem: Option<PathBuf>,
+    /// Cycles to run.
+    pub cycles: usize,
+    /// Memory file; `None`: a new memory in the results folder.
+    pub memory: Option<PathBuf>,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Results folder.
+    pub out: PathBuf,
+    /// Replace a folder of other files.
+    pub force: bool,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        let cycles: usize = value(m, "cycles")?;
+        if !(1..=MAX_CYCLES).contains(&cycles) {
+            bail!("--cycles: {cycles} is not from 1 to {MAX_CYCLES}");
+        }
+        Ok(Options {
+            truth: m.get_one::<PathBuf>("truth").cloned(),
+            model: m.get_one::<PathBuf>("model").cloned(),
+            policy: m.get_one::<PathBuf>("policy").cloned(),
+            problem: m.get_one::<PathBuf>("problem").cloned(),
+            cycles,
+            memory: m.get_one::<PathBuf>("memory").cloned(),
+            seed: value(m, "seed")?,
+            out: value(m, "out")?,
+            force: m.get_flag("force"),
+        })
+    }
+}
+
+/// Appends each cycle's case to the memory file as the cycle ends; the
+/// first failure is kept (and ends the command after the cycles).
+struct MemoryWriter<'a> {
+    path: &'a Path,
+    failure: Option<FileError>,
+}
+
+impl CycleObserver for MemoryWriter<'_> {
+    fn on_cycle(&mut self, result: &CycleResult, case: &Case) {
+        if self.failure.is_none() {
+            if let Err(e) = append_case(self.path, case) {
+                self.failure = Some(e);
+            }
+        }
+        say!(
+            "cycle {}: {} after {} commands ({} corrective), gap after the first approach {}, final {}",
+            result.cycle,
+            result.status,
+            result.commands,
+            result.corrective_commands.map_or("–".into(), |c| c.to_string()),
+            mm(result.approach_gap_m),
+            mm(result.final_gap_m)
+        );
+    }
+}
+
+/// A length in mm for the terminal, `–` when unknown.
+fn mm(v: Option<f64>) -> String {
+    v.map_or("–".into(), |v| format!("{:.1} mm", v * 1e3))
+}
+
+/// A CSV field: the value or empty.
+fn field<T: ToString>(v: Option<T>) -> String {
+    v.map_or(String::new(), |v| v.to_string())
+}
+
+/// `cycles.csv`.
+fn cycles_table(results: &[CycleResult]) -> CsvTable {
+    let mut t = CsvTable::new(&[
+        "cycle",
+        "status",
+        "commands",
+        "corrective_commands",
+        "approach_commands",
+        "approach_gap_m",
+        "final_gap_m",
+        "final_true_gap_m",
+        "truth_limit_violations",
+        "learnt_from_case",
+        "ilc_predicted_gap_m",
+        "adaptation_error",
+    ]);
+    for r in results {
+        t.row([
+            r.cycle.to_string(),
+            r.status.clone(),
+            r.commands.to_string(),
+            field(r.corrective_commands),
+            field(r.approach_commands),
+            field(r.approach_gap_m),
+            field(r.final_gap_m),
+            field(r.final_true_gap_m),
+            r.truth_limit_violations.to_string(),
+            field(r.learnt_from_case),
+            field(r.ilc_predicted_gap_m),
+            r.adaptation_error.clone().unwrap_or_default(),
+        ]);
+    }
+    t
+}
+
+/// Runs `tdeploy cycles`.
+pub fn run(o: &Options) -> Result<Outcome> {
+    let policy: Policy = match &o.policy {
+        Some(p) => tensegrity_deploy::io::policy_file::read_policy(p)?,
+        None => parse_policy(MEMORY_POLICY, Path::new("policies/memory.toml (built in)"))?,
+    };
+    let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
+    let truth = match &o.truth {
+        Some(p) => read_model(p)?.measurement_model()?,
+        None => default_truth(model.structure().clone()),
+    };
+    let problem = problem_or_default(o.problem.as_deref())?;
+    let mut memory = match &o.memory {
+        Some(p) if p.exists() => read_memory(p)?,
+        _ => CaseMemory::default(),
+    };
+    let stored_before = memory.cases.len();
+    let folder = ResultsFolder::claim(&o.out, "cycles", o.force)?;
+    let memory_path = match &o.memory {
+        Some(p) => p.clone(),
+        None => folder.path().join("memory.tdm"),
+    };
+    let sensors = standard_sensors(&truth.structure);
+    say!(
+        "cycles: {} cycles, policy {}{}, seed {}; memory {} ({} cases stored)",
+        o.cycles,
+        policy.name,
+        if policy.memory.is_some() {
+            " (learns from the memory)"
+        } else {
+            " (no memory)"
+        },
+        o.seed,
+        o.memory
+            .as_ref()
+            .map_or("new".into(), |p| p.display().to_string()),
+        stored_before
+    );
+    let setup = CyclesSetup {
+        model: &model,
+        problem: &problem,
+        policy: &policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: o.seed,
+        cycles: o.cycles,
+    };
+    let mut writer = MemoryWriter {
+        path: &memory_path,
+        failure: None,
+    };
+    let end = run_cycles(&setup, &mut memory, &mut writer)?;
+    if let Some(e) = writer.failure {
+        return Err(e.into());
+    }
+    cycles_table(&end.results).write(&folder.path().join("cycles.csv"))?;
+    let mut timing = CsvTable::new(&["cycle", "planning_time_s"]);
+    for r in &end.results {
+        timing.row([r.cycle.to_string(), r.planning_time_s.to_string()]);
+    }
+    timing.write(&folder.path().join("timing.csv"))?;
+    let labels: Vec<String> = end.results.iter().map(|r| r.cycle.to_string()).collect();
+    let series = [
+        (
+            "largest gap after the first approach",
+            end.results
+                .iter()
+                .map(|r| r.approach_gap_m.unwrap_or(0.0) * 1e3)
+                .collect(),
+        ),
+        (
+            "final gap",
+            end.results
+                .iter()
+                .map(|r| r.final_gap_m.unwrap_or(0.0) * 1e3)
+                .collect(),
+        ),
+    ];
+    let svg = grouped_bars_svg(
+        &format!(
+            "Learning curve: policy {} (cycles 1–{})",
+            policy.name, o.cycles
+        ),
+        "largest measured gap, mm",
+        &labels,
+        &series,
+    )
+    .map_err(|e| anyhow::anyhow!("drawing cycles.svg: {e}"))?;
+    write_atomically(&folder.path().join("cycles.svg"), svg.as_bytes())?;
+    folder.commit()?;
+    say!(
+        "results in {} (cycles.csv, cycles.svg, timing.csv{})",
+        o.out.display(),
+        if o.memory.is_none() {
+            ", memory.tdm"
+        } else {
+            ""
+        }
+    );
+    if let Some(reason) = end.stopped {
+        return Ok(Outcome::GoalMissed(reason));
+    }
+    let failed: Vec<String> = end
+        .results
+        .iter()
+        .filter(|r| r.status != "connected" || r.truth_limit_violations > 0)
+        .map(|r| r.cycle.to_string())
+        .collect();
+    Ok(if failed.is_empty() {
+        Outcome::GoalReached
+    } else {
+        Outcome::GoalMissed(format!(
+            "cycles {} did not connect or broke a truth limit",
+            failed.join(", ")
+        ))
+    })
+}

@@ -1,0 +1,191 @@
+//! What the memory gives a new cycle: the case to learn from, and the
+//! ILC-updated commands and payout-scale prior it leads to.
+//!
+//! 1. **Retrieval.** The memory's `neighbours` nearest cases to the new
+//!    cycle's conditions; of those within `match_distance` (the same
+//!    conditions), the most recent, since iterative learning continues
+//!    from the last trial; with none that near, the nearest.
+//! 2. **Linearisation at the case's end.** The case's drum commands, made
+//!    cable motion by its estimated payout scale, are applied to the
+//!    controller's model from the folded start; at that end state the
+//!    tangent gives the gaps' and limits' sensitivities to each motor's
+//!    payout ([`crate::plan::search::step_data`], the planner's own
+//!    linearisation), scaled to drum payout.
+//! 3. **The ILC update** ([`super::ilc`]) of the case's commands against
+//!    its final measured gap vectors, within the motor and member limits.
+//!
+//! The result is a [`Guidance`] for [`crate::plan::deploy_guided`]: the
+//! updated commands as feedforward and the case's payout scale as the
+//! estimator's prior.
+
+use nalgebra::DMatrix;
+use thiserror::Error;
+
+use super::case::CaseConditions;
+use super::ilc::{learn_commands, IlcData, IlcUpdate};
+use super::memory::{CaseMemory, FeatureScales};
+use crate::model::{DeploymentState, RelaxStatus};
+use crate::plan::closed_loop::Guidance;
+use crate::plan::response::PayoutResponse;
+use crate::plan::search::step_data;
+use crate::plan::{MemorySettings, PayoutScaleEstimator, PlanContext};
+
+/// What the memory gives a new cycle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Adaptation {
+    /// Index of the case learnt from.
+    pub case_index: usize,
+    /// Its scaled distance from the new cycle's conditions.
+    pub distance: f64,
+    /// The ILC update.
+    pub ilc: IlcUpdate,
+    /// Feedforward and estimator prior for the deployment.
+    pub guidance: Guidance,
+}
+
+/// Why a case could not be adapted to the new cycle.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum AdaptError {
+    /// The case's commands are not for this bridge's motors.
+    #[error("case {case}: its commands are for {found} motors, the bridge has {expected}")]
+    Motors {
+        /// Case index.
+        case: usize,
+        /// Motors in the case.
+        found: usize,
+        /// Motors of the bridge.
+        expected: usize,
+    },
+    /// The model cannot follow the case's commands to their end.
+    #[error("case {case}: the model, following its commands: {}", .status.describe())]
+    EndState {
+        /// Case index.
+        case: usize,
+        /// The solve's status.
+        status: RelaxStatus,
+    },
+    /// No tangent at the end state.
+    #[error("case {case}: no sensitivities at its end: {reason}")]
+    Sensitivity {
+        /// Case index.
+        case: usize,
+        /// Cause.
+        reason: String,
+    },
+}
+
+/// The case a cycle with `conditions` learns from (see the module
+/// documentation), with its distance; `None` for an empty memory.
+pub fn retrieve(
+    memory: &CaseMemory,
+    conditions: &CaseConditions,
+    settings: &MemorySettings,
+    scales: &FeatureScales,
+) -> Option<(usize, f64)> {
+    let near = memory.nearest(conditions, settings.neighbours, scales);
+    near.iter()
+        .filter(|n| n.distance <= settings.match_distance)
+        .max_by_key(|n| n.index)
+        .or(near.first())
+        .map(|n| (n.index, n.distance))
+}
+
+/// The adaptation of `memory` to a cycle with `conditions`, planned with
+/// `context` from the model's folded `start`; `Ok(None)` for an empty
+/// memory.
+pub fn adapt(
+    memory: &CaseMemory,
+    conditions: &CaseConditions,
+    context: &PlanContext,
+    start: &DeploymentState,
+    settings: &MemorySettings,
+    scales: &FeatureScales,
+) -> Result<Option<Adaptation>, AdaptError> {
+    let Some((case_index, distance)) = retrieve(memory, conditions, settings, scales) else {
+        return Ok(None);
+    };
+    let case = &memory.cases[case_index];
+    let motors = start.payout_m.len();
+    if let Some(bad) = case.commands_m.iter().find(|u| u.len() != motors) {
+        return Err(AdaptError::Motors {
+            case: case_index,
+            found: bad.len(),
+            expected: motors,
+        });
+    }
+    let model = context.model;
+    let estimator = PayoutScaleEstimator::with_prior(
+        model,
+        &case.conditions.payout_scale,
+        settings.payout_scale_prior_sd,
+        0.0,
+    );
+    let drum_to_cable: Vec<f64> = estimator.motor_scale().iter().map(|s| 1.0 + s).collect();
+    let mut cable_total = vec![0.0; motors];
+    for u in &case.commands_m {
+        for (m, d) in u.iter().enumerate() {
+            cable_total[m] += d * drum_to_cable[m];
+        }
+    }
+    let end = context.trial(start, &cable_total);
+    if !end.status.is_converged() {
+        return Err(AdaptError::EndState {
+            case: case_index,
+            status: end.status,
+        });
+    }
+    let response =
+        PayoutResponse::tangent(model, &end.state).map_err(|e| AdaptError::Sensitivity {
+            case: case_index,
+            reason: e.to_string(),
+        })?;
+    let max_step = context
+        .motors
+        .max_step_m
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    let terminal = step_data(context, &end.state, &response, max_step);
+    let to_drum = |mut g: DMatrix<f64>| {
+        for (m, k) in drum_to_cable.iter().enumerate() {
+            g.column_mut(m).scale_mut(*k);
+        }
+        g
+    };
+    let gap_sensitivity = to_drum((&terminal.gap_pay_out + &terminal.gap_reel_in) * 0.5);
+    let limits = terminal
+        .limits
+        .into_iter()
+        .map(|mut l| {
+            for (m, k) in drum_to_cable.iter().enumerate() {
+                l.pay_out[m] *= k;
+                l.reel_in[m] *= k;
+            }
+            l
+        })
+        .collect();
+    let data = IlcData {
+        commands_m: case.commands_m.clone(),
+        end_gaps_m: case.final_gap_vectors_m.clone(),
+        gap_weights: context.gap_weights.clone(),
+        gap_sensitivity,
+        limits,
+        start_payout_m: context.motors.start_payout_m.clone(),
+        min_payout_m: context.motors.min_payout_m.clone(),
+        max_payout_m: context.motors.max_payout_m.clone(),
+        max_step_m: context.motors.max_step_m.clone(),
+    };
+    let ilc = learn_commands(&data, settings.ilc_regularisation);
+    let guidance = Guidance {
+        feedforward_m: ilc.commands_m.clone(),
+        payout_scale_prior: (!case.conditions.payout_scale.is_empty())
+            .then(|| case.conditions.payout_scale.clone()),
+        payout_scale_prior_sd: settings.payout_scale_prior_sd,
+    };
+    Ok(Some(Adaptation {
+        case_index,
+        distance,
+        ilc,
+        guidance,
+    }))
+}

@@ -1,0 +1,395 @@
+//! Norm-optimal iterative learning control of a deployment's commands.
+//!
+//! A cycle sends the drum commands `u_1 … u_J` (one vector of motor
+//! payout changes per command) and ends with the measured midspan gap
+//! vectors `e` (target: zero). The next cycle's commands are
+//! `u_j + Δu_j`, with the update
+//!
+//! ```text
+//!   Δu = argmin ½ Σ_p w_p ‖e_p + G_p·Σ_j Δu_j‖² + ½ ρ Σ_j ‖Δu_j‖²
+//!   subject to   |u_jm + Δu_jm| ≤ step_m                      (drum step)
+//!                min_m ≤ p0_m + Σ_{i≤j} (u_im + Δu_im) ≤ max_m   (stroke)
+//!                lower_l ≤ f_l + L_l·Σ_j Δu_j ≤ upper_l          (members)
+//! ```
+//!
+//! where `G` is the sensitivity of the end gaps to each motor's drum
+//! payout and `L` that of the end's force and clearance rows, both
+//! linearised at the end of the cycle on the controller's model. This is
+//! norm-optimal ILC (Amann, Owens & Rogers 1996) on the lifted system of
+//! one trial, with the terminal error only: the path between start and
+//! connection is the planner's business, the learnt part is where the
+//! commands end. ρ trades how much of the last error one update removes
+//! (the learning gain `GᵀG/(GᵀG + ρ/J)`) against how far a noisy error
+//! moves the commands. The minimum-norm term spreads the correction
+//! evenly over the commands until a drum's step limit binds.
+//!
+//! [`formulate`] builds the QP (pure, inspected by tests); [`learn_commands`]
+//! solves it through the one Clarabel adapter.
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use crate::numerics::qp::{solve, QpStatus, QuadraticProgram};
+use crate::plan::qp_step::{step_solver_settings, LinearLimit};
+
+/// Everything one ILC update is formulated from, as plain numbers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IlcData {
+    /// The last cycle's drum commands, per command and motor, m.
+    pub commands_m: Vec<Vec<f64>>,
+    /// Measured gap vector of each midspan pair at the last cycle's end,
+    /// m (`None`: not measured; that pair is left out of the objective).
+    pub end_gaps_m: Vec<Option<[f64; 3]>>,
+    /// Weight of each pair's squared gap.
+    pub gap_weights: Vec<f64>,
+    /// d(end gap)/d(drum payout): 3 rows per pair, one column per motor.
+    pub gap_sensitivity: DMatrix<f64>,
+    /// The end's limits, linearised in the drum payout (each row's
+    /// `pay_out` is used as its gradient; see [`IlcData::limit_gradient`]).
+    pub limits: Vec<LinearLimit>,
+    /// Payout of each motor at the start of the cycle, m.
+    pub start_payout_m: Vec<f64>,
+    /// Smallest payout per motor, m.
+    pub min_payout_m: Vec<f64>,
+    /// Largest payout per motor, m.
+    pub max_payout_m: Vec<f64>,
+    /// Largest change per command per motor, m.
+    pub max_step_m: Vec<f64>,
+}
+
+impl IlcData {
+    /// Number of motors.
+    pub fn motors(&self) -> usize {
+        self.start_payout_m.len()
+    }
+
+    /// Number of variables: one per command and motor.
+    pub fn variables(&self) -> usize {
+        self.commands_m.len() * self.motors()
+    }
+
+    /// The gradient of limit `l` in the drum payout: the mean of its
+    /// pay-out and reel-in slopes (equal on a frictionless model; the ILC
+    /// update is small, so one slope serves both directions).
+    pub fn limit_gradient(&self, l: usize) -> Vec<f64> {
+        let r = &self.limits[l];
+        r.pay_out
+            .iter()
+            .zip(&r.reel_in)
+            .map(|(a, b)| 0.5 * (a + b))
+            .collect()
+    }
+}
+
+/// What an inequality row of the ILC QP is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "row")]
+pub enum IlcRow {
+    /// `u_jm + Δu_jm ≤ step_m`.
+    StepOut {
+        /// Command.
+        command: usize,
+        /// Motor.
+        motor: usize,
+    },
+    /// `−(u_jm + Δu_jm) ≤ step_m`.
+    StepIn {
+        /// Command.
+        command: usize,
+        /// Motor.
+        motor: usize,
+    },
+    /// Payout after command `command` at most the motor's largest.
+    StrokeMax {
+        /// Command.
+        command: usize,
+        /// Motor.
+        motor: usize,
+    },
+    /// Payout after command `command` at least the motor's smallest.
+    StrokeMin {
+        /// Command.
+        command: usize,
+        /// Motor.
+        motor: usize,
+    },
+    /// Limit `limit` from below.
+    LimitLower {
+        /// Index into [`IlcData::limits`].
+        limit: usize,
+    },
+    /// Limit `limit` from above.
+    LimitUpper {
+        /// Index into [`IlcData::limits`].
+        limit: usize,
+    },
+}
+
+/// The formulated update: the QP and the meaning of each inequality row.
+/// Variable `j·M + m` is `Δu_jm`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IlcFormulation {
+    /// The QP.
+    pub qp: QuadraticProgram,
+    /// Meaning of each inequality row.
+    pub rows: Vec<IlcRow>,
+}
+
+/// Builds the ILC update's QP (see the module documentation). A limit the
+/// last cycle's end already breaks is widened to its value there, so that
+/// `Δu = 0` is always feasible (the last commands were sent, so they met
+/// the step and stroke limits).
+pub fn formulate(data: &IlcData, regularisation: f64) -> IlcFormulation {
+    let m = data.motors();
+    let j_count = data.commands_m.len();
+    let n = data.variables();
+    // Σ_j Δu_j = A·x, A = [I I … I].
+    let mut sum = DMatrix::zeros(m, n);
+    for j in 0..j_count {
+        for c in 0..m {
+            sum[(c, j * m + c)] = 1.0;
+        }
+    }
+    let mut weighted_g = data.gap_sensitivity.clone();
+    let mut e = DVector::zeros(data.gap_sensitivity.nrows());
+    for (p, (gap, w)) in data.end_gaps_m.iter().zip(&data.gap_weights).enumerate() {
+        let w = gap.map_or(0.0, |_| *w);
+        for axis in 0..3 {
+            let row = 3 * p + axis;
+            weighted_g.row_mut(row).scale_mut(w);
+            e[row] = gap.map_or(0.0, |g| g[axis]);
+        }
+    }
+    // P = AᵀGᵀWGA + ρI, q = AᵀGᵀWe.
+    let gtwg = data.gap_sensitivity.transpose() * &weighted_g;
+    let hessian = sum.transpose() * gtwg * &sum + DMatrix::identity(n, n) * regularisation;
+    let linear = sum.transpose() * (weighted_g.transpose() * e);
+
+    let mut rows = Vec::new();
+    let mut g_rows: Vec<(Vec<(usize, f64)>, f64)> = Vec::new();
+    for (j, u) in data.commands_m.iter().enumerate() {
+        for c in 0..m {
+            let v = j * m + c;
+            g_rows.push((vec![(v, 1.0)], data.max_step_m[c] - u[c]));
+            rows.push(IlcRow::StepOut {
+                command: j,
+                motor: c,
+            });
+            g_rows.push((vec![(v, -1.0)], data.max_step_m[c] + u[c]));
+            rows.push(IlcRow::StepIn {
+                command: j,
+                motor: c,
+            });
+        }
+    }
+    let mut payout = data.start_payout_m.clone();
+    for (j, u) in data.commands_m.iter().enumerate() {
+        for c in 0..m {
+            payout[c] += u[c];
+            let vars: Vec<(usize, f64)> = (0..=j).map(|i| (i * m + c, 1.0)).collect();
+            g_rows.push((vars.clone(), data.max_payout_m[c] - payout[c]));
+            rows.push(IlcRow::StrokeMax {
+                command: j,
+                motor: c,
+            });
+            let neg = vars.iter().map(|(v, a)| (*v, -a)).collect();
+            g_rows.push((neg, payout[c] - data.min_payout_m[c]));
+            rows.push(IlcRow::StrokeMin {
+                command: j,
+                motor: c,
+            });
+        }
+    }
+    for (l, limit) in data.limits.iter().enumerate() {
+        let gradient = data.limit_gradient(l);
+        // The gradient of Σ_j Δu_jm is the same for every command.
+        let vars = |sign: f64| -> Vec<(usize, f64)> {
+            (0..n).map(|v| (v, sign * gradient[v % m])).collect()
+        };
+        if limit.lower.is_finite() {
+            g_rows.push((vars(-1.0), (limit.value - limit.lower).max(0.0)));
+            rows.push(IlcRow::LimitLower { limit: l });
+        }
+        if limit.upper.is_finite() {
+            g_rows.push((vars(1.0), (limit.upper - limit.value).max(0.0)));
+            rows.push(IlcRow::LimitUpper { limit: l });
+        }
+    }
+    let mut ineq_matrix = DMatrix::zeros(g_rows.len(), n);
+    let mut ineq_rhs = DVector::zeros(g_rows.len());
+    for (r, (entries, rhs)) in g_rows.into_iter().enumerate() {
+        for (v, a) in entries {
+            ineq_matrix[(r, v)] = a;
+        }
+        // A start already beyond a step or stroke bound (it cannot be,
+        // for commands that were sent) is held where it is.
+        ineq_rhs[r] = rhs.max(0.0);
+    }
+    IlcFormulation {
+        qp: QuadraticProgram {
+            hessian,
+            linear,
+            eq_matrix: DMatrix::zeros(0, n),
+            eq_rhs: DVector::zeros(0),
+            ineq_matrix,
+            ineq_rhs,
+        },
+        rows,
+    }
+}
+
+/// How an ILC update ended.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IlcUpdate {
+    /// The QP's status.
+    pub status: QpStatus,
+    /// The next cycle's drum commands, per command and motor, m (the last
+    /// cycle's unchanged unless the QP solved).
+    pub commands_m: Vec<Vec<f64>>,
+    /// Largest end gap the linearisation predicts for them, m.
+    pub predicted_end_gap_m: f64,
+    /// Largest end gap measured in the last cycle, m.
+    pub last_end_gap_m: f64,
+}
+
+/// Solves the update (see [`formulate`]).
+pub fn learn_commands(data: &IlcData, regularisation: f64) -> IlcUpdate {
+    let f = formulate(data, regularisation);
+    let m = data.motors();
+    let largest_gap = |delta: &DVector<f64>| -> f64 {
+        let mut total = DVector::zeros(m);
+        for (v, d) in delta.iter().enumerate() {
+            total[v % m] += d;
+        }
+        let change = &data.gap_sensitivity * total;
+        data.end_gaps_m
+            .iter()
+            .enumerate()
+            .filter_map(|(p, g)| {
+                let g = (*g)?;
+                let moved: f64 = (0..3)
+                    .map(|a| (g[a] + change[3 * p + a]).powi(2))
+                    .sum::<f64>();
+                Some(moved.sqrt())
+            })
+            .fold(0.0, f64::max)
+    };
+    let zero = DVector::zeros(data.variables());
+    let last_end_gap_m = largest_gap(&zero);
+    // The objective is in m² and tiny (a 1 cm gap is 1e-4): the default
+    // gap tolerance would leave the solution tens of micrometres off, as in
+    // the planner's step, whose tight settings serve here too.
+    let solved = solve(&f.qp, &step_solver_settings());
+    let (status, delta) = match solved {
+        Ok(s) if s.status.is_solved() => (s.status, s.x),
+        Ok(s) => (s.status, zero),
+        Err(_) => (QpStatus::NumericalError, zero),
+    };
+    let commands_m = data
+        .commands_m
+        .iter()
+        .enumerate()
+        .map(|(j, u)| {
+            u.iter()
+                .enumerate()
+                .map(|(c, x)| x + delta[j * m + c])
+                .collect()
+        })
+        .collect();
+    IlcUpdate {
+        status,
+        commands_m,
+        predicted_end_gap_m: largest_gap(&delta),
+        last_end_gap_m,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two motors, one pair; the gap's x moves 0.3 m per m of motor 0,
+    /// its y 0.2 m per m of motor 1.
+    fn data(commands: usize, end_gap: [f64; 3]) -> IlcData {
+        let mut g = DMatrix::zeros(3, 2);
+        g[(0, 0)] = 0.3;
+        g[(1, 1)] = 0.2;
+        IlcData {
+            commands_m: vec![vec![-0.04, -0.04]; commands],
+            end_gaps_m: vec![Some(end_gap)],
+            gap_weights: vec![1.0],
+            gap_sensitivity: g,
+            limits: Vec::new(),
+            start_payout_m: vec![0.4, 0.4],
+            min_payout_m: vec![-0.1, -0.1],
+            max_payout_m: vec![0.5, 0.5],
+            max_step_m: vec![0.05, 0.05],
+        }
+    }
+
+    /// Without binding limits the update is the regularised least-squares
+    /// solution by hand: for motor 0 the total change `s` minimises
+    /// ½(e + 0.3 s)² + ½ρ s²/J (the correction spread evenly over J
+    /// commands), so s = −0.3 e / (0.09 + ρ/J), each command s/J.
+    #[test]
+    fn an_unconstrained_update_is_the_regularised_least_squares_solution() {
+        let (j, rho, e) = (4, 1e-4, 0.006);
+        let d = data(j, [e, -0.006, 0.0]);
+        let u = learn_commands(&d, rho);
+        assert!(u.status.is_solved(), "{:?}", u.status);
+        let s0 = -0.3 * e / (0.09 + rho / j as f64);
+        let s1 = -0.2 * -0.006 / (0.04 + rho / j as f64);
+        for cmd in &u.commands_m {
+            // Clarabel's default tolerances (1e-8 relative) on a 1e-2 m
+            // solution: 1e-7 m is far below any drum's resolution.
+            assert!((cmd[0] - (-0.04 + s0 / j as f64)).abs() < 1e-7, "{cmd:?}");
+            assert!((cmd[1] - (-0.04 + s1 / j as f64)).abs() < 1e-7, "{cmd:?}");
+        }
+        // The predicted end gap is what is left of e by the learning gain.
+        let left0 = e + 0.3 * s0;
+        let left1 = -0.006 + 0.2 * s1;
+        assert!((u.predicted_end_gap_m - left0.hypot(left1)).abs() < 1e-7);
+        assert!((u.last_end_gap_m - e.hypot(0.006)).abs() < 1e-15);
+    }
+
+    /// A correction larger than the step limits allow ends at the limit:
+    /// every command of motor 0 at the full step, and the QP says which
+    /// rows bind.
+    #[test]
+    fn the_drum_step_limit_bounds_the_update() {
+        let mut d = data(2, [0.05, 0.0, 0.0]);
+        d.commands_m = vec![vec![-0.049, -0.04]; 2];
+        let f = formulate(&d, 1e-4);
+        assert_eq!(f.rows.len(), 2 * 2 * 2 + 2 * 2 * 2);
+        let u = learn_commands(&d, 1e-4);
+        assert!(u.status.is_solved());
+        for cmd in &u.commands_m {
+            assert!(cmd[0] >= -0.05 - 1e-7 && cmd[0] < -0.0499, "{cmd:?}");
+        }
+        assert!(u.predicted_end_gap_m > 0.05 - 0.3 * 0.002 - 1e-6);
+    }
+
+    /// A member limit on the total reel-in of motor 0 caps the update
+    /// where the limit's linearisation says.
+    #[test]
+    fn a_member_limit_caps_the_update() {
+        let mut d = data(4, [0.02, 0.0, 0.0]);
+        // A tension of 100 N rising 1000 N per m reeled in by motor 0
+        // (payout falls), at most 105 N.
+        d.limits.push(LinearLimit {
+            name: "segment A[0] max".into(),
+            value: 100.0,
+            pay_out: vec![-1000.0, 0.0],
+            reel_in: vec![-1000.0, 0.0],
+            lower: f64::NEG_INFINITY,
+            upper: 105.0,
+            scale: 100.0,
+        });
+        let u = learn_commands(&d, 1e-4);
+        assert!(u.status.is_solved());
+        let total: f64 = u.commands_m.iter().map(|c| c[0] + 0.04).sum();
+        // Unconstrained it would reel in 0.3·0.02/0.09 ≈ 6.7 cm; the limit
+        // allows 5 mm.
+        assert!((total - -0.005).abs() < 1e-6, "{total}");
+    }
+}

@@ -1,0 +1,226 @@
+//! Repeated deployment-fold cycles on one truth: the learning curve of a
+//! policy with a case memory.
+//!
+//! Each cycle deploys the truth in closed loop from where the last fold
+//! left it ([`deploy_guided`]), then folds it back by paying out what the
+//! cycle reeled in, in steps of at most a drum step, with no control. With
+//! joint friction the folded truth is not the same from cycle to cycle
+//! (stick and slip depend on the path), as on the real bridge.
+//!
+//! Before each cycle a policy with a `[memory]` section adapts the memory
+//! to the cycle ([`crate::learn::adapt`]); after it every policy's cycle
+//! is stored as a case, so that a memoryless run leaves a memory a memory
+//! policy can start from.
+//!
+//! Randomness: the sensor noise of cycle `k` (1-based) is seeded with
+//! [`scenario_seed`]`(seed, k)`; nothing else is drawn.
+
+use serde::Serialize;
+
+use super::statistics::scenario_seed;
+use crate::learn::{adapt, Case, CaseConditions, CaseMemory, FeatureScales};
+use crate::model::ForwardModel;
+use crate::plan::{
+    deploy_guided, folded_start, ClosedLoopSetup, DeployError, DeploymentProblem, Guidance,
+    PlanContext, PlanError, Policy,
+};
+use crate::sim::{EffectModel, Plant, Sensor};
+
+/// Everything a run of cycles runs with.
+#[derive(Debug, Clone, Copy)]
+pub struct CyclesSetup<'a> {
+    /// The controller's model.
+    pub model: &'a ForwardModel,
+    /// The problem (fold, connection, limits).
+    pub problem: &'a DeploymentProblem,
+    /// The policy (with or without `[memory]`).
+    pub policy: &'a Policy,
+    /// The truth, with its hidden effects fixed for every cycle.
+    pub truth: &'a EffectModel,
+    /// The sensors read on the truth.
+    pub sensors: &'a [Sensor],
+    /// Temperature of every cycle, °C (`None`: the truth's reference).
+    pub temperature_c: Option<f64>,
+    /// Seed of the sensor noise (see the module documentation).
+    pub seed: u64,
+    /// Number of cycles.
+    pub cycles: usize,
+}
+
+/// One cycle's figures: a row of the learning curve.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CycleResult {
+    /// Cycle number, 1 for the first.
+    pub cycle: usize,
+    /// The deployment's status label (`connected`, …).
+    pub status: String,
+    /// Commands sent.
+    pub commands: usize,
+    /// Commands after the first that brought the largest measured gap
+    /// below 60 mm.
+    pub corrective_commands: Option<usize>,
+    /// Commands of the first approach (the feedforward with a memory;
+    /// else up to the first command predicted to connect).
+    pub approach_commands: Option<usize>,
+    /// Largest measured gap after the first approach, m.
+    pub approach_gap_m: Option<f64>,
+    /// Largest measured gap at the end, m.
+    pub final_gap_m: Option<f64>,
+    /// Largest true gap at the end, m.
+    pub final_true_gap_m: Option<f64>,
+    /// Limits the truth broke.
+    pub truth_limit_violations: usize,
+    /// The case learnt from (index in the memory), if any.
+    pub learnt_from_case: Option<usize>,
+    /// Largest end gap the ILC update predicted, m.
+    pub ilc_predicted_gap_m: Option<f64>,
+    /// Why the memory gave no guidance although it held cases.
+    pub adaptation_error: Option<String>,
+    /// Wall-clock planning time of the cycle (adaptation and every
+    /// command), s: the only value not a function of the inputs.
+    #[serde(skip)]
+    pub planning_time_s: f64,
+}
+
+/// Receives each cycle as it ends (the CLI stores the case and moves its
+/// progress bar; numerics never print).
+pub trait CycleObserver {
+    /// Called after cycle `result.cycle`, with the case it added to the
+    /// memory.
+    fn on_cycle(&mut self, result: &CycleResult, case: &Case);
+}
+
+impl CycleObserver for () {
+    fn on_cycle(&mut self, _: &CycleResult, _: &Case) {}
+}
+
+/// Why the cycles stopped early.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CyclesEnd {
+    /// The cycles run.
+    pub results: Vec<CycleResult>,
+    /// `None` when every cycle ran; otherwise why the run stopped (the
+    /// truth could not be folded back).
+    pub stopped: Option<String>,
+}
+
+/// Runs the cycles, learning into `memory` (cases are appended to it).
+/// Errors only when the first deployment cannot start.
+pub fn run_cycles(
+    setup: &CyclesSetup,
+    memory: &mut CaseMemory,
+    observer: &mut dyn CycleObserver,
+) -> Result<CyclesEnd, DeployError> {
+    let (model, problem, policy) = (setup.model, setup.problem, setup.policy);
+    let structure = model.structure();
+    let motors = problem
+        .motor_limits(structure.continuous_cables.len())
+        .map_err(PlanError::from)?;
+    let start = folded_start(model, problem, policy.increment_m)?;
+    let context = PlanContext::new(model, problem, policy, &start)?;
+    let mut plant = Plant::new(
+        setup.truth,
+        Some(&motors.start_payout_m),
+        setup.temperature_c,
+    )
+    .map_err(DeployError::TruthStart)?;
+    let scales = FeatureScales::default();
+    let mut results = Vec::new();
+    for cycle in 1..=setup.cycles {
+        let clock = std::time::Instant::now();
+        // The start gap is measured inside the deployment; retrieval
+        // compares what is known before it.
+        let conditions = CaseConditions {
+            temperature_c: setup.temperature_c,
+            fold_m: motors.start_payout_m.clone(),
+            start_gap_m: None,
+            payout_scale: Vec::new(),
+        };
+        let (adaptation, adaptation_error) = match &policy.memory {
+            Some(settings) => {
+                match adapt(memory, &conditions, &context, &start, settings, &scales) {
+                    Ok(a) => (a, None),
+                    Err(e) => (None, Some(e.to_string())),
+                }
+            }
+            None => (None, None),
+        };
+        let adaptation_time_s = clock.elapsed().as_secs_f64();
+        let guidance = adaptation
+            .as_ref()
+            .map_or_else(Guidance::default, |a| a.guidance.clone());
+        let run = ClosedLoopSetup {
+            model,
+            problem,
+            policy,
+            truth: setup.truth,
+            sensors: setup.sensors,
+            temperature_c: setup.temperature_c,
+            seed: scenario_seed(setup.seed, cycle),
+        };
+        let d = deploy_guided(&run, &guidance, Some(&mut plant), &mut ())?;
+        let case = Case::of_deployment(&d, structure, setup.sensors, setup.temperature_c);
+        let result = CycleResult {
+            cycle,
+            status: d.status.label().to_string(),
+            commands: d.records.len(),
+            corrective_commands: d.corrective_commands,
+            approach_commands: d.approach_commands,
+            approach_gap_m: d.approach_gap_m(),
+            final_gap_m: d.final_measured_gap_m(),
+            final_true_gap_m: d.final_true_gap_m(),
+            truth_limit_violations: d.truth_limit_violations,
+            learnt_from_case: adaptation.as_ref().map(|a| a.case_index),
+            ilc_predicted_gap_m: adaptation.as_ref().map(|a| a.ilc.predicted_end_gap_m),
+            adaptation_error,
+            planning_time_s: adaptation_time_s
+                + d.records.iter().map(|r| r.planning_time_s).sum::<f64>(),
+        };
+        observer.on_cycle(&result, &case);
+        memory.cases.push(case);
+        results.push(result);
+        if cycle == setup.cycles {
+            break;
+        }
+        if let Err(reason) = fold_back(&mut plant, &d.commands(), &motors.max_step_m, setup) {
+            return Ok(CyclesEnd {
+                results,
+                stopped: Some(format!("folding back after cycle {cycle}: {reason}")),
+            });
+        }
+    }
+    Ok(CyclesEnd {
+        results,
+        stopped: None,
+    })
+}
+
+/// Folds the truth back: pays out what `commands_m` reeled in (their sum,
+/// negated), in equal steps of at most each drum's step limit.
+fn fold_back(
+    plant: &mut Plant,
+    commands_m: &[Vec<f64>],
+    max_step_m: &[f64],
+    setup: &CyclesSetup,
+) -> Result<(), String> {
+    let motors = max_step_m.len();
+    let mut total = vec![0.0; motors];
+    for u in commands_m {
+        for (t, d) in total.iter_mut().zip(u) {
+            *t -= d;
+        }
+    }
+    let steps = total
+        .iter()
+        .zip(max_step_m)
+        .map(|(t, s)| (t.abs() / s * (1.0 - 1e-12)).ceil() as usize)
+        .max()
+        .unwrap_or(0);
+    for _ in 0..steps {
+        let step: Vec<f64> = total.iter().map(|t| t / steps as f64).collect();
+        plant
+            .apply(&step, setup.temperature_c, &mut ())
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
