@@ -12,7 +12,7 @@
 //! Subcommands: `structure` ([`structure`]), `simulate` ([`simulate`]),
 //! `experiment` ([`experiment`]), `lab` ([`lab`]), `compare` ([`compare`]),
 //! `diagnose` ([`diagnose`]), `calibrate` ([`calibrate`]), `plan`
-//! ([`plan`]), `deploy` ([`deploy`]).
+//! ([`plan`]), `deploy` ([`deploy`]), `replay` ([`replay`]).
 //!
 //! # Exit codes
 //! | code | meaning |
@@ -49,6 +49,7 @@ mod experiment;
 mod lab;
 mod merge;
 mod plan;
+mod replay;
 mod simulate;
 mod structure;
 
@@ -94,6 +95,7 @@ pub fn command() -> Command {
         .subcommand(deploy::command())
         .subcommand(evaluate::command())
         .subcommand(merge::command())
+        .subcommand(replay::command())
         .subcommand(cycles::command())
 }
 
@@ -122,6 +124,8 @@ pub enum Options {
     Evaluate(evaluate::Options),
     /// `tdeploy merge`.
     Merge(merge::Options),
+    /// `tdeploy replay`.
+    Replay(replay::Options),
     /// `tdeploy cycles`.
     Cycles(cycles::Options),
 }
@@ -141,6 +145,7 @@ impl Options {
             Some(("deploy", a)) => Options::Deploy(deploy::Options::from_matches(a)?),
             Some(("evaluate", a)) => Options::Evaluate(evaluate::Options::from_matches(a)?),
             Some(("merge", a)) => Options::Merge(merge::Options::from_matches(a)?),
+            Some(("replay", a)) => Options::Replay(replay::Options::from_matches(a)?),
             Some(("cycles", a)) => Options::Cycles(cycles::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
@@ -162,6 +167,7 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Deploy(o) => deploy::run(o),
         Options::Evaluate(o) => evaluate::run(o),
         Options::Merge(o) => merge::run(o),
+        Options::Replay(o) => replay::run(o),
         Options::Cycles(o) => cycles::run(o),
     }
 }

@@ -32,21 +32,17 @@
 //! count. Planning times are the only values that are not a function of
 //! the inputs.
 
-use std::time::Instant;
-
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 use serde::Serialize;
 use thiserror::Error;
 
+use super::controller::{Controller, ControllerDecision};
 use super::correction::{ForceOffsetFilter, ModelCorrection};
-use super::estimation::PayoutScaleEstimator;
 use super::limits::{force_rows, LimitCheck, Limits};
 use super::outcome::{PlanError, PlanStatus};
-use super::planner::{
-    folded_start, planner_for, worst_along_path, Decision, PlanContext, PlannedCommand,
-};
+use super::planner::worst_along_path;
 use super::policy::{Measurement, Policy};
 use super::problem::DeploymentProblem;
 use super::qp_step::QpStepStatus;
@@ -403,7 +399,7 @@ pub fn model_correction(
 /// Filters `correction`'s load-cell offsets through `filter`: the rows
 /// read this time (when `measures` has the load cells) carry their
 /// sensor's noise.
-fn filter_force_offsets(
+pub(super) fn filter_force_offsets(
     filter: &mut ForceOffsetFilter,
     correction: &mut ModelCorrection,
     model: &ForwardModel,
@@ -503,8 +499,6 @@ pub fn deploy_guided(
         .problem
         .motor_limits(s.continuous_cables.len())
         .map_err(PlanError::from)?;
-    let mut model_state = folded_start(model, setup.problem, policy.increment_m)?;
-    let mut context = PlanContext::new(model, setup.problem, policy, &model_state)?;
     let mut fresh_plant;
     let plant = match plant {
         Some(p) => p,
@@ -526,21 +520,14 @@ pub fn deploy_guided(
 
     let mut rng = StdRng::seed_from_u64(setup.seed);
     let first = plant.measure(setup.sensors, &mut rng);
-    let mut force_filter = ForceOffsetFilter::new(
-        s.members.len() + s.segment_count(),
-        policy.force_model_error_fraction,
-    );
-    context.correction =
-        model_correction(model, &model_state, setup.sensors, &first, &policy.measures);
-    filter_force_offsets(
-        &mut force_filter,
-        &mut context.correction,
+    let mut controller = Controller::guided(
         model,
-        &model_state,
+        setup.problem,
+        policy,
         setup.sensors,
         &first,
-        &policy.measures,
-    );
+        guidance,
+    )?;
     let gaps = |readings: &[Option<f64>]| -> Vec<Option<f64>> {
         measured_gap_vectors(truth_structure, setup.sensors, readings)
             .iter()
@@ -549,7 +536,7 @@ pub fn deploy_guided(
     };
     let start = DeployStart {
         start_payout_m: motors.start_payout_m.clone(),
-        model_gaps_m: model_state.midspan_gaps_m(s),
+        model_gaps_m: controller.state().midspan_gaps_m(s),
         measured_gaps_m: gaps(&first),
         true_gaps_m: plant.state().midspan_gaps_m(truth_structure),
         max_commands: policy.max_commands,
@@ -558,123 +545,15 @@ pub fn deploy_guided(
     let mut readings = vec![first];
     let start_true_state = plant.state().clone();
 
-    let mut estimator = (policy.payout_scale_prior_sd > 0.0
-        && policy.measures.contains(&Measurement::MidspanPositions))
-    .then(|| match &guidance.payout_scale_prior {
-        Some(prior) => PayoutScaleEstimator::with_prior(
-            model,
-            prior,
-            if guidance.payout_scale_prior_sd > 0.0 {
-                guidance.payout_scale_prior_sd
-            } else {
-                policy.payout_scale_prior_sd
-            },
-            policy.payout_scale_drift_sd,
-        ),
-        None => PayoutScaleEstimator::new(
-            model,
-            policy.payout_scale_prior_sd,
-            policy.payout_scale_drift_sd,
-        ),
-    });
-    let mut feedforward = guidance.feedforward_m.iter().peekable();
-    let mut feedforward_sent = 0;
-    let mut approach_commands = None;
-    let mut planner = planner_for(&context, &model_state);
     let mut records: Vec<DeployRecord> = Vec::new();
     let status = loop {
-        let clock = Instant::now();
-        // The next feedforward command as cable motion, tried on the
-        // model; `None` once the feedforward is sent or given up.
-        let fed = feedforward.peek().and_then(|sent| {
-            let scale = estimator.as_ref().map(|e| e.motor_scale());
-            let cable: Vec<f64> = sent
-                .iter()
-                .enumerate()
-                .map(|(m, u)| u * (1.0 + scale.as_ref().map_or(0.0, |s| s[m])))
-                .collect();
-            // The step limit binds the drum, the stroke the cable.
-            let m = &context.motors;
-            let admissible = sent.iter().zip(&cable).enumerate().all(|(c, (u, d))| {
-                let p = model_state.payout_m[c] + d;
-                u.abs() <= m.max_step_m[c] * (1.0 + 1e-9)
-                    && p >= m.min_payout_m[c] - 1e-9
-                    && p <= m.max_payout_m[c] + 1e-9
-            });
-            if !admissible {
-                return None;
-            }
-            let trial = context.trial(&model_state, &cable);
-            trial.admissible().then(|| (sent.to_vec(), cable, trial))
-        });
-        if fed.is_none() && feedforward.peek().is_some() {
-            // Beyond a limit on the model: the planner takes over.
-            feedforward.by_ref().for_each(drop);
-        }
-        let connected = context.connected(&model_state);
-        let fed = match fed {
-            Some((_, _, ref trial)) if connected => {
-                let now = context.gaps_m(&model_state).into_iter().fold(0.0, f64::max);
-                let next = context.gaps_m(&trial.state).into_iter().fold(0.0, f64::max);
-                (next < now).then_some(fed).flatten()
-            }
-            fed => fed,
+        let p = match controller.decide() {
+            ControllerDecision::Stop(status) => break status,
+            ControllerDecision::Send(p) => p,
         };
-        if connected && fed.is_none() {
-            break PlanStatus::Connected;
-        }
-        if records.len() >= policy.max_commands {
-            break PlanStatus::CommandLimit;
-        }
-        let (c, feedforward_m) = match fed {
-            Some((sent, cable, trial)) => {
-                feedforward.next();
-                feedforward_sent += 1;
-                let planned = PlannedCommand {
-                    command_m: cable,
-                    predicted_gaps_m: None,
-                    trial,
-                    active_constraints: Vec::new(),
-                    qp_status: None,
-                    trust_region_m: None,
-                    rejected_trials: 0,
-                    linearisations: 0,
-                };
-                (Box::new(planned), Some(sent))
-            }
-            None => {
-                feedforward.by_ref().for_each(drop);
-                match planner.next_command(&context, &model_state) {
-                    Decision::Stop(status) => break status,
-                    Decision::Command(c) => (c, None),
-                }
-            }
-        };
-        let planning_time_s = clock.elapsed().as_secs_f64();
         let index = records.len() + 1;
-        let predicted_gaps_m = context.gaps_m(&c.trial.state);
-        if guidance.feedforward_m.is_empty()
-            && approach_commands.is_none()
-            && context.connected(&c.trial.state)
-        {
-            approach_commands = Some(index);
-        }
         let mut watch = TruthWatch::new(&truth_model, &truth_limits);
-        // The planner plans cable motion; the drums are sent what should
-        // make it, as far as the estimate knows.
-        // The step limit binds the drum, which the planner's check (on
-        // cable motion) does not see.
-        let sent_m = match (feedforward_m, &estimator) {
-            (Some(sent), _) => sent,
-            (None, Some(e)) => e
-                .motor_command(&c.command_m)
-                .iter()
-                .zip(&motors.max_step_m)
-                .map(|(u, max)| u.clamp(-max, *max))
-                .collect(),
-            (None, None) => c.command_m.clone(),
-        };
-        let report = plant.apply(&sent_m, setup.temperature_c, &mut watch);
+        let report = plant.apply(&p.sent_m, setup.temperature_c, &mut watch);
         if let Err(e) = report {
             break PlanStatus::SolverFailure {
                 reason: format!("the truth plant failed on command {index}: {e}"),
@@ -688,52 +567,18 @@ pub fn deploy_guided(
             violations: Vec::new(),
         });
         let reading = plant.measure(setup.sensors, &mut rng);
-        let previous_state = std::mem::replace(&mut model_state, c.trial.state);
-        if let (Some(e), Some(before)) = (estimator.as_mut(), readings.last()) {
-            let update = e.update(
-                setup.sensors,
-                before,
-                &reading,
-                &previous_state,
-                &model_state,
-                &c.command_m,
-                &sent_m,
-            );
-            if update.motion_factor.iter().any(|f| *f != 1.0) {
-                let made: Vec<f64> = c
-                    .command_m
-                    .iter()
-                    .zip(&update.motion_factor)
-                    .map(|(u, f)| u * f)
-                    .collect();
-                // Where the command really took the bridge; if the model
-                // cannot follow, its own prediction stands.
-                let followed = context.trial(&previous_state, &made);
-                if followed.status.is_converged() {
-                    model_state = followed.state;
-                }
-            }
+        // The controller's own decision: its trial is the prediction, so
+        // this cannot fail to follow; a failure would be a bug, reported
+        // as the run's end rather than a panic.
+        if let Err(e) = controller.observe(&p.sent_m, &reading) {
+            break PlanStatus::SolverFailure {
+                reason: format!("command {index}: {e}"),
+            };
         }
-        context.correction = model_correction(
-            model,
-            &model_state,
-            setup.sensors,
-            &reading,
-            &policy.measures,
-        );
-        filter_force_offsets(
-            &mut force_filter,
-            &mut context.correction,
-            model,
-            &model_state,
-            setup.sensors,
-            &reading,
-            &policy.measures,
-        );
         let record = DeployRecord {
             index,
-            command_m: sent_m,
-            predicted_gaps_m,
+            command_m: p.sent_m,
+            predicted_gaps_m: p.predicted_gaps_m,
             measured_gaps_m: gaps(&reading),
             true_gaps_m: plant.state().midspan_gaps_m(truth_structure),
             truth_worst_utilisation: check.worst_utilisation,
@@ -741,12 +586,12 @@ pub fn deploy_guided(
             truth_violations: check.violations,
             truth_increments,
             truth_increments_checked: watch.checked,
-            model_worst_utilisation: c.trial.check.worst_utilisation,
-            qp_status: c.qp_status,
-            trust_region_m: c.trust_region_m,
-            rejected_trials: c.rejected_trials,
-            active_constraints: c.active_constraints,
-            planning_time_s,
+            model_worst_utilisation: p.model_worst_utilisation,
+            qp_status: p.qp_status,
+            trust_region_m: p.trust_region_m,
+            rejected_trials: p.rejected_trials,
+            active_constraints: p.active_constraints,
+            planning_time_s: p.planning_time_s,
         };
         observer.on_command(&record);
         records.push(record);
@@ -765,14 +610,9 @@ pub fn deploy_guided(
                 })
                 .map(|r| r.index)
         };
-    if !guidance.feedforward_m.is_empty() {
-        approach_commands = Some(feedforward_sent);
-    }
     Ok(Deployment {
-        approach_commands,
-        final_payout_scale: estimator
-            .as_ref()
-            .map_or_else(Vec::new, |e| e.part_scale().to_vec()),
+        approach_commands: controller.approach_commands(),
+        final_payout_scale: controller.part_payout_scale(),
         status,
         truth_limit_violations: records.iter().map(|r| r.truth_violations.len()).sum(),
         corrective_commands: first_below_corrective_gap.map(|k| records.len() - k),
@@ -782,7 +622,7 @@ pub fn deploy_guided(
         readings,
         start_true_state,
         final_true_state: plant.state().clone(),
-        final_model_state: model_state,
+        final_model_state: controller.into_state(),
     })
 }
 
@@ -791,6 +631,7 @@ mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
     use crate::model::{JointFriction, RelaxSettings};
+    use crate::plan::planner::{folded_start, PlanContext};
     use crate::plan::PerMotor;
     use crate::sim::{default_truth, standard_sensors};
 

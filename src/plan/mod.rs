@@ -14,6 +14,8 @@
 //!   bridge half, from the measured motion);
 //! - [`planner`]: the planners' shared trait, trials and the open-loop
 //!   driver; [`outcome`]: plans and their status;
+//! - [`controller`]: the controller alone (decide, observe), separable
+//!   from the plant;
 //! - [`closed_loop`]: a deployment of a truth plant, planned on the model
 //!   and corrected by measurements after every command.
 //!
@@ -22,6 +24,7 @@
 
 pub mod baselines;
 pub mod closed_loop;
+pub mod controller;
 pub mod correction;
 pub mod estimation;
 pub mod limits;
@@ -36,6 +39,9 @@ pub mod search;
 pub use closed_loop::{
     deploy_closed_loop, deploy_guided, model_correction, ClosedLoopSetup, DeployError,
     DeployObserver, DeployRecord, DeployStart, Deployment, Guidance, TruthWatch,
+};
+pub use controller::{
+    Controller, ControllerDecision, ControllerError, Observation, Proposal, OWN_COMMAND_TOLERANCE_M,
 };
 pub use correction::ModelCorrection;
 pub use estimation::PayoutScaleEstimator;

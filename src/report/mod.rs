@@ -6,3 +6,4 @@
 pub mod deployment_figure;
 pub mod drawing;
 pub mod figures;
+pub mod replay_figure;

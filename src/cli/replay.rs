@@ -1,0 +1,496 @@
+//! `tdeploy replay LOG [--policy P] [--model M] [--problem F] [--cycle C]
+//! [--fit EFFECTS] [--seed S] -o DIR [--force]`: closed-loop replay of a
+//! logged deployment (see [`tensegrity_deploy::studies::replay`]).
+//!
+//! 1. **Replay**: at every logged command after the logged start, the drum
+//!    command the policy would have sent given the logged measurements so
+//!    far, beside the command logged; then the controller takes the logged
+//!    command and readings in. A deploy log replayed with the policy and
+//!    model that made it gives its own commands back.
+//! 2. **Calibration**: the controller's model calibrated on the whole log:
+//!    by default the diagnosis (`tdeploy diagnose`, two rounds; the
+//!    effects it finds), with `--fit` the listed effects fitted in turn
+//!    (cheaper, cruder).
+//! 3. **Counterfactual**: the policy deploys the calibrated model (as the
+//!    truth, read by the log's sensors with noise from `--seed`) in closed
+//!    loop from the logged start.
+//!
+//! Writes in DIR, as a whole: `replay.csv` (step 0 the start, then one row
+//! per logged command: logged and policy commands per motor, their
+//! difference, measured gaps and the gaps the controller predicted for
+//! the logged and for its own command), `counterfactual.csv` (one row per
+//! command of the counterfactual run), `summary.json` (format
+//! `tensegrity-deploy/replay/1`), `replay.svg`, `timing.csv` (planning
+//! times, the only file that changes from run to run).
+//!
+//! Exit 0 when the counterfactual connected, 1 when it did not (or could
+//! not run), 2 on bad input (a log that cannot be read or replayed, named
+//! by file and field).
+
+use std::path::PathBuf;
+
+use anyhow::{anyhow, bail, Result};
+use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use serde::Serialize;
+
+use tensegrity_deploy::io::log::read_log;
+use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
+use tensegrity_deploy::io::output::ResultsFolder;
+use tensegrity_deploy::io::{write_atomically, write_json, CsvTable, FileError};
+use tensegrity_deploy::model::{EffectKind, Effects, JointFriction};
+use tensegrity_deploy::plan::{DeployError, Deployment, PlanStatus};
+use tensegrity_deploy::report::replay_figure::replay_svg;
+use tensegrity_deploy::sim::{EffectModel, ReplayError};
+use tensegrity_deploy::studies::replay::{
+    calibrate_on_log, counterfactual, default_cycle, deployment_start, replay_log, Calibration,
+    CalibrationError, CalibrationMethod, Margins, Replay, ReplayInputError, ReplayStart,
+};
+
+use super::plan::{planning_model, policy_or_default, problem_or_default};
+use super::{value, Outcome};
+
+/// The `format` of `summary.json`.
+const SUMMARY_FORMAT: &str = "tensegrity-deploy/replay/1";
+
+/// The `replay` subcommand's arguments.
+pub fn command() -> Command {
+    Command::new("replay")
+        .about("Replay a logged deployment in closed loop: what the policy would have commanded beside what was commanded, and a counterfactual run on a model calibrated on the log; exit code 1 if the counterfactual does not connect")
+        .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder (from tdeploy deploy's log/, tdeploy lab, or a bridge)"))
+        .arg(Arg::new("policy").long("policy").value_parser(value_parser!(PathBuf)).help("Policy file (default: policies/qp.toml's settings, built in)"))
+        .arg(Arg::new("model").long("model").value_parser(value_parser!(PathBuf)).help("Model file of the controller (and the base of the calibration). Default: the reference bridge without friction"))
+        .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file for the limits and the connection tolerance (its start payout is replaced by the logged start). Default: the documented default problem"))
+        .arg(Arg::new("cycle").long("cycle").value_parser(value_parser!(u64)).help("Cycle of the log to replay, by its label (default: the one with the largest fold)"))
+        .arg(Arg::new("fit").long("fit").value_delimiter(',').help("Calibrate by fitting these effects in turn (e.g. joint_friction,motor) instead of the full diagnosis"))
+        .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects the diagnosis looks for at most (1 to the number of effects)"))
+        .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the counterfactual's sensor noise"))
+        .arg(Arg::new("out").long("out").short('o').default_value("out/replay").value_parser(value_parser!(PathBuf)).help("Folder for replay.csv, counterfactual.csv, summary.json, replay.svg and timing.csv"))
+        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files tdeploy did not write"))
+}
+
+/// Options of `tdeploy replay`.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Log folder.
+    pub log: PathBuf,
+    /// Policy file; `None`: the built-in default.
+    pub policy: Option<PathBuf>,
+    /// Controller's model file; `None`: the frictionless reference bridge.
+    pub model: Option<PathBuf>,
+    /// Problem file; `None`: the default problem.
+    pub problem: Option<PathBuf>,
+    /// Cycle label; `None`: the largest fold.
+    pub cycle: Option<u64>,
+    /// How the counterfactual's model is calibrated.
+    pub calibration: CalibrationMethod,
+    /// Seed of the counterfactual's noise.
+    pub seed: u64,
+    /// Results folder.
+    pub out: PathBuf,
+    /// Replace a folder of other files.
+    pub force: bool,
+}
+
+impl Options {
+    /// The options of the parsed subcommand.
+    pub fn from_matches(m: &ArgMatches) -> Result<Options> {
+        let rounds: usize = value(m, "rounds")?;
+        if !(1..=EffectKind::ALL.len()).contains(&rounds) {
+            bail!(
+                "--rounds: must be 1 to {}, got {rounds}",
+                EffectKind::ALL.len()
+            );
+        }
+        let calibration = match m.get_many::<String>("fit") {
+            None => CalibrationMethod::Diagnose { max_rounds: rounds },
+            Some(names) => {
+                let mut kinds = Vec::new();
+                for name in names {
+                    let kind = EffectKind::ALL
+                        .into_iter()
+                        .find(|k| k.name() == name)
+                        .ok_or_else(|| {
+                            let known: Vec<_> = EffectKind::ALL.iter().map(|k| k.name()).collect();
+                            anyhow!(
+                                "--fit: unknown effect \"{name}\" (known: {})",
+                                known.join(", ")
+                            )
+                        })?;
+                    if !kinds.contains(&kind) {
+                        kinds.push(kind);
+                    }
+                }
+                CalibrationMethod::Fit(kinds)
+            }
+        };
+        Ok(Options {
+            log: value(m, "log")?,
+            policy: m.get_one::<PathBuf>("policy").cloned(),
+            model: m.get_one::<PathBuf>("model").cloned(),
+            problem: m.get_one::<PathBuf>("problem").cloned(),
+            cycle: m.get_one::<u64>("cycle").copied(),
+            calibration,
+            seed: value(m, "seed")?,
+            out: value(m, "out")?,
+            force: m.get_flag("force"),
+        })
+    }
+}
+
+/// A log that cannot be replayed, as a file error naming file and field.
+fn log_error(o: &Options, e: ReplayInputError) -> FileError {
+    FileError::Invalid {
+        path: o.log.join(e.file()),
+        entry: e.field().into(),
+        message: e.to_string(),
+    }
+}
+
+/// `x` in mm with one decimal, `-` when unknown.
+fn mm(x: Option<f64>) -> String {
+    x.map_or("-".into(), |x| format!("{:.1}", 1e3 * x))
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(|v| v.to_string()).unwrap_or_default()
+}
+
+fn largest(gaps: &[Option<f64>]) -> Option<f64> {
+    gaps.iter().flatten().copied().reduce(f64::max)
+}
+
+/// `replay.csv`: step 0 the start, then one row per logged command.
+fn replay_table(r: &Replay, motors: &[String], pairs: usize) -> CsvTable {
+    let mut header = vec![
+        "step".to_string(),
+        "same_as_policy".into(),
+        "policy_stop".into(),
+        "largest_difference_m".into(),
+    ];
+    for kind in ["logged", "policy", "difference"] {
+        header.extend(motors.iter().map(|m| format!("{kind}_{m}_m")));
+    }
+    for kind in ["measured", "predicted_logged", "predicted_policy"] {
+        header.extend((0..pairs).map(|p| format!("{kind}_gap_{p}_m")));
+    }
+    let mut table = CsvTable::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
+    let mut row = vec![r.start.start_step.to_string()];
+    row.resize(4 + 3 * motors.len(), String::new());
+    row.extend(r.start_measured_gaps_m.iter().map(|g| opt(*g)));
+    row.resize(header.len(), String::new());
+    table.row(row);
+    for s in &r.steps {
+        let mut row = vec![
+            s.step.to_string(),
+            s.same_as_policy.to_string(),
+            s.policy_stop
+                .as_ref()
+                .map(|p| p.describe())
+                .unwrap_or_default(),
+            opt(s.largest_difference_m),
+        ];
+        row.extend(s.logged_command_m.iter().map(|c| c.to_string()));
+        match &s.policy_command_m {
+            Some(p) => {
+                row.extend(p.iter().map(|c| c.to_string()));
+                row.extend(
+                    p.iter()
+                        .zip(&s.logged_command_m)
+                        .map(|(a, b)| (a - b).to_string()),
+                );
+            }
+            None => row.extend(std::iter::repeat(String::new()).take(2 * motors.len())),
+        }
+        row.extend(s.measured_gaps_m.iter().map(|g| opt(*g)));
+        row.extend(s.logged_predicted_gaps_m.iter().map(|g| g.to_string()));
+        match &s.policy_predicted_gaps_m {
+            Some(g) => row.extend(g.iter().map(|g| g.to_string())),
+            None => row.extend(std::iter::repeat(String::new()).take(pairs)),
+        }
+        table.row(row);
+    }
+    table
+}
+
+/// `counterfactual.csv`: step 0 the start, then one row per command.
+fn counterfactual_table(d: Option<&Deployment>, motors: &[String], pairs: usize) -> CsvTable {
+    let mut header = vec!["step".to_string()];
+    header.extend(motors.iter().map(|m| format!("command_{m}_m")));
+    for kind in ["measured", "true"] {
+        header.extend((0..pairs).map(|p| format!("{kind}_gap_{p}_m")));
+    }
+    header.extend(
+        [
+            "truth_worst_utilisation",
+            "truth_min_tension_n",
+            "truth_violations",
+        ]
+        .map(String::from),
+    );
+    let mut table = CsvTable::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
+    let Some(d) = d else { return table };
+    let mut row = vec!["0".to_string()];
+    row.resize(1 + motors.len(), String::new());
+    row.extend(d.start.measured_gaps_m.iter().map(|g| opt(*g)));
+    row.extend(d.start.true_gaps_m.iter().map(|g| g.to_string()));
+    row.resize(header.len(), String::new());
+    table.row(row);
+    for r in &d.records {
+        let mut row = vec![r.index.to_string()];
+        row.extend(r.command_m.iter().map(|c| c.to_string()));
+        row.extend(r.measured_gaps_m.iter().map(|g| opt(*g)));
+        row.extend(r.true_gaps_m.iter().map(|g| g.to_string()));
+        row.push(r.truth_worst_utilisation.to_string());
+        row.push(r.truth_min_tension_n.to_string());
+        row.push(r.truth_violations.len().to_string());
+        table.row(row);
+    }
+    table
+}
+
+/// `summary.json` (no timings: the same inputs give the same bytes).
+#[derive(Serialize)]
+struct Summary<'a> {
+    format: &'static str,
+    verdict: String,
+    log: String,
+    policy: &'a str,
+    planner: &'static str,
+    model: String,
+    start: &'a ReplayStart,
+    logged_commands: usize,
+    replayed_commands: usize,
+    same_as_policy: usize,
+    policy_would_have_stopped: usize,
+    largest_difference_m: Option<f64>,
+    replay_stopped: &'a Option<String>,
+    policy_next_command_m: &'a Option<Vec<f64>>,
+    policy_next_stop: &'a Option<PlanStatus>,
+    calibration: Option<&'a Calibration>,
+    calibration_failed: Option<String>,
+    seed: u64,
+    counterfactual: Option<Margins>,
+    counterfactual_failed: Option<String>,
+}
+
+/// Runs `tdeploy replay`.
+pub fn run(o: &Options) -> Result<Outcome> {
+    let folder = ResultsFolder::claim(&o.out, "replay", o.force)?;
+    let (model_file, model_words) = match &o.model {
+        Some(p) => (read_model(p)?, p.display().to_string()),
+        None => (
+            ModelFile {
+                structure: StructureSource::Reference,
+                effects: Effects::default(),
+            },
+            "the reference bridge without friction".to_string(),
+        ),
+    };
+    let base = model_file.measurement_model()?;
+    let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
+    let policy = policy_or_default(o.policy.as_deref())?;
+    let problem = problem_or_default(o.problem.as_deref())?;
+    let log = read_log(&o.log, &base.structure)?;
+    let cycle = match o.cycle.or_else(|| default_cycle(&log)) {
+        Some(c) => c,
+        None => {
+            // No cycle can start a deployment: say why for the first.
+            let first = log.cycles.first().map_or(0, |c| c.label);
+            return Err(deployment_start(&log, first)
+                .err()
+                .map(|e| log_error(o, e))
+                .unwrap_or_else(|| FileError::Invalid {
+                    path: o.log.join("commands.csv"),
+                    entry: "cycle".into(),
+                    message: "no cycle can be replayed as a deployment".into(),
+                })
+                .into());
+        }
+    };
+    let start = deployment_start(&log, cycle).map_err(|e| log_error(o, e))?;
+    let replay =
+        replay_log(&model, &problem, &policy, &log, &start).map_err(|e| log_error(o, e))?;
+    say!(
+        "replay: {} log {}, cycle {} from step {} (fold {} mm), policy {} ({}), controller's model {model_words}",
+        start.layout.as_str(),
+        o.log.display(),
+        start.cycle,
+        start.start_step,
+        mm(Some(
+            start.start_payout_m.iter().sum::<f64>() / start.start_payout_m.len().max(1) as f64
+        )),
+        policy.name,
+        policy.planner.as_str(),
+    );
+    for s in &replay.steps {
+        say!(
+            "{:>4}: logged {} mm | policy {} | largest gap measured {} mm, predicted for the logged command {} mm",
+            s.step,
+            mm_list(&s.logged_command_m),
+            match (&s.policy_command_m, &s.policy_stop) {
+                (Some(p), _) if s.same_as_policy => format!("{} mm (the same)", mm_list(p)),
+                (Some(p), _) => format!("{} mm (differs by up to {} mm)", mm_list(p), mm(s.largest_difference_m)),
+                (None, Some(stop)) => format!("would stop: {}", stop.describe()),
+                (None, None) => "-".into(),
+            },
+            mm(largest(&s.measured_gaps_m)),
+            mm(s.logged_predicted_gaps_m.iter().copied().reduce(f64::max)),
+        );
+    }
+    if let Some(why) = &replay.stopped {
+        say!("the replay stopped early: {why}");
+    }
+
+    let context = format!("calibrating on {}", o.log.display());
+    let calibration = match calibrate_on_log(&base, &log, &o.calibration) {
+        Ok(c) => Ok(c),
+        Err(CalibrationError::Replay(
+            e @ (ReplayError::Solver { .. } | ReplayError::SeatsUnsettled { .. }),
+        )) => Err(format!("{context}: {e}")),
+        Err(e) => return Err(anyhow::Error::new(e).context(context)),
+    };
+    let cf = match &calibration {
+        Ok(c) => {
+            let truth = EffectModel::for_measurement(base.structure.clone(), c.effects);
+            match counterfactual(&model, &problem, &policy, &truth, &log, &start, o.seed) {
+                Ok(d) => Ok(d),
+                Err(DeployError::TruthStart(e)) => Err(format!(
+                    "the calibrated model could not reach the logged start: {e}"
+                )),
+                Err(e) => return Err(e.into()),
+            }
+        }
+        Err(why) => Err(format!("no calibrated model ({why})")),
+    };
+    let margins = cf.as_ref().ok().map(Margins::of);
+    let verdict = verdict(&replay, margins.as_ref(), cf.as_ref().err());
+
+    let s = model.structure();
+    let motors: Vec<String> = s.continuous_cables.iter().map(|c| c.id.clone()).collect();
+    let pairs = s.midspan_pairs.len();
+    let out = folder.path();
+    replay_table(&replay, &motors, pairs).write(&out.join("replay.csv"))?;
+    counterfactual_table(cf.as_ref().ok(), &motors, pairs)
+        .write(&out.join("counterfactual.csv"))?;
+    let mut timing = CsvTable::new(&["step", "planning_time_s"]);
+    for st in &replay.steps {
+        timing.row([st.step.to_string(), st.planning_time_s.to_string()]);
+    }
+    timing.write(&out.join("timing.csv"))?;
+    let svg = replay_svg(&replay, cf.as_ref().ok(), problem.connection_tolerance_m)?;
+    write_atomically(&out.join("replay.svg"), svg.as_bytes())?;
+    let summary = Summary {
+        format: SUMMARY_FORMAT,
+        verdict: verdict.clone(),
+        log: o.log.display().to_string(),
+        policy: &policy.name,
+        planner: policy.planner.as_str(),
+        model: model_words,
+        start: &start,
+        logged_commands: log.cycles[start.cycle_index].commands.len() - start.start_reading,
+        replayed_commands: replay.steps.len(),
+        same_as_policy: replay.same_commands(),
+        policy_would_have_stopped: replay
+            .steps
+            .iter()
+            .filter(|s| s.policy_stop.is_some())
+            .count(),
+        largest_difference_m: replay.largest_difference_m(),
+        replay_stopped: &replay.stopped,
+        policy_next_command_m: &replay.next_command_m,
+        policy_next_stop: &replay.next_stop,
+        calibration: calibration.as_ref().ok(),
+        calibration_failed: calibration.as_ref().err().cloned(),
+        seed: o.seed,
+        counterfactual: margins.clone(),
+        counterfactual_failed: cf.as_ref().err().cloned(),
+    };
+    write_json(&out.join("summary.json"), &summary)?;
+    folder.commit()?;
+
+    if let Ok(c) = &calibration {
+        for f in &c.fitted {
+            say!(
+                "calibrated: {} {} ({}) = {:?}",
+                f.effect,
+                if f.kept { "kept" } else { "not kept" },
+                f.parameters.join(", "),
+                f.values
+            );
+        }
+        say!(
+            "held-out RMS residual on the log: {:.2} σ before calibration, {:.2} σ after",
+            c.held_out_rms_before,
+            c.held_out_rms_after
+        );
+    }
+    say!("{verdict}");
+    say!(
+        "results in {} (replay.csv, counterfactual.csv, summary.json, replay.svg, timing.csv)",
+        o.out.display()
+    );
+    Ok(match margins {
+        Some(m) if m.connected => Outcome::GoalReached,
+        _ => Outcome::GoalMissed(verdict),
+    })
+}
+
+/// Millimetres per motor, runs of equal values folded: `-50.0×10`.
+fn mm_list(command_m: &[f64]) -> String {
+    let mut runs: Vec<(String, usize)> = Vec::new();
+    for c in command_m {
+        let text = format!("{:.1}", 1e3 * c);
+        match runs.last_mut() {
+            Some((t, n)) if *t == text => *n += 1,
+            _ => runs.push((text, 1)),
+        }
+    }
+    runs.iter()
+        .map(|(t, n)| {
+            if *n > 1 {
+                format!("{t}×{n}")
+            } else {
+                t.clone()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The verdict in plain words.
+fn verdict(r: &Replay, m: Option<&Margins>, failed: Option<&String>) -> String {
+    let n = r.steps.len();
+    let replayed = format!(
+        "replay: the policy would have sent the logged command at {} of {n} steps (largest difference {} mm){}",
+        r.same_commands(),
+        mm(r.largest_difference_m()),
+        match r.steps.iter().filter(|s| s.policy_stop.is_some()).count() {
+            0 => String::new(),
+            k => format!(", and would have stopped before {k} of them"),
+        }
+    );
+    let counterfactual = match (m, failed) {
+        (Some(m), _) => {
+            let margins = format!(
+                "final largest gap measured {} mm, true {} mm; worst utilisation {:.2}; min tension {} N; {} limit violations",
+                mm(m.final_measured_gap_m),
+                mm(m.final_true_gap_m),
+                m.worst_utilisation,
+                m.min_tension_n.map_or("-".into(), |t| format!("{t:.0}")),
+                m.violations
+            );
+            if m.connected {
+                format!("counterfactual on the calibrated model: connected after {} commands ({margins})", m.commands)
+            } else {
+                format!(
+                    "counterfactual on the calibrated model: not connected: {} after {} commands ({margins})",
+                    m.status.describe(),
+                    m.commands
+                )
+            }
+        }
+        (None, Some(why)) => format!("counterfactual not run: {why}"),
+        (None, None) => "counterfactual not run".into(),
+    };
+    format!("{replayed}; {counterfactual}")
+}

@@ -1,0 +1,521 @@
+//! The controller of a closed-loop deployment, separable from the plant:
+//! what it knows (its model state, the payout-scale estimate, the
+//! correction from the last measurement, the filtered load-cell offsets,
+//! the planner's own state) and the two things it does:
+//!
+//! - [`Controller::decide`]: the command it would plan on its model and
+//!   the drum command it would send for it;
+//! - [`Controller::observe`]: advance with what was really sent and
+//!   measured.
+//!
+//! [`super::closed_loop::deploy_closed_loop`] drives it against a truth
+//! plant; a replay ([`crate::studies::replay`]) drives it with a logged
+//! deployment, so the same code decides in both.
+//!
+//! A sent command that is not the controller's own decision (a logged
+//! command that differs, or one sent while it would have stopped) is
+//! applied to its model as the cable motion `sent × (1 + ŝ)` that the
+//! payout-scale estimate says it made, re-solved from the model state, as
+//! the closed loop already treats a command cut by the step limit.
+//!
+//! Everything is a function of the inputs and of the order of the calls:
+//! the same model, problem, policy, sensors and readings give the same
+//! decisions (planning times aside).
+
+use std::time::Instant;
+
+use thiserror::Error;
+
+use std::collections::VecDeque;
+
+use super::closed_loop::{filter_force_offsets, model_correction, Guidance};
+use super::correction::ForceOffsetFilter;
+use super::estimation::PayoutScaleEstimator;
+use super::outcome::{PlanError, PlanStatus};
+use super::planner::{folded_start, planner_for, CommandPlanner, Decision, PlanContext};
+use super::planner::{PlannedCommand, Trial};
+use super::policy::{Measurement, Policy};
+use super::problem::DeploymentProblem;
+use super::qp_step::QpStepStatus;
+use crate::model::{DeploymentState, ForwardModel};
+use crate::sim::Sensor;
+
+/// Largest difference per motor between a sent command and the
+/// controller's decision for which the sent command counts as its own, m:
+/// a nanometre, far below any drum's resolution and far above the
+/// rounding of a command written to a log and read back (none: logs
+/// write the shortest text that reads back to the same number).
+pub const OWN_COMMAND_TOLERANCE_M: f64 = 1e-9;
+
+/// A command the controller would send, with what it expects of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Proposal {
+    /// The cable motion planned and checked on the model, per motor, m.
+    pub planned_m: Vec<f64>,
+    /// The drum command for it, per motor, m: the planned motion divided
+    /// by `1 + ŝ` (the payout-scale estimate) and cut to the step limit.
+    pub sent_m: Vec<f64>,
+    /// Gap per midspan pair predicted for the command: the model's trial
+    /// plus the correction in force, m.
+    pub predicted_gaps_m: Vec<f64>,
+    /// Worst member utilisation along the command on the model (with the
+    /// force correction).
+    pub model_worst_utilisation: f64,
+    /// Status of the step's QP (QP planner).
+    pub qp_status: Option<QpStepStatus>,
+    /// Trust region the command was planned in, m (QP planner).
+    pub trust_region_m: Option<f64>,
+    /// Trials rejected before the command was accepted.
+    pub rejected_trials: usize,
+    /// Constraints active in the decision.
+    pub active_constraints: Vec<String>,
+    /// Wall-clock planning time, s (the one value that is not a function
+    /// of the inputs).
+    pub planning_time_s: f64,
+}
+
+/// What the controller does next.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ControllerDecision {
+    /// Send this command.
+    Send(Proposal),
+    /// Send nothing more: connected (as the controller predicts, with
+    /// the measured offsets), the command budget spent, or the planner's
+    /// stop.
+    Stop(PlanStatus),
+}
+
+/// What one observation did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observation {
+    /// Whether the sent command was the controller's own decision
+    /// (within [`OWN_COMMAND_TOLERANCE_M`]).
+    pub own_decision: bool,
+    /// The cable motion the model applied for it, per motor, m.
+    pub applied_m: Vec<f64>,
+    /// Gap per pair the controller predicted for the sent command, with
+    /// the correction in force before the new readings, m.
+    pub predicted_gaps_m: Vec<f64>,
+}
+
+/// Why the controller could not follow a command.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ControllerError {
+    /// A command that is not its own decision took its model somewhere it
+    /// cannot solve (or reeled a segment through).
+    #[error("the controller's model cannot follow the command {command_m:?} m: {reason}")]
+    CannotFollow {
+        /// The cable motion tried, per motor, m.
+        command_m: Vec<f64>,
+        /// What failed, in words.
+        reason: String,
+    },
+    /// A command or readings of the wrong length.
+    #[error("{what}: {found} values, the controller expects {expected}")]
+    WrongLength {
+        /// Which input.
+        what: &'static str,
+        /// Values given.
+        found: usize,
+        /// Values expected.
+        expected: usize,
+    },
+}
+
+/// The controller's own decision, kept until the next observation.
+struct Pending {
+    command: Box<PlannedCommand>,
+    proposal: Proposal,
+}
+
+/// The controller of a closed-loop deployment (see the module notes).
+pub struct Controller<'a> {
+    context: PlanContext<'a>,
+    sensors: &'a [Sensor],
+    planner: Box<dyn CommandPlanner>,
+    estimator: Option<PayoutScaleEstimator>,
+    force_filter: ForceOffsetFilter,
+    state: DeploymentState,
+    last_readings: Vec<Option<f64>>,
+    commands_observed: usize,
+    pending: Option<Pending>,
+    /// Feedforward drum commands not yet sent (see [`Guidance`]).
+    feedforward: VecDeque<Vec<f64>>,
+    /// Whether the guidance had a feedforward at all.
+    guided_approach: bool,
+    /// Feedforward commands decided so far.
+    feedforward_sent: usize,
+    /// Without a feedforward, the number of the first command predicted
+    /// to connect.
+    first_connecting: Option<usize>,
+}
+
+impl<'a> Controller<'a> {
+    /// A controller planning on `model` from the problem's folded start,
+    /// with `start_readings` of `sensors` (one per sensor) measured there.
+    ///
+    /// Errors when the problem, the policy or the model is unusable, or
+    /// the model cannot reach the folded start.
+    pub fn new(
+        model: &'a ForwardModel,
+        problem: &'a DeploymentProblem,
+        policy: &'a Policy,
+        sensors: &'a [Sensor],
+        start_readings: &[Option<f64>],
+    ) -> Result<Self, PlanError> {
+        Self::guided(
+            model,
+            problem,
+            policy,
+            sensors,
+            start_readings,
+            &Guidance::default(),
+        )
+    }
+
+    /// [`Self::new`] with `guidance` from past cycles: a feedforward of
+    /// drum commands to send first and a prior of the payout scale.
+    pub fn guided(
+        model: &'a ForwardModel,
+        problem: &'a DeploymentProblem,
+        policy: &'a Policy,
+        sensors: &'a [Sensor],
+        start_readings: &[Option<f64>],
+        guidance: &Guidance,
+    ) -> Result<Self, PlanError> {
+        let s = model.structure();
+        let state = folded_start(model, problem, policy.increment_m)?;
+        let mut context = PlanContext::new(model, problem, policy, &state)?;
+        let mut force_filter = ForceOffsetFilter::new(
+            s.members.len() + s.segment_count(),
+            policy.force_model_error_fraction,
+        );
+        context.correction =
+            model_correction(model, &state, sensors, start_readings, &policy.measures);
+        filter_force_offsets(
+            &mut force_filter,
+            &mut context.correction,
+            model,
+            &state,
+            sensors,
+            start_readings,
+            &policy.measures,
+        );
+        // The payout scale is learnt from measured midspan motion; without
+        // it there is nothing to learn from.
+        let estimator = (policy.payout_scale_prior_sd > 0.0
+            && policy.measures.contains(&Measurement::MidspanPositions))
+        .then(|| match &guidance.payout_scale_prior {
+            Some(prior) => PayoutScaleEstimator::with_prior(
+                model,
+                prior,
+                if guidance.payout_scale_prior_sd > 0.0 {
+                    guidance.payout_scale_prior_sd
+                } else {
+                    policy.payout_scale_prior_sd
+                },
+                policy.payout_scale_drift_sd,
+            ),
+            None => PayoutScaleEstimator::new(
+                model,
+                policy.payout_scale_prior_sd,
+                policy.payout_scale_drift_sd,
+            ),
+        });
+        let planner = planner_for(&context, &state);
+        Ok(Controller {
+            context,
+            sensors,
+            planner,
+            estimator,
+            force_filter,
+            state,
+            last_readings: start_readings.to_vec(),
+            commands_observed: 0,
+            pending: None,
+            feedforward: guidance.feedforward_m.iter().cloned().collect(),
+            guided_approach: !guidance.feedforward_m.is_empty(),
+            feedforward_sent: 0,
+            first_connecting: None,
+        })
+    }
+
+    /// The model state the controller believes the bridge is in.
+    pub fn state(&self) -> &DeploymentState {
+        &self.state
+    }
+
+    /// The context it plans in (model, problem, policy, limits, the
+    /// correction from the last measurement).
+    pub fn context(&self) -> &PlanContext<'a> {
+        &self.context
+    }
+
+    /// Commands observed so far.
+    pub fn commands_observed(&self) -> usize {
+        self.commands_observed
+    }
+
+    /// The payout-scale estimate `ŝ` per motor, 1 (zeros without an
+    /// estimator).
+    pub fn payout_scale(&self) -> Vec<f64> {
+        match &self.estimator {
+            Some(e) => e.motor_scale(),
+            None => vec![0.0; self.state.payout_m.len()],
+        }
+    }
+
+    /// The payout scale of each independent part as estimated now (index
+    /// = part id; empty without an estimator), 1.
+    pub fn part_payout_scale(&self) -> Vec<f64> {
+        self.estimator
+            .as_ref()
+            .map_or_else(Vec::new, |e| e.part_scale().to_vec())
+    }
+
+    /// Commands of the first approach: with a feedforward, the
+    /// feedforward commands decided; otherwise the number of the first
+    /// command the controller predicted would connect (`None`: none yet).
+    pub fn approach_commands(&self) -> Option<usize> {
+        if self.guided_approach {
+            Some(self.feedforward_sent)
+        } else {
+            self.first_connecting
+        }
+    }
+
+    /// The controller's model state, consumed.
+    pub fn into_state(self) -> DeploymentState {
+        self.state
+    }
+
+    /// The command the controller would send now, or why it would send
+    /// none. Planning advances the planner's own state (its trust
+    /// region), so a decision is planned once: asking again before the
+    /// next [`Self::observe`] returns the same decision.
+    pub fn decide(&mut self) -> ControllerDecision {
+        if let Some(p) = &self.pending {
+            return ControllerDecision::Send(p.proposal.clone());
+        }
+        let clock = Instant::now();
+        // The next feedforward command as cable motion, tried on the
+        // model; `None` once the feedforward is sent or given up.
+        let fed = self.next_feedforward();
+        if fed.is_none() {
+            // Beyond a limit on the model (or all sent): the planner
+            // takes over.
+            self.feedforward.clear();
+        }
+        let connected = self.context.connected(&self.state);
+        let fed = match fed {
+            // Connected already: the feedforward goes on only while it is
+            // predicted to reduce the largest gap.
+            Some((_, _, ref trial)) if connected => {
+                let largest = |g: Vec<f64>| g.into_iter().fold(0.0, f64::max);
+                let now = largest(self.context.gaps_m(&self.state));
+                let next = largest(self.context.gaps_m(&trial.state));
+                (next < now).then_some(fed).flatten()
+            }
+            fed => fed,
+        };
+        if connected && fed.is_none() {
+            return ControllerDecision::Stop(PlanStatus::Connected);
+        }
+        if self.commands_observed >= self.context.policy.max_commands {
+            return ControllerDecision::Stop(PlanStatus::CommandLimit);
+        }
+        let (c, feedforward_m) = match fed {
+            Some((sent, cable, trial)) => {
+                self.feedforward.pop_front();
+                self.feedforward_sent += 1;
+                let planned = PlannedCommand {
+                    command_m: cable,
+                    predicted_gaps_m: None,
+                    trial,
+                    active_constraints: Vec::new(),
+                    qp_status: None,
+                    trust_region_m: None,
+                    rejected_trials: 0,
+                    linearisations: 0,
+                };
+                (Box::new(planned), Some(sent))
+            }
+            None => {
+                self.feedforward.clear();
+                match self.planner.next_command(&self.context, &self.state) {
+                    Decision::Stop(status) => return ControllerDecision::Stop(status),
+                    Decision::Command(c) => (c, None),
+                }
+            }
+        };
+        let planning_time_s = clock.elapsed().as_secs_f64();
+        if !self.guided_approach
+            && self.first_connecting.is_none()
+            && self.context.connected(&c.trial.state)
+        {
+            self.first_connecting = Some(self.commands_observed + 1);
+        }
+        // The planner plans cable motion; the drums are sent what should
+        // make it, as far as the estimate knows. The step limit binds the
+        // drum, which the planner's check (on cable motion) does not see.
+        // A feedforward command is sent as it was learnt.
+        let sent_m = match (feedforward_m, &self.estimator) {
+            (Some(sent), _) => sent,
+            (None, Some(e)) => e
+                .motor_command(&c.command_m)
+                .iter()
+                .zip(&self.context.motors.max_step_m)
+                .map(|(u, max)| u.clamp(-max, *max))
+                .collect(),
+            (None, None) => c.command_m.clone(),
+        };
+        let proposal = Proposal {
+            planned_m: c.command_m.clone(),
+            sent_m,
+            predicted_gaps_m: self.context.gaps_m(&c.trial.state),
+            model_worst_utilisation: c.trial.check.worst_utilisation,
+            qp_status: c.qp_status,
+            trust_region_m: c.trust_region_m,
+            rejected_trials: c.rejected_trials,
+            active_constraints: c.active_constraints.clone(),
+            planning_time_s,
+        };
+        self.pending = Some(Pending {
+            command: c,
+            proposal: proposal.clone(),
+        });
+        ControllerDecision::Send(proposal)
+    }
+
+    /// The next feedforward command (drum, cable motion `sent·(1 + ŝ)`,
+    /// its trial on the model) if the model takes it within every limit.
+    fn next_feedforward(&self) -> Option<(Vec<f64>, Vec<f64>, Trial)> {
+        let sent = self.feedforward.front()?;
+        let scale = self.payout_scale();
+        let cable: Vec<f64> = sent
+            .iter()
+            .zip(&scale)
+            .map(|(u, s)| u * (1.0 + s))
+            .collect();
+        // The step limit binds the drum, the stroke the cable.
+        let m = &self.context.motors;
+        let admissible = sent.iter().zip(&cable).enumerate().all(|(c, (u, d))| {
+            let p = self.state.payout_m[c] + d;
+            u.abs() <= m.max_step_m[c] * (1.0 + 1e-9)
+                && p >= m.min_payout_m[c] - 1e-9
+                && p <= m.max_payout_m[c] + 1e-9
+        });
+        if !admissible {
+            return None;
+        }
+        let trial = self.context.trial(&self.state, &cable);
+        trial.admissible().then(|| (sent.clone(), cable, trial))
+    }
+
+    /// Advances with the drum command `sent_m` that was really sent and
+    /// the `readings` (one per sensor) measured after it: the model state
+    /// moves to where the command took the bridge, the payout-scale
+    /// estimate and the correction are updated.
+    ///
+    /// A command within [`OWN_COMMAND_TOLERANCE_M`] of the last decision
+    /// is that decision (its confirmed trial is the prediction). Any other
+    /// is applied to the model as the cable motion `sent × (1 + ŝ)`; an
+    /// error if the model cannot follow it (the controller is then as it
+    /// was before the call, its decision forgotten).
+    pub fn observe(
+        &mut self,
+        sent_m: &[f64],
+        readings: &[Option<f64>],
+    ) -> Result<Observation, ControllerError> {
+        let motors = self.state.payout_m.len();
+        if sent_m.len() != motors {
+            return Err(ControllerError::WrongLength {
+                what: "the sent command",
+                found: sent_m.len(),
+                expected: motors,
+            });
+        }
+        if readings.len() != self.sensors.len() {
+            return Err(ControllerError::WrongLength {
+                what: "the readings",
+                found: readings.len(),
+                expected: self.sensors.len(),
+            });
+        }
+        let pending = self.pending.take();
+        let own = pending.filter(|p| {
+            p.proposal
+                .sent_m
+                .iter()
+                .zip(sent_m)
+                .all(|(a, b)| (a - b).abs() <= OWN_COMMAND_TOLERANCE_M)
+        });
+        let own_decision = own.is_some();
+        let (planned_m, predicted) = match own {
+            Some(p) => {
+                let c = *p.command;
+                (c.command_m, c.trial.state)
+            }
+            None => {
+                let planned: Vec<f64> = sent_m
+                    .iter()
+                    .zip(self.payout_scale())
+                    .map(|(u, s)| u * (1.0 + s))
+                    .collect();
+                let trial: Trial = self.context.trial(&self.state, &planned);
+                if !trial.status.is_converged() {
+                    return Err(ControllerError::CannotFollow {
+                        command_m: planned,
+                        reason: trial.failure(),
+                    });
+                }
+                (planned, trial.state)
+            }
+        };
+        let predicted_gaps_m = self.context.gaps_m(&predicted);
+        let previous_state = std::mem::replace(&mut self.state, predicted);
+        if let Some(e) = self.estimator.as_mut() {
+            let update = e.update(
+                self.sensors,
+                &self.last_readings,
+                readings,
+                &previous_state,
+                &self.state,
+                &planned_m,
+                sent_m,
+            );
+            if update.motion_factor.iter().any(|f| *f != 1.0) {
+                let made: Vec<f64> = planned_m
+                    .iter()
+                    .zip(&update.motion_factor)
+                    .map(|(u, f)| u * f)
+                    .collect();
+                // Where the command really took the bridge; if the model
+                // cannot follow, its own prediction stands.
+                let followed = self.context.trial(&previous_state, &made);
+                if followed.status.is_converged() {
+                    self.state = followed.state;
+                }
+            }
+        }
+        let (model, policy) = (self.context.model, self.context.policy);
+        self.context.correction =
+            model_correction(model, &self.state, self.sensors, readings, &policy.measures);
+        filter_force_offsets(
+            &mut self.force_filter,
+            &mut self.context.correction,
+            model,
+            &self.state,
+            self.sensors,
+            readings,
+            &policy.measures,
+        );
+        self.last_readings = readings.to_vec();
+        self.commands_observed += 1;
+        Ok(Observation {
+            own_decision,
+            applied_m: planned_m,
+            predicted_gaps_m,
+        })
+    }
+}

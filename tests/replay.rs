@@ -1,0 +1,316 @@
+//! `tdeploy replay`: a log made by `deploy` replayed with the same policy
+//! and model gives its commands back; another policy gives others; a lab
+//! log replays and produces the report; a log that cannot be read or
+//! replayed exits 2 naming file and field; the counterfactual on the
+//! deploy log's calibrated model connects.
+//!
+//! Short folds (10 and 15 cm) keep each run to a second or two.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn tdeploy(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+fn repo(path: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join(path)
+        .display()
+        .to_string()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).to_string()
+}
+
+/// A folder with a 15 cm fold problem and `deploy`'s results in `d/`.
+fn deployed() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("problem.toml"),
+        "format = \"tensegrity-deploy/problem/1\"\nstart_payout_m = 0.15\n",
+    )
+    .unwrap();
+    let o = tdeploy(
+        &["deploy", "--problem", "problem.toml", "-o", "d"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    dir
+}
+
+/// Rows of a CSV file by column name.
+fn csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    (header, rows)
+}
+
+fn column(header: &[String], name: &str) -> usize {
+    header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name}"))
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The commands `deploy` sent, per step and motor, from its own
+/// `commands.csv` (step 0 the fold, then the commands).
+fn deployed_commands(dir: &Path, motors: &[String]) -> Vec<Vec<f64>> {
+    let (h, rows) = csv(&dir.join("d/commands.csv"));
+    let step = column(&h, "step");
+    let cable = column(&h, "cable");
+    let value = h.len() - 1;
+    let steps = rows
+        .iter()
+        .map(|r| r[step].parse::<usize>().unwrap())
+        .max()
+        .unwrap();
+    let mut out = vec![vec![0.0; motors.len()]; steps];
+    for r in &rows {
+        let s: usize = r[step].parse().unwrap();
+        if s > 0 {
+            let m = motors.iter().position(|m| *m == r[cable]).unwrap();
+            out[s - 1][m] = r[value].parse().unwrap();
+        }
+    }
+    out
+}
+
+/// The controller is deterministic given the same readings, and the log
+/// keeps every number exactly (shortest round-trip text), so the policy's
+/// commands are the deployed ones to rounding alone: 1e-9 m is a
+/// millionth of the smallest command and far above any rounding of
+/// numbers of 0.05 m (1e-17 m).
+#[test]
+fn a_deploy_log_replayed_with_its_policy_gives_its_commands_back_and_the_counterfactual_connects() {
+    let dir = deployed();
+    let o = tdeploy(
+        &[
+            "replay",
+            "d/log",
+            "--fit",
+            "joint_friction,motor",
+            "-o",
+            "r",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (h, rows) = csv(&dir.path().join("r/replay.csv"));
+    let motors: Vec<String> = h
+        .iter()
+        .filter_map(|c| c.strip_prefix("logged_")?.strip_suffix("_m"))
+        .map(String::from)
+        .collect();
+    assert_eq!(motors.len(), 10);
+    let deployed = deployed_commands(dir.path(), &motors);
+    // Row 0 is the start (deploy step 1, the fold); then one per command.
+    assert!(!deployed.is_empty());
+    assert_eq!(rows.len(), 1 + deployed.len(), "{rows:?}");
+    assert_eq!(rows[0][column(&h, "step")], "1");
+    for (k, sent) in deployed.iter().enumerate() {
+        let row = &rows[k + 1];
+        assert_eq!(row[column(&h, "same_as_policy")], "true", "step {k}");
+        for (m, name) in motors.iter().enumerate() {
+            let policy: f64 = row[column(&h, &format!("policy_{name}_m"))]
+                .parse()
+                .unwrap();
+            assert!(
+                (policy - sent[m]).abs() <= 1e-9,
+                "step {k} motor {name}: {policy} vs {}",
+                sent[m]
+            );
+        }
+    }
+    let s = json(&dir.path().join("r/summary.json"));
+    assert_eq!(s["format"], "tensegrity-deploy/replay/1");
+    assert_eq!(s["start"]["layout"], "deploy");
+    assert_eq!(s["same_as_policy"], deployed.len());
+    // The deployment ended connected: the policy would stop there.
+    assert_eq!(s["policy_next_stop"]["status"], "connected");
+    // The counterfactual on the calibrated model connects, within every
+    // limit of its truth.
+    let cf = &s["counterfactual"];
+    assert_eq!(cf["connected"], true, "{s}");
+    assert_eq!(cf["violations"], 0);
+    assert!(cf["final_measured_gap_m"].as_f64().unwrap() <= 0.030);
+    let (_, cf_rows) = csv(&dir.path().join("r/counterfactual.csv"));
+    assert_eq!(cf_rows.len(), 1 + cf["commands"].as_u64().unwrap() as usize);
+    let svg = std::fs::read_to_string(dir.path().join("r/replay.svg")).unwrap();
+    assert!(svg.starts_with("<svg"));
+    assert!(String::from_utf8_lossy(&o.stdout)
+        .contains("counterfactual on the calibrated model: connected"));
+}
+
+/// The replay is not a copy of the log: the nominal policy (even 5 cm
+/// steps) differs from the QP controller's last, corrective command.
+#[test]
+fn another_policy_replayed_on_the_same_log_differs() {
+    let dir = deployed();
+    let nominal = repo("policies/nominal.toml");
+    let o = tdeploy(
+        &[
+            "replay",
+            "d/log",
+            "--policy",
+            &nominal,
+            "--fit",
+            "joint_friction",
+            "-o",
+            "r",
+        ],
+        dir.path(),
+    );
+    assert!(
+        o.status.code() == Some(0) || o.status.code() == Some(1),
+        "{}",
+        stderr(&o)
+    );
+    let s = json(&dir.path().join("r/summary.json"));
+    assert_eq!(s["policy"], "nominal");
+    let differs = s["largest_difference_m"].as_f64().unwrap_or(0.0) > 1e-3;
+    let stops = s["policy_would_have_stopped"].as_u64().unwrap() > 0;
+    assert!(differs || stops, "{s}");
+    assert!(s["same_as_policy"].as_u64().unwrap() < s["replayed_commands"].as_u64().unwrap());
+}
+
+/// A lab log (two cycles, 5 and 10 cm, two steps each way, on a truth
+/// with μ = 0.1): the largest cycle is replayed from its fold (after two
+/// 5 cm pay-outs: 10 cm) over its two reel-in commands.
+#[test]
+fn a_lab_log_replays_from_the_end_of_its_largest_fold_and_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = repo("experiments/lab/truth-friction.toml");
+    let o = tdeploy(
+        &[
+            "lab",
+            &truth,
+            "-o",
+            "lab",
+            "--amplitudes",
+            "0.05,0.1",
+            "--steps",
+            "2",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = tdeploy(
+        &["replay", "lab", "--fit", "joint_friction", "-o", "r"],
+        dir.path(),
+    );
+    assert!(matches!(o.status.code(), Some(0 | 1)), "{}", stderr(&o));
+    for f in [
+        "replay.csv",
+        "counterfactual.csv",
+        "summary.json",
+        "replay.svg",
+        "timing.csv",
+    ] {
+        assert!(dir.path().join("r").join(f).is_file(), "{f}");
+    }
+    let s = json(&dir.path().join("r/summary.json"));
+    assert_eq!(s["start"]["layout"], "lab");
+    assert_eq!(s["start"]["cycle"], 2);
+    assert_eq!(s["start"]["start_step"], 2);
+    for p in s["start"]["start_payout_m"].as_array().unwrap() {
+        assert!((p.as_f64().unwrap() - 0.10).abs() < 1e-12, "{p}");
+    }
+    assert_eq!(s["replayed_commands"], 2);
+    // The fitted friction is the truth's to within a few standard errors
+    // (or the calibration says why not).
+    let fit = &s["calibration"]["fitted"][0];
+    assert_eq!(fit["effect"], "joint_friction");
+    assert!(s["counterfactual"].is_object() || s["counterfactual_failed"].is_string());
+    let (_, rows) = csv(&dir.path().join("r/replay.csv"));
+    assert_eq!(rows.len(), 3);
+}
+
+fn refused(dir: &Path, args: &[&str]) -> String {
+    let o = tdeploy(args, dir);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    assert_eq!(e.trim().lines().count(), 1, "one line: {e}");
+    assert!(!dir.join("bad").exists(), "nothing written on bad input");
+    e
+}
+
+#[test]
+fn a_log_that_cannot_be_read_or_replayed_is_refused_naming_file_and_field() {
+    let dir = deployed();
+    let d = dir.path();
+    let out = ["-o", "bad", "--fit", "joint_friction"];
+    let run = |extra: &[&str]| {
+        let mut args = vec!["replay"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&out);
+        refused(d, &args)
+    };
+    // No such log.
+    let e = run(&["nowhere"]);
+    assert!(e.contains("nowhere") && e.contains("log.toml"), "{e}");
+    // A cycle the log does not have.
+    let e = run(&["d/log", "--cycle", "7"]);
+    assert!(
+        e.contains("commands.csv") && e.contains("cycle") && e.contains('7'),
+        "{e}"
+    );
+    // An unknown field in the policy file.
+    std::fs::write(
+        d.join("policy.toml"),
+        std::fs::read_to_string(repo("policies/qp.toml")).unwrap() + "\nbogus_field = 1\n",
+    )
+    .unwrap();
+    let e = run(&["d/log", "--policy", "policy.toml"]);
+    assert!(
+        e.contains("policy.toml") && e.contains("bogus_field"),
+        "{e}"
+    );
+    // A garbled reading.
+    let m = d.join("d/log/measurements.csv");
+    let text = std::fs::read_to_string(&m).unwrap();
+    let line = text.lines().nth(40).unwrap().to_string();
+    let garbled = line.rsplit_once(',').unwrap().0.to_string() + ",12abc";
+    std::fs::write(&m, text.replacen(&line, &garbled, 1)).unwrap();
+    let e = run(&["d/log"]);
+    assert!(
+        e.contains("measurements.csv") && e.contains("line 41") && e.contains("value"),
+        "{e}"
+    );
+    // A log of only the fold: nothing after the start to replay.
+    std::fs::write(&m, text).unwrap();
+    let c = d.join("d/log/commands.csv");
+    let commands = std::fs::read_to_string(&c).unwrap();
+    let fold_only: String = commands
+        .lines()
+        .filter(|l| l.starts_with("cycle") || l.starts_with("1,1,"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&c, fold_only).unwrap();
+    let measurements: String = std::fs::read_to_string(&m)
+        .unwrap()
+        .lines()
+        .filter(|l| l.starts_with("cycle") || l.starts_with("1,0,") || l.starts_with("1,1,"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&m, measurements).unwrap();
+    let e = run(&["d/log"]);
+    assert!(
+        e.contains("commands.csv") && e.contains("step") && e.contains("no command after"),
+        "{e}"
+    );
+}
