@@ -10,7 +10,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::memory_file::{append_case, read_memory};
 use tensegrity_deploy::learn::{
-    adapt, Case, CaseConditions, CaseMemory, CaseOutcome, FeatureScales,
+    adapt, Case, CaseConditions, CaseMemory, CaseOutcome, EndStateCache, FeatureScales,
 };
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::{
@@ -65,12 +65,53 @@ fn bench(c: &mut Criterion) {
     };
     let start = folded_start(&model, &problem, policy.increment_m).expect("fold");
     let context = PlanContext::new(&model, &problem, &policy, &start).expect("context");
-    let retrieved = adapt(&memory, &query, &context, &start, &settings, &scales)
+    let adapt_with = |cache: &mut EndStateCache| {
+        adapt(&memory, &query, &context, &start, &settings, &scales, cache)
+    };
+    let retrieved = adapt_with(&mut EndStateCache::default())
         .expect("adaptation")
         .expect("a case");
     assert!(retrieved.ilc.status.is_solved());
-    c.bench_function("memory/retrieve_and_adapt_10000", |b| {
-        b.iter(|| adapt(&memory, &query, &context, &start, &settings, &scales))
+    // Cold: the model follows the case's commands from the folded start.
+    c.bench_function("memory/retrieve_and_adapt_10000_cold", |b| {
+        b.iter(|| adapt_with(&mut EndStateCache::default()))
+    });
+    // Warm, as from the second cycle on: the cache holds the end of the
+    // case adapted before. Two queries that retrieve cases with payout
+    // scales 0.02 apart (the end payouts 8 mm apart, more than between
+    // cycles) take turns; one iteration is two adaptations.
+    let other = case(12_346).conditions;
+    let first = adapt_with(&mut EndStateCache::default()).expect("adaptation");
+    let second = adapt(
+        &memory,
+        &other,
+        &context,
+        &start,
+        &settings,
+        &scales,
+        &mut EndStateCache::default(),
+    )
+    .expect("adaptation");
+    let index = |a: Option<tensegrity_deploy::learn::Adaptation>| a.map(|a| a.case_index);
+    let (a, b) = (
+        index(first).expect("a case"),
+        index(second).expect("a case"),
+    );
+    let scale = |k: usize| memory.cases[k].conditions.payout_scale[0];
+    assert!(
+        (scale(a) - scale(b)).abs() >= 0.01,
+        "{} {}",
+        scale(a),
+        scale(b)
+    );
+    let mut cache = EndStateCache::default();
+    c.bench_function("memory/retrieve_and_adapt_10000_warm_x2", |b| {
+        b.iter(|| {
+            adapt_with(&mut cache).expect("adaptation");
+            adapt(
+                &memory, &other, &context, &start, &settings, &scales, &mut cache,
+            )
+        })
     });
     let dir = tempfile::tempdir().expect("temporary folder");
     let path = dir.path().join("memory.tdm");

@@ -19,7 +19,7 @@ pub mod case;
 pub mod ilc;
 pub mod memory;
 
-pub use adaptation::{adapt, retrieve, AdaptError, Adaptation};
+pub use adaptation::{adapt, retrieve, AdaptError, Adaptation, EndStateCache};
 pub use case::{Case, CaseConditions, CaseOutcome};
 pub use ilc::{learn_commands, IlcData, IlcUpdate};
 pub use memory::{CaseMemory, FeatureScales, Neighbour};

@@ -18,7 +18,7 @@
 use serde::Serialize;
 
 use super::statistics::scenario_seed;
-use crate::learn::{adapt, Case, CaseConditions, CaseMemory, FeatureScales};
+use crate::learn::{adapt, Case, CaseConditions, CaseMemory, EndStateCache, FeatureScales};
 use crate::model::ForwardModel;
 use crate::plan::{
     deploy_guided, folded_start, ClosedLoopSetup, DeployError, DeploymentProblem, Guidance,
@@ -125,6 +125,7 @@ pub fn run_cycles(
     )
     .map_err(DeployError::TruthStart)?;
     let scales = FeatureScales::default();
+    let mut end_states = EndStateCache::default();
     let mut results = Vec::new();
     for cycle in 1..=setup.cycles {
         let clock = std::time::Instant::now();
@@ -138,7 +139,15 @@ pub fn run_cycles(
         };
         let (adaptation, adaptation_error) = match &policy.memory {
             Some(settings) => {
-                match adapt(memory, &conditions, &context, &start, settings, &scales) {
+                match adapt(
+                    memory,
+                    &conditions,
+                    &context,
+                    &start,
+                    settings,
+                    &scales,
+                    &mut end_states,
+                ) {
                     Ok(a) => (a, None),
                     Err(e) => (None, Some(e.to_string())),
                 }
