@@ -39,6 +39,7 @@ use tensegrity_deploy::sim::default_truth::default_truth;
 use tensegrity_deploy::sim::standard_sensors;
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult, CyclesSetup};
 
+use super::deploy::gap_mm;
 use super::plan::{planning_model, problem_or_default};
 use super::{value, Outcome};
 use tensegrity_deploy::io::output::ResultsFolder;
@@ -124,20 +125,15 @@ impl CycleObserver for MemoryWriter<'_> {
             }
         }
         say!(
-            "cycle {}: {} after {} commands ({} corrective), gap after the first approach {}, final {}",
+            "cycle {}: {} after {} commands ({} corrective), gap after the first approach {} mm, final {} mm",
             result.cycle,
             result.status,
             result.commands,
             result.corrective_commands.map_or("–".into(), |c| c.to_string()),
-            mm(result.approach_gap_m),
-            mm(result.final_gap_m)
+            gap_mm(result.approach_gap_m),
+            gap_mm(result.final_gap_m)
         );
     }
-}
-
-/// A length in mm for the terminal, `–` when unknown.
-fn mm(v: Option<f64>) -> String {
-    v.map_or("–".into(), |v| format!("{:.1} mm", v * 1e3))
 }
 
 /// A CSV field: the value or empty.

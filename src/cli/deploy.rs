@@ -156,7 +156,7 @@ fn truth_forward_model(truth: &EffectModel) -> Result<ForwardModel> {
 }
 
 /// Command per motor in mm, runs of equal values folded: `-50.0×10`.
-fn compact_mm(command_m: &[f64]) -> String {
+pub(super) fn compact_mm(command_m: &[f64]) -> String {
     let mut runs: Vec<(String, usize)> = Vec::new();
     for c in command_m {
         let text = format!("{:.1}", 1e3 * c);
@@ -177,7 +177,8 @@ fn compact_mm(command_m: &[f64]) -> String {
         .join(" ")
 }
 
-fn gap_mm(g: Option<f64>) -> String {
+/// A gap in mm with one decimal, `-` when unknown.
+pub(super) fn gap_mm(g: Option<f64>) -> String {
     g.map(|g| format!("{:.1}", 1e3 * g))
         .unwrap_or_else(|| "-".into())
 }

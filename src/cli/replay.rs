@@ -46,6 +46,7 @@ use tensegrity_deploy::studies::replay::{
     CalibrationError, CalibrationMethod, Margins, Replay, ReplayInputError, ReplayStart,
 };
 
+use super::deploy::compact_mm;
 use super::plan::{planning_model, policy_or_default, problem_or_default};
 use super::{value, Outcome};
 
@@ -326,10 +327,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
         say!(
             "{:>4}: logged {} mm | policy {} | largest gap measured {} mm, predicted for the logged command {} mm",
             s.step,
-            mm_list(&s.logged_command_m),
+            compact_mm(&s.logged_command_m),
             match (&s.policy_command_m, &s.policy_stop) {
-                (Some(p), _) if s.same_as_policy => format!("{} mm (the same)", mm_list(p)),
-                (Some(p), _) => format!("{} mm (differs by up to {} mm)", mm_list(p), mm(s.largest_difference_m)),
+                (Some(p), _) if s.same_as_policy => format!("{} mm (the same)", compact_mm(p)),
+                (Some(p), _) => format!("{} mm (differs by up to {} mm)", compact_mm(p), mm(s.largest_difference_m)),
                 (None, Some(stop)) => format!("would stop: {}", stop.describe()),
                 (None, None) => "-".into(),
             },
@@ -433,28 +434,6 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Some(m) if m.connected => Outcome::GoalReached,
         _ => Outcome::GoalMissed(verdict),
     })
-}
-
-/// Millimetres per motor, runs of equal values folded: `-50.0×10`.
-fn mm_list(command_m: &[f64]) -> String {
-    let mut runs: Vec<(String, usize)> = Vec::new();
-    for c in command_m {
-        let text = format!("{:.1}", 1e3 * c);
-        match runs.last_mut() {
-            Some((t, n)) if *t == text => *n += 1,
-            _ => runs.push((text, 1)),
-        }
-    }
-    runs.iter()
-        .map(|(t, n)| {
-            if *n > 1 {
-                format!("{t}×{n}")
-            } else {
-                t.clone()
-            }
-        })
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 /// The verdict in plain words.
