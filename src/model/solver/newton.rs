@@ -42,8 +42,8 @@ use nalgebra::DVector;
 use super::residual::SlipMapping;
 use super::{ForwardModel, Workspace};
 use crate::model::state::{DeploymentState, JointSlip};
-use crate::model::stiffness::{tangent_stiffness, JointMode};
-use crate::numerics::{BlockLu, FreeDofs};
+use crate::model::stiffness::{assemble_tangent_stiffness, JointMode};
+use crate::numerics::BlockLu;
 
 /// Payout fraction of the probe that finds the predictor's load.
 const PROBE: f64 = 1e-6;
@@ -195,7 +195,7 @@ impl ForwardModel {
         }
         ws.start_increment(&probe);
         self.residual(&mut probe, ws);
-        let (k, dofs) = tangent_stiffness(self, &probe, JointMode::AsMapped);
+        let dofs = self.free_dofs();
         let mut load = DVector::zeros(dofs.count);
         for (i, rows) in dofs.index.iter().enumerate() {
             for (a, row) in rows.iter().enumerate() {
@@ -204,12 +204,12 @@ impl ForwardModel {
                 }
             }
         }
-        let labels = probe.joint_slip;
-        ws.factorisations += 1;
-        let Some(lu) = BlockLu::new(&k, self.dof_blocks()) else {
-            return (None, labels);
+        let Some(lu) = self.factorise_tangent(&probe, ws) else {
+            return (None, probe.joint_slip);
         };
+        let labels = probe.joint_slip;
         let mut step = lu.solve(&load);
+        ws.recycle(Some(lu));
         if !(step.dot(&load) > 0.0) {
             return (None, labels);
         }
@@ -252,7 +252,8 @@ impl ForwardModel {
         // The iterate with the smallest residual so far: DR's start if
         // Newton gives up (see `newton_max_iter` in the settings).
         let mut best = (norm, state.positions_m.clone());
-        let mut factor: Option<(BlockLu, FreeDofs)> = None;
+        let mut factor: Option<BlockLu> = None;
+        let dofs = self.free_dofs();
         let mut fresh = false;
         let mut revisions = 0;
         let failed = loop {
@@ -274,31 +275,32 @@ impl ForwardModel {
                 }
                 (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
                 norm = self.free_residual_norm(ws);
-                factor = None;
+                ws.recycle(factor.take());
                 continue;
             }
             if outcome.iterations >= self.settings.newton_max_iter {
                 break true;
             }
-            if factor.is_none() {
-                let (k, dofs) = tangent_stiffness(self, state, JointMode::AsMapped);
-                ws.factorisations += 1;
-                let Some(lu) = BlockLu::new(&k, self.dof_blocks()) else {
-                    break true;
-                };
-                factor = Some((lu, dofs));
-                fresh = true;
-            }
-            let (lu, dofs) = factor.as_ref().expect("factorised above");
+            let lu = match factor.take() {
+                Some(lu) => lu,
+                None => {
+                    let Some(lu) = self.factorise_tangent(state, ws) else {
+                        break true;
+                    };
+                    fresh = true;
+                    lu
+                }
+            };
             let rhs = dofs.gather(&ws.force);
             let step = lu.solve(&rhs);
             if !(step.dot(&rhs) > 0.0) {
+                ws.recycle(Some(lu));
                 if fresh {
                     break true;
                 }
-                factor = None;
                 continue;
             }
+            factor = Some(lu);
             let mut step = step;
             let longest = step.amax();
             if longest > max_step {
@@ -325,11 +327,11 @@ impl ForwardModel {
                 }
                 state.positions_m.copy_from_slice(&before);
                 (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
-                factor = None;
+                ws.recycle(factor.take());
                 continue;
             };
             if trial > 0.5 * norm {
-                factor = None;
+                ws.recycle(factor.take());
             }
             fresh = false;
             norm = trial;
@@ -337,6 +339,7 @@ impl ForwardModel {
                 best = (norm, state.positions_m.clone());
             }
         };
+        ws.recycle(factor);
         if failed {
             // Hand DR the best iterate, unless the physical (return-mapped)
             // residual says the entry state is the better start.
@@ -355,6 +358,16 @@ impl ForwardModel {
             (*max_t, *friction_left) = self.residual(state, ws);
         }
         outcome
+    }
+
+    /// The consistent tangent of `state`, assembled straight into the
+    /// workspace's per-block storage and factorised there; `None` if
+    /// singular.
+    fn factorise_tangent(&self, state: &DeploymentState, ws: &mut Workspace) -> Option<BlockLu> {
+        ws.factorisations += 1;
+        let mut k = ws.tangent_storage(self.free_dof_count(), self.dof_blocks());
+        assemble_tangent_stiffness(self, state, JointMode::AsMapped, &mut k);
+        BlockLu::factorise(k)
     }
 
     /// Euclidean norm of the out-of-balance force over the free DOFs, N.
@@ -378,6 +391,7 @@ mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
     use crate::model::friction::JointFriction;
+    use crate::model::stiffness::tangent_stiffness;
     use crate::model::RelaxSettings;
     use nalgebra::DMatrix;
 
