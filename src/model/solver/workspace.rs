@@ -25,6 +25,20 @@ pub struct Workspace {
     /// Zeroed storage of the last tangent factorised, to assemble the
     /// next one into without allocating.
     tangent_storage: Option<BlockMatrix>,
+    /// The factorisation Newton converged with, kept for the next
+    /// continuation step's predictor (see [`KeptTangent`]); cleared at the
+    /// start of every command, like `continuation_step`.
+    pub(super) kept_tangent: Option<KeptTangent>,
+}
+
+/// A factorised tangent with the state it was assembled at.
+#[derive(Debug, Clone)]
+pub(super) struct KeptTangent {
+    pub(super) factors: BlockLu,
+    /// Slip states of the joints it was assembled with.
+    pub(super) slip: Vec<JointSlip>,
+    pub(super) positions_m: Vec<Vector3<f64>>,
+    pub(super) rest_m: Vec<f64>,
 }
 
 impl Workspace {
@@ -50,6 +64,12 @@ impl Workspace {
         if let Some(f) = factors {
             self.tangent_storage = Some(f.into_storage());
         }
+    }
+
+    /// Forgets the kept tangent (its storage is kept for the next one).
+    pub(super) fn drop_kept_tangent(&mut self) {
+        let kept = self.kept_tangent.take().map(|k| k.factors);
+        self.recycle(kept);
     }
 
     pub(super) fn fit(&mut self, nodes: usize, segments: usize) {
