@@ -32,7 +32,7 @@ use super::sliding::{interior_angle, segment_tension};
 use super::solver::element::ElementLaw;
 use super::solver::ForwardModel;
 use super::state::{DeploymentState, JointSlip};
-use crate::numerics::FreeDofs;
+use crate::numerics::{FreeDofs, MatrixAssembly};
 
 /// How continuous cables behave at their joints in a linearisation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -48,19 +48,24 @@ pub enum JointMode {
 }
 
 /// Adds `sign·block` to the (`i`, `j`) node block of `k`, free rows only.
-fn add_block(k: &mut DMatrix<f64>, dofs: &FreeDofs, i: usize, j: usize, block: &Matrix3<f64>) {
-    for a in 0..3 {
-        let Some(r) = dofs.index[i][a] else { continue };
-        for b in 0..3 {
-            if let Some(c) = dofs.index[j][b] {
-                k[(r, c)] += block[(a, b)];
-            }
-        }
-    }
+fn add_block(
+    k: &mut impl MatrixAssembly,
+    dofs: &FreeDofs,
+    i: usize,
+    j: usize,
+    block: &Matrix3<f64>,
+) {
+    k.add_3x3(&dofs.index[i], &dofs.index[j], block);
 }
 
 /// Adds a two-node element's stiffness `block` (on `x_b − x_a`).
-fn add_element(k: &mut DMatrix<f64>, dofs: &FreeDofs, a: usize, b: usize, block: &Matrix3<f64>) {
+fn add_element(
+    k: &mut impl MatrixAssembly,
+    dofs: &FreeDofs,
+    a: usize,
+    b: usize,
+    block: &Matrix3<f64>,
+) {
     add_block(k, dofs, a, a, block);
     add_block(k, dofs, b, b, block);
     add_block(k, dofs, a, b, &-block);
@@ -86,6 +91,21 @@ pub fn tangent_stiffness(
 ) -> (DMatrix<f64>, FreeDofs) {
     let dofs = model.free_dofs().clone();
     let mut k = DMatrix::zeros(dofs.count, dofs.count);
+    assemble_tangent_stiffness(model, state, joints, &mut k);
+    (k, dofs)
+}
+
+/// Adds the tangent stiffness of `state` (N/m, as [`tangent_stiffness`],
+/// rows and columns numbered by the model's free DOFs) to `k`: a dense
+/// matrix, or the per-block storage that [`crate::numerics::BlockLu`]
+/// factorises in place.
+pub fn assemble_tangent_stiffness(
+    model: &ForwardModel,
+    state: &DeploymentState,
+    joints: JointMode,
+    k: &mut impl MatrixAssembly,
+) {
+    let dofs = model.free_dofs();
     let x = &state.positions_m;
     // Members: the solver's element law (segments are handled per cable
     // below, where joints couple them).
@@ -99,8 +119,8 @@ pub fn tangent_stiffness(
             continue;
         }
         add_element(
-            &mut k,
-            &dofs,
+            k,
+            dofs,
             e.a,
             e.b,
             &element_block(axial.stiffness_n_per_m, axial.tension_n, &d),
@@ -147,8 +167,8 @@ pub fn tangent_stiffness(
                 last += 1;
             }
             add_cluster(
-                &mut k,
-                &dofs,
+                k,
+                dofs,
                 &Cluster {
                     ea_n: cable.ea_n,
                     path: &cable.path[first..=last + 1],
@@ -161,7 +181,6 @@ pub fn tangent_stiffness(
             first = last + 1;
         }
     }
-    (k, dofs)
 }
 
 /// A run of consecutive taut segments of one cable that exchange material
@@ -202,7 +221,7 @@ struct JointTerm {
 /// (`b_i = ∂L_i/∂x`) changes by `Σ_i b_i·(w_i·dT + T·dw_i)`. For one segment
 /// this is `EA/s·b·bᵀ`; without friction `EA/S·g·gᵀ`. With friction it is
 /// not symmetric. Geometric terms `(T_i/L_i)(I − e·eᵀ)` stay per segment.
-fn add_cluster(k: &mut DMatrix<f64>, dofs: &FreeDofs, c: &Cluster<'_>) {
+fn add_cluster(k: &mut impl MatrixAssembly, dofs: &FreeDofs, c: &Cluster<'_>) {
     let t_ref = c.tension_n[0];
     if t_ref <= 0.0 {
         return;

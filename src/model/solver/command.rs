@@ -178,6 +178,7 @@ impl ForwardModel {
         // Continuation steps carry over between the increments of one
         // command, not between commands.
         ws.continuation_step = 0.0;
+        ws.drop_kept_tangent();
         for k in 0..count {
             let newton = self.newton_increment(state, ws, &increment);
             out.newton_iterations += newton.iterations;

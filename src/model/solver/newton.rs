@@ -40,10 +40,11 @@
 use nalgebra::DVector;
 
 use super::residual::SlipMapping;
+use super::workspace::KeptTangent;
 use super::{ForwardModel, Workspace};
 use crate::model::state::{DeploymentState, JointSlip};
-use crate::model::stiffness::{tangent_stiffness, JointMode};
-use crate::numerics::{BlockLu, FreeDofs};
+use crate::model::stiffness::{assemble_tangent_stiffness, JointMode};
+use crate::numerics::BlockLu;
 
 /// Payout fraction of the probe that finds the predictor's load.
 const PROBE: f64 = 1e-6;
@@ -53,6 +54,12 @@ const PROBE: f64 = 1e-6;
 /// per element per iteration against about 0.14 ns per flop of nalgebra's
 /// LU on blocks of 60 to 250 rows (`cargo bench --bench relaxation`).
 const DR_FLOPS_PER_ELEMENT: f64 = 115.0;
+
+/// How far (relative to the structure size) the state a kept tangent was
+/// assembled at may be from the one a predictor needs: 1e-4 of the 4 m
+/// bridge is 0.4 mm, a tenth of the smallest continuation step's motion
+/// (1/16 of 1 cm) and far more than Newton's last steps.
+const KEPT_TANGENT_REL: f64 = 1e-4;
 
 /// How a Newton solve ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -195,7 +202,7 @@ impl ForwardModel {
         }
         ws.start_increment(&probe);
         self.residual(&mut probe, ws);
-        let (k, dofs) = tangent_stiffness(self, &probe, JointMode::AsMapped);
+        let dofs = self.free_dofs();
         let mut load = DVector::zeros(dofs.count);
         for (i, rows) in dofs.index.iter().enumerate() {
             for (a, row) in rows.iter().enumerate() {
@@ -204,12 +211,19 @@ impl ForwardModel {
                 }
             }
         }
-        let labels = probe.joint_slip;
-        ws.factorisations += 1;
-        let Some(lu) = BlockLu::new(&k, self.dof_blocks()) else {
-            return (None, labels);
+        let lu = match ws.kept_tangent.take() {
+            Some(kept) if self.tangent_still_fits(&kept, &probe) => kept.factors,
+            stale => {
+                ws.recycle(stale.map(|k| k.factors));
+                let Some(lu) = self.factorise_tangent(&probe, ws) else {
+                    return (None, probe.joint_slip);
+                };
+                lu
+            }
         };
+        let labels = probe.joint_slip;
         let mut step = lu.solve(&load);
+        ws.recycle(Some(lu));
         if !(step.dot(&load) > 0.0) {
             return (None, labels);
         }
@@ -252,7 +266,10 @@ impl ForwardModel {
         // The iterate with the smallest residual so far: DR's start if
         // Newton gives up (see `newton_max_iter` in the settings).
         let mut best = (norm, state.positions_m.clone());
-        let mut factor: Option<(BlockLu, FreeDofs)> = None;
+        let mut factor: Option<BlockLu> = None;
+        // Where the factorisation in use was assembled (kept with it).
+        let mut factor_at: Option<(Vec<JointSlip>, Vec<nalgebra::Vector3<f64>>, Vec<f64>)> = None;
+        let dofs = self.free_dofs();
         let mut fresh = false;
         let mut revisions = 0;
         let failed = loop {
@@ -274,31 +291,37 @@ impl ForwardModel {
                 }
                 (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
                 norm = self.free_residual_norm(ws);
-                factor = None;
+                ws.recycle(factor.take());
                 continue;
             }
             if outcome.iterations >= self.settings.newton_max_iter {
                 break true;
             }
-            if factor.is_none() {
-                let (k, dofs) = tangent_stiffness(self, state, JointMode::AsMapped);
-                ws.factorisations += 1;
-                let Some(lu) = BlockLu::new(&k, self.dof_blocks()) else {
-                    break true;
-                };
-                factor = Some((lu, dofs));
-                fresh = true;
-            }
-            let (lu, dofs) = factor.as_ref().expect("factorised above");
+            let lu = match factor.take() {
+                Some(lu) => lu,
+                None => {
+                    let Some(lu) = self.factorise_tangent(state, ws) else {
+                        break true;
+                    };
+                    fresh = true;
+                    factor_at = Some((
+                        state.joint_slip.clone(),
+                        state.positions_m.clone(),
+                        state.segment_rest_lengths_m.clone(),
+                    ));
+                    lu
+                }
+            };
             let rhs = dofs.gather(&ws.force);
             let step = lu.solve(&rhs);
             if !(step.dot(&rhs) > 0.0) {
+                ws.recycle(Some(lu));
                 if fresh {
                     break true;
                 }
-                factor = None;
                 continue;
             }
+            factor = Some(lu);
             let mut step = step;
             let longest = step.amax();
             if longest > max_step {
@@ -325,11 +348,11 @@ impl ForwardModel {
                 }
                 state.positions_m.copy_from_slice(&before);
                 (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
-                factor = None;
+                ws.recycle(factor.take());
                 continue;
             };
             if trial > 0.5 * norm {
-                factor = None;
+                ws.recycle(factor.take());
             }
             fresh = false;
             norm = trial;
@@ -337,6 +360,18 @@ impl ForwardModel {
                 best = (norm, state.positions_m.clone());
             }
         };
+        match (outcome.converged, factor, factor_at) {
+            (true, Some(factors), Some((slip, positions_m, rest_m))) => {
+                ws.drop_kept_tangent();
+                ws.kept_tangent = Some(KeptTangent {
+                    factors,
+                    slip,
+                    positions_m,
+                    rest_m,
+                });
+            }
+            (_, factor, _) => ws.recycle(factor),
+        }
         if failed {
             // Hand DR the best iterate, unless the physical (return-mapped)
             // residual says the entry state is the better start.
@@ -355,6 +390,39 @@ impl ForwardModel {
             (*max_t, *friction_left) = self.residual(state, ws);
         }
         outcome
+    }
+
+    /// The consistent tangent of `state`, assembled straight into the
+    /// workspace's per-block storage and factorised there; `None` if
+    /// singular.
+    fn factorise_tangent(&self, state: &DeploymentState, ws: &mut Workspace) -> Option<BlockLu> {
+        ws.factorisations += 1;
+        let mut k = ws.tangent_storage(self.free_dof_count(), self.dof_blocks());
+        assemble_tangent_stiffness(self, state, JointMode::AsMapped, &mut k);
+        BlockLu::factorise(k)
+    }
+
+    /// Whether a kept factorisation may stand in for the tangent of
+    /// `state` in a predictor: assembled with the same joint slip states,
+    /// at positions and rest lengths within [`KEPT_TANGENT_REL`] of the
+    /// structure size. The predictor only supplies Newton's initial guess,
+    /// so a tangent from the last Newton iterate instead of the converged
+    /// state (they differ by Newton's last steps, micrometres) changes the
+    /// guess at second order, and the answer not at all beyond the solver
+    /// tolerance.
+    fn tangent_still_fits(&self, kept: &KeptTangent, state: &DeploymentState) -> bool {
+        let tol = KEPT_TANGENT_REL * self.size_m();
+        kept.slip == state.joint_slip
+            && kept
+                .positions_m
+                .iter()
+                .zip(&state.positions_m)
+                .all(|(a, b)| (a - b).amax() <= tol)
+            && kept
+                .rest_m
+                .iter()
+                .zip(&state.segment_rest_lengths_m)
+                .all(|(a, b)| (a - b).abs() <= tol)
     }
 
     /// Euclidean norm of the out-of-balance force over the free DOFs, N.
@@ -378,6 +446,7 @@ mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
     use crate::model::friction::JointFriction;
+    use crate::model::stiffness::tangent_stiffness;
     use crate::model::RelaxSettings;
     use nalgebra::DMatrix;
 

@@ -3,6 +3,7 @@
 use nalgebra::Vector3;
 
 use crate::model::state::{DeploymentState, JointSlip};
+use crate::numerics::{BlockLu, BlockMatrix};
 
 /// Reusable buffers for [`ForwardModel::relax`]; one per thread.
 #[derive(Debug, Clone, Default)]
@@ -21,6 +22,23 @@ pub struct Workspace {
     pub(super) continuation_step: f64,
     /// Tangent factorisations so far (for tests of the work a solve does).
     pub(super) factorisations: usize,
+    /// Zeroed storage of the last tangent factorised, to assemble the
+    /// next one into without allocating.
+    tangent_storage: Option<BlockMatrix>,
+    /// The factorisation Newton converged with, kept for the next
+    /// continuation step's predictor (see [`KeptTangent`]); cleared at the
+    /// start of every command, like `continuation_step`.
+    pub(super) kept_tangent: Option<KeptTangent>,
+}
+
+/// A factorised tangent with the state it was assembled at.
+#[derive(Debug, Clone)]
+pub(super) struct KeptTangent {
+    pub(super) factors: BlockLu,
+    /// Slip states of the joints it was assembled with.
+    pub(super) slip: Vec<JointSlip>,
+    pub(super) positions_m: Vec<Vector3<f64>>,
+    pub(super) rest_m: Vec<f64>,
 }
 
 impl Workspace {
@@ -30,6 +48,28 @@ impl Workspace {
         self.rest_start
             .copy_from_slice(&state.segment_rest_lengths_m);
         self.slip_start.copy_from_slice(&state.joint_slip);
+    }
+
+    /// Zeroed block storage for a tangent of `size` rows on `blocks`: the
+    /// last one's if it has that layout, else new.
+    pub(super) fn tangent_storage(&mut self, size: usize, blocks: &[Vec<usize>]) -> BlockMatrix {
+        match self.tangent_storage.take() {
+            Some(m) if m.has_layout(size, blocks) => m,
+            _ => BlockMatrix::zeros(size, blocks),
+        }
+    }
+
+    /// Keeps a factorisation's storage for the next tangent.
+    pub(super) fn recycle(&mut self, factors: Option<BlockLu>) {
+        if let Some(f) = factors {
+            self.tangent_storage = Some(f.into_storage());
+        }
+    }
+
+    /// Forgets the kept tangent (its storage is kept for the next one).
+    pub(super) fn drop_kept_tangent(&mut self) {
+        let kept = self.kept_tangent.take().map(|k| k.factors);
+        self.recycle(kept);
     }
 
     pub(super) fn fit(&mut self, nodes: usize, segments: usize) {
