@@ -512,5 +512,29 @@ mod tests {
         let mut p = Policy::default();
         p.weights.gap = vec![1.0, 2.0];
         assert_eq!(p.gap_weights(5), None);
+        let memory = |edit: fn(&mut MemorySettings)| {
+            let mut settings = MemorySettings::default();
+            edit(&mut settings);
+            Policy {
+                memory: Some(settings),
+                ..Policy::default()
+            }
+            .validate()
+            .map_err(|e| e.field)
+        };
+        assert_eq!(memory(|_| ()), Ok(()));
+        assert_eq!(memory(|m| m.neighbours = 0), Err("memory.neighbours"));
+        assert_eq!(
+            memory(|m| m.match_distance = f64::NAN),
+            Err("memory.match_distance")
+        );
+        assert_eq!(
+            memory(|m| m.ilc_regularisation = 0.0),
+            Err("memory.ilc_regularisation")
+        );
+        assert_eq!(
+            memory(|m| m.payout_scale_prior_sd = -0.1),
+            Err("memory.payout_scale_prior_sd")
+        );
     }
 }
