@@ -24,7 +24,7 @@ use thiserror::Error;
 use super::case::CaseConditions;
 use super::ilc::{learn_commands, IlcData, IlcUpdate};
 use super::memory::{CaseMemory, FeatureScales};
-use crate::model::{DeploymentState, RelaxStatus};
+use crate::model::{DeploymentState, RelaxStatus, Workspace};
 use crate::plan::closed_loop::Guidance;
 use crate::plan::response::PayoutResponse;
 use crate::plan::search::step_data;
@@ -147,24 +147,43 @@ pub fn adapt(
         .last
         .take()
         .filter(|s| frictionless && s.payout_m.len() == motors);
-    let end = match from_cache {
+    let (mut end, payout_m) = match from_cache {
         Some(last) => {
             let rest: Vec<f64> = (0..motors)
                 .map(|m| start.payout_m[m] + cable_total[m] - last.payout_m[m])
                 .collect();
-            context.trial(&last, &rest)
+            (last, rest)
         }
-        None => context.trial(start, &cable_total),
+        None => (start.clone(), cable_total.clone()),
     };
-    if !end.status.is_converged() {
+    // Only the end state is needed (its limits enter the update), so the
+    // path is not checked; a frictionless model's end does not depend on
+    // the path, so it is reached in steps of a drum's largest step rather
+    // than the policy's increments.
+    let increment_m = if frictionless {
+        context.motors.max_step_m.iter().copied().fold(0.0, f64::max)
+    } else {
+        context.policy.increment_m
+    };
+    let status = match model.apply_payout(
+        &mut end,
+        &mut Workspace::default(),
+        &payout_m,
+        increment_m,
+        &mut (),
+    ) {
+        Ok(r) => r.status,
+        Err(_) => RelaxStatus::Diverged,
+    };
+    if !status.is_converged() {
         return Err(AdaptError::EndState {
             case: case_index,
-            status: end.status,
+            status,
         });
     }
-    cache.last = Some(end.state.clone());
+    cache.last = Some(end.clone());
     let response =
-        PayoutResponse::tangent(model, &end.state).map_err(|e| AdaptError::Sensitivity {
+        PayoutResponse::tangent(model, &end).map_err(|e| AdaptError::Sensitivity {
             case: case_index,
             reason: e.to_string(),
         })?;
@@ -174,7 +193,7 @@ pub fn adapt(
         .iter()
         .copied()
         .fold(0.0, f64::max);
-    let terminal = step_data(context, &end.state, &response, max_step);
+    let terminal = step_data(context, &end, &response, max_step);
     let to_drum = |mut g: DMatrix<f64>| {
         for (m, k) in drum_to_cable.iter().enumerate() {
             g.column_mut(m).scale_mut(*k);
