@@ -9,7 +9,7 @@ use tensegrity_deploy::io::memory_file::read_memory;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::CaseMemory;
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
-use tensegrity_deploy::plan::DeploymentProblem;
+use tensegrity_deploy::plan::{DeploymentProblem, Policy};
 use tensegrity_deploy::sim::{default_truth, standard_sensors, EffectModel};
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleResult, CyclesSetup};
 use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
@@ -185,4 +185,56 @@ fn the_memory_policy_is_never_worse_than_the_memoryless_one_on_paired_scenarios(
     }
     assert!(only_memoryless.is_empty(), "{only_memoryless:?}");
     assert!(both >= 20, "{both} of 24 runs connected under both");
+}
+
+/// The feedforward of a guidance is sent exactly as learnt; a command the
+/// drum cannot make (beyond its 5 cm step) is refused before it is sent,
+/// and the planner takes over from where the bridge is.
+#[test]
+fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner() {
+    use tensegrity_deploy::plan::{deploy_guided, ClosedLoopSetup, Guidance, PerMotor};
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let model = ForwardModel::new(
+        structure.clone(),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .unwrap();
+    let truth = default_truth(structure.clone());
+    let sensors = standard_sensors(&structure);
+    let policy = Policy::default();
+    // A 10 cm fold: two full commands bring it back.
+    let problem = DeploymentProblem {
+        start_payout_m: PerMotor::All(0.10),
+        ..DeploymentProblem::default()
+    };
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy: &policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: 3,
+    };
+    let learnt = vec![vec![-0.05; 10], vec![-0.048; 10]];
+    let guided = Guidance {
+        feedforward_m: learnt.clone(),
+        ..Guidance::default()
+    };
+    let d = deploy_guided(&setup, &guided, None, &mut ()).unwrap();
+    assert_eq!(d.approach_commands, Some(2));
+    assert_eq!(d.commands()[..2], learnt[..]);
+    let beyond_step = Guidance {
+        feedforward_m: vec![vec![-0.06; 10]; 2],
+        ..Guidance::default()
+    };
+    let d = deploy_guided(&setup, &beyond_step, None, &mut ()).unwrap();
+    assert_eq!(d.approach_commands, Some(0));
+    assert!(d
+        .commands()
+        .iter()
+        .flatten()
+        .all(|u| u.abs() <= 0.05 + 1e-12));
+    assert_eq!(d.status.label(), "connected");
 }

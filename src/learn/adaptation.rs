@@ -161,7 +161,12 @@ pub fn adapt(
     // the path, so it is reached in steps of a drum's largest step rather
     // than the policy's increments.
     let increment_m = if frictionless {
-        context.motors.max_step_m.iter().copied().fold(0.0, f64::max)
+        context
+            .motors
+            .max_step_m
+            .iter()
+            .copied()
+            .fold(0.0, f64::max)
     } else {
         context.policy.increment_m
     };
@@ -182,11 +187,10 @@ pub fn adapt(
         });
     }
     cache.last = Some(end.clone());
-    let response =
-        PayoutResponse::tangent(model, &end).map_err(|e| AdaptError::Sensitivity {
-            case: case_index,
-            reason: e.to_string(),
-        })?;
+    let response = PayoutResponse::tangent(model, &end).map_err(|e| AdaptError::Sensitivity {
+        case: case_index,
+        reason: e.to_string(),
+    })?;
     let max_step = context
         .motors
         .max_step_m
