@@ -16,7 +16,9 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
+use tensegrity_deploy::model::{
+    DeploymentState, ForwardModel, JointFriction, RelaxSettings, Workspace,
+};
 use tensegrity_deploy::plan::qp_step::step_solver_settings;
 use tensegrity_deploy::plan::search::{step_data, step_weights};
 use tensegrity_deploy::plan::{
@@ -40,6 +42,7 @@ fn bench(c: &mut Criterion) {
         tensegrity_deploy::plan::plan_open_loop(&model, &problem, &policy, &start).expect("plan");
     let state = plan.final_state;
     let context = PlanContext::new(&model, &problem, &policy, &start).expect("context");
+    probe_counters(&model, &state, &policy);
     let mut group = c.benchmark_group("planner");
     group.sample_size(10);
     group.bench_function("one_command_mu0.2", |b| {
@@ -88,6 +91,31 @@ fn bench(c: &mut Criterion) {
         b.iter(|| deploy_closed_loop(&setup, &mut ()).expect("deployment"))
     });
     group.finish();
+}
+
+/// How Newton fares on the secant probes of a fresh planner at `state`
+/// (each motor moved ±`sensitivity_step_m` alone, as the probes of
+/// `PayoutResponse::finite_difference` do where motors are not grouped),
+/// printed once before timing.
+fn probe_counters(model: &ForwardModel, state: &DeploymentState, policy: &Policy) {
+    let mut ws = Workspace::default();
+    let (mut newton, mut dr) = (0, 0);
+    for m in 0..state.payout_m.len() {
+        for sign in [1.0, -1.0] {
+            let mut delta = vec![0.0; state.payout_m.len()];
+            delta[m] = sign * policy.sensitivity_step_m;
+            let mut probe = state.clone();
+            let r = model
+                .apply_payout(&mut probe, &mut ws, &delta, policy.increment_m, &mut ())
+                .expect("probe");
+            newton += r.newton_iterations;
+            dr += r.iterations;
+        }
+    }
+    eprintln!(
+        "secant probes, one motor each: {newton} Newton + {dr} DR iterations\n  {:?}",
+        ws.newton_counters()
+    );
 }
 
 criterion_group!(benches, bench);

@@ -70,6 +70,7 @@ fn whole_deployment(c: &mut Criterion) {
             .unwrap();
         assert!(fold.status.is_converged(), "folding: {fold:?}");
         let mut probe = folded.clone();
+        ws.reset_newton_counters();
         let r = model
             .apply_payout(&mut probe, &mut ws, &vec![-0.4; n], 0.01, &mut ())
             .unwrap();
@@ -77,6 +78,7 @@ fn whole_deployment(c: &mut Criterion) {
             "deploy 40 cm, μ = {mu}: {:?}, {} increments, {} Newton + {} DR iterations",
             r.status, r.increments, r.newton_iterations, r.iterations
         );
+        eprintln!("  {:?}", ws.newton_counters());
         group.bench_function(format!("mu{mu}"), |b| {
             b.iter_batched(
                 || folded.clone(),

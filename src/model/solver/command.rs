@@ -183,6 +183,9 @@ impl ForwardModel {
             let newton = self.newton_increment(state, ws, &increment);
             out.newton_iterations += newton.iterations;
             let r = self.relax_with(state, ws, SolveMode::DrOnly);
+            if !newton.converged {
+                ws.counters.dr_iterations_after_newton += r.iterations;
+            }
             observer.on_increment(k, count, &r, state);
             out.increments += 1;
             out.iterations += r.iterations;

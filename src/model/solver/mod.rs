@@ -6,6 +6,7 @@
 //! sensitivities of an equilibrium ([`sensitivity`]).
 
 pub mod command;
+mod counters;
 pub(in crate::model) mod element;
 pub mod forward_model;
 mod newton;
@@ -19,6 +20,7 @@ mod workspace;
 pub use command::{
     increments_needed, CommandError, CommandReport, IncrementObserver, MAX_INCREMENTS_PER_COMMAND,
 };
+pub use counters::NewtonCounters;
 pub use forward_model::{ForwardModel, MemberForces};
 pub use relax::SolveMode;
 pub use sensitivity::{MotorDirection, MotorResponse, PayoutSensitivities, SensitivityError};

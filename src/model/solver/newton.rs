@@ -39,6 +39,7 @@
 
 use nalgebra::DVector;
 
+use super::counters::NewtonGaveUp;
 use super::residual::SlipMapping;
 use super::workspace::KeptTangent;
 use super::{ForwardModel, Workspace};
@@ -160,19 +161,23 @@ impl ForwardModel {
             let inner = self.newton(&mut trial, ws, &mut max_t, &mut friction_left);
             outcome.iterations += inner.iterations;
             if inner.converged {
+                ws.counters.steps_converged += 1;
                 solved = trial;
                 done = lambda;
                 ws.continuation_step = step;
                 step = f64::min(2.0 * step, 1.0);
             } else {
+                ws.counters.steps_failed += 1;
                 step *= 0.5;
                 if step < self.settings.newton_min_continuation_step {
+                    ws.counters.increments_to_dr += 1;
                     *state = partial(1.0, &solved);
                     return outcome;
                 }
             }
         }
         *state = solved;
+        ws.counters.increments_by_newton += 1;
         outcome.converged = true;
         outcome
     }
@@ -281,13 +286,14 @@ impl ForwardModel {
                 let tol = self.tolerance(*max_t);
                 if self.max_free_residual(ws) <= tol && *friction_left <= tol {
                     outcome.converged = true;
-                    break false;
+                    ws.counters.slip_state_revisions += revisions;
+                    break None;
                 }
                 // The mapping disagrees with the slip states solved for:
                 // adopt its states (an active-set step) and solve again.
                 revisions += 1;
                 if revisions > self.settings.newton_max_active_set_rounds {
-                    break true;
+                    break Some(NewtonGaveUp::SlipStateRounds);
                 }
                 (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
                 norm = self.free_residual_norm(ws);
@@ -295,13 +301,13 @@ impl ForwardModel {
                 continue;
             }
             if outcome.iterations >= self.settings.newton_max_iter {
-                break true;
+                break Some(NewtonGaveUp::IterationLimit);
             }
             let lu = match factor.take() {
                 Some(lu) => lu,
                 None => {
                     let Some(lu) = self.factorise_tangent(state, ws) else {
-                        break true;
+                        break Some(NewtonGaveUp::Singular);
                     };
                     fresh = true;
                     factor_at = Some((
@@ -317,7 +323,7 @@ impl ForwardModel {
             if !(step.dot(&rhs) > 0.0) {
                 ws.recycle(Some(lu));
                 if fresh {
-                    break true;
+                    break Some(NewtonGaveUp::NotDescent);
                 }
                 continue;
             }
@@ -344,7 +350,7 @@ impl ForwardModel {
             }
             let Some(trial) = accepted else {
                 if fresh {
-                    break true;
+                    break Some(NewtonGaveUp::LineSearch);
                 }
                 state.positions_m.copy_from_slice(&before);
                 (*max_t, *friction_left) = self.residual_as(state, ws, fixed);
@@ -372,7 +378,8 @@ impl ForwardModel {
             }
             (_, factor, _) => ws.recycle(factor),
         }
-        if failed {
+        if let Some(why) = failed {
+            ws.counters.gave_up(why);
             // Hand DR the best iterate, unless the physical (return-mapped)
             // residual says the entry state is the better start.
             state.positions_m.copy_from_slice(&best.1);

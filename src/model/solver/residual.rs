@@ -94,6 +94,7 @@ impl ForwardModel {
         ws: &mut Workspace,
         mapping: SlipMapping,
     ) -> (f64, f64) {
+        ws.counters.residual_evaluations += 1;
         let x = &state.positions_m;
         // Segment geometry first: the return mapping needs it.
         let n_members = self.structure.members.len();

@@ -31,7 +31,11 @@ pub struct RelaxSettings {
     pub max_displacement_rel: f64,
     /// Newton–Raphson iterations per solve before DR takes over, with the
     /// consistent tangent of the friction mapping ([`super::stiffness`]).
-    /// Default 12 (a converging solve takes 3 to 9);
+    /// Default 16 (a converging solve takes 3 to 9, but one that revises
+    /// the joints' slip states restarts from a residual raised by the
+    /// revision and needs up to about 8 more: at 12, 6 of the 40 increments
+    /// of the μ = 0.2 bridge deployment ran out and went to DR, about
+    /// 4000 DR iterations each; at 16, 2; see `Workspace::newton_counters`);
     /// 0 gives pure DR. Newton reaches the tolerance in a few iterations
     /// where DR needs thousands; DR takes over from the best Newton iterate
     /// whenever Newton stalls (slackening members, loss of stability), and
@@ -91,7 +95,7 @@ impl Default for RelaxSettings {
             mass_factor: 1.0,
             mass_update_resets: 16,
             max_displacement_rel: 0.5,
-            newton_max_iter: 12,
+            newton_max_iter: 16,
             newton_max_dofs: 1500,
             newton_max_cost_ratio: 40.0,
             newton_max_step_rel: 0.05,

@@ -2,6 +2,7 @@
 
 use nalgebra::Vector3;
 
+use super::counters::NewtonCounters;
 use crate::model::state::{DeploymentState, JointSlip};
 use crate::numerics::{BlockLu, BlockMatrix};
 
@@ -29,6 +30,8 @@ pub struct Workspace {
     /// continuation step's predictor (see [`KeptTangent`]); cleared at the
     /// start of every command, like `continuation_step`.
     pub(super) kept_tangent: Option<KeptTangent>,
+    /// How Newton fared so far.
+    pub(super) counters: NewtonCounters,
 }
 
 /// A factorised tangent with the state it was assembled at.
@@ -42,6 +45,17 @@ pub(super) struct KeptTangent {
 }
 
 impl Workspace {
+    /// How the Newton solves run with this workspace fared: increments
+    /// solved by Newton or handed to DR, and why Newton gave up.
+    pub fn newton_counters(&self) -> NewtonCounters {
+        self.counters
+    }
+
+    /// Sets the counters of [`Self::newton_counters`] to zero.
+    pub fn reset_newton_counters(&mut self) {
+        self.counters = NewtonCounters::default();
+    }
+
     /// Records `state`'s material and slip as the start of an increment.
     pub(super) fn start_increment(&mut self, state: &DeploymentState) {
         self.fit(state.positions_m.len(), state.segment_rest_lengths_m.len());
