@@ -37,7 +37,8 @@ fn step_offsets(log: &MeasurementLog) -> Vec<usize> {
     offsets
 }
 
-fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+/// A padded range of `values` (0..1 when there are none).
+pub(super) fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (mut lo, mut hi) = (f64::MAX, f64::MIN);
     for v in values {
         lo = lo.min(v);

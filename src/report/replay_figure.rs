@@ -7,25 +7,12 @@
 use plotters::prelude::*;
 
 use super::drawing::DrawingError;
+use super::figures::range;
 use crate::plan::Deployment;
 use crate::studies::replay::Replay;
 
 fn err<E: std::fmt::Debug>(e: E) -> DrawingError {
     DrawingError::new(format!("{e:?}"))
-}
-
-/// A padded range of `values` (0..1 when there are none).
-fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
-    let (mut lo, mut hi) = (f64::MAX, f64::MIN);
-    for v in values {
-        lo = lo.min(v);
-        hi = hi.max(v);
-    }
-    if !(lo <= hi) {
-        return 0.0..1.0;
-    }
-    let pad = 0.05 * (hi - lo).max(1e-9);
-    (lo - pad)..(hi + pad)
 }
 
 /// Largest of the known values.
