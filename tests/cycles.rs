@@ -8,10 +8,10 @@ use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParame
 use tensegrity_deploy::io::memory_file::read_memory;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::CaseMemory;
-use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
-use tensegrity_deploy::plan::{DeploymentProblem, Policy};
-use tensegrity_deploy::sim::{default_truth, standard_sensors, EffectModel};
-use tensegrity_deploy::studies::cycles::{run_cycles, CycleResult, CyclesSetup};
+use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Structure};
+use tensegrity_deploy::plan::{ClosedLoopSetup, DeploymentProblem, Policy};
+use tensegrity_deploy::sim::{default_truth, standard_sensors, EffectModel, Sensor};
+use tensegrity_deploy::studies::cycles::{run_cycles, CycleResult};
 use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
 
 fn tdeploy(args: &[&str]) -> Output {
@@ -21,12 +21,22 @@ fn tdeploy(args: &[&str]) -> Output {
         .expect("tdeploy runs")
 }
 
-fn cycles(policy: &str, n: usize) -> Vec<CycleResult> {
-    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
-    cycles_on(policy, n, default_truth(structure))
+/// `tdeploy cycles --cycles N --memory MEMORY -o OUT`.
+fn cycles_command(cycles: &str, memory: &Path, out: &Path) -> Output {
+    tdeploy(&[
+        "cycles",
+        "--cycles",
+        cycles,
+        "--memory",
+        memory.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ])
 }
 
-fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
+/// The reference bridge, the controller's frictionless model of it and
+/// its standard sensors.
+fn bridge() -> (Structure, ForwardModel, Vec<Sensor>) {
     let structure = reference_bridge(&BridgeParameters::default()).unwrap();
     let model = ForwardModel::new(
         structure.clone(),
@@ -35,9 +45,19 @@ fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
     )
     .unwrap();
     let sensors = standard_sensors(&structure);
+    (structure, model, sensors)
+}
+
+fn cycles(policy: &str, n: usize) -> Vec<CycleResult> {
+    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    cycles_on(policy, n, default_truth(structure))
+}
+
+fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
+    let (_, model, sensors) = bridge();
     let policy = read_policy(Path::new(policy)).unwrap();
     let problem = DeploymentProblem::default();
-    let setup = CyclesSetup {
+    let setup = ClosedLoopSetup {
         model: &model,
         problem: &problem,
         policy: &policy,
@@ -45,9 +65,8 @@ fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
         sensors: &sensors,
         temperature_c: None,
         seed: 1,
-        cycles: n,
     };
-    let end = run_cycles(&setup, &mut CaseMemory::default(), &mut ()).unwrap();
+    let end = run_cycles(&setup, n, &mut CaseMemory::default(), &mut ()).unwrap();
     assert_eq!(end.stopped, None);
     end.results
 }
@@ -107,15 +126,7 @@ fn the_cycles_command_writes_the_curve_and_appends_to_the_memory() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let memory = dir.path().join("bridge.tdm");
-    let o = tdeploy(&[
-        "cycles",
-        "--cycles",
-        "2",
-        "--memory",
-        memory.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = cycles_command("2", &memory, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let table = std::fs::read_to_string(out.join("cycles.csv")).unwrap();
     assert_eq!(table.lines().count(), 3, "{table}");
@@ -125,15 +136,7 @@ fn the_cycles_command_writes_the_curve_and_appends_to_the_memory() {
     assert_eq!(read_memory(&memory).unwrap().cases.len(), 2);
     // A second run learns from the two stored cases and adds one.
     let again = dir.path().join("again");
-    let o = tdeploy(&[
-        "cycles",
-        "--cycles",
-        "1",
-        "--memory",
-        memory.to_str().unwrap(),
-        "-o",
-        again.to_str().unwrap(),
-    ]);
+    let o = cycles_command("1", &memory, &again);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let row = std::fs::read_to_string(again.join("cycles.csv")).unwrap();
     assert!(row.lines().nth(1).unwrap().contains(",1,"), "{row}");
@@ -143,15 +146,7 @@ fn the_cycles_command_writes_the_curve_and_appends_to_the_memory() {
     let at = bytes.len() / 2;
     bytes[at] ^= 0x01;
     std::fs::write(&memory, &bytes).unwrap();
-    let o = tdeploy(&[
-        "cycles",
-        "--cycles",
-        "1",
-        "--memory",
-        memory.to_str().unwrap(),
-        "-o",
-        dir.path().join("bad").to_str().unwrap(),
-    ]);
+    let o = cycles_command("1", &memory, &dir.path().join("bad"));
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("bridge.tdm"), "{err}");
@@ -192,16 +187,9 @@ fn the_memory_policy_is_never_worse_than_the_memoryless_one_on_paired_scenarios(
 /// and the planner takes over from where the bridge is.
 #[test]
 fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner() {
-    use tensegrity_deploy::plan::{deploy_guided, ClosedLoopSetup, Guidance, PerMotor};
-    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
-    let model = ForwardModel::new(
-        structure.clone(),
-        JointFriction::frictionless(),
-        RelaxSettings::default(),
-    )
-    .unwrap();
-    let truth = default_truth(structure.clone());
-    let sensors = standard_sensors(&structure);
+    use tensegrity_deploy::plan::{deploy_guided, Guidance, PerMotor};
+    let (structure, model, sensors) = bridge();
+    let truth = default_truth(structure);
     let policy = Policy::default();
     // A 10 cm fold: two full commands bring it back.
     let problem = DeploymentProblem {

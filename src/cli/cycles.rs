@@ -33,11 +33,11 @@ use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::io::FileError;
 use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::JointFriction;
-use tensegrity_deploy::plan::Policy;
+use tensegrity_deploy::plan::{ClosedLoopSetup, Policy};
 use tensegrity_deploy::report::figures::grouped_bars_svg;
 use tensegrity_deploy::sim::default_truth::default_truth;
 use tensegrity_deploy::sim::standard_sensors;
-use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult, CyclesSetup};
+use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult};
 
 use super::deploy::gap_mm;
 use super::plan::{planning_model, problem_or_default};
@@ -214,7 +214,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             .map_or("new".into(), |p| p.display().to_string()),
         stored_before
     );
-    let setup = CyclesSetup {
+    let setup = ClosedLoopSetup {
         model: &model,
         problem: &problem,
         policy: &policy,
@@ -222,13 +222,12 @@ pub fn run(o: &Options) -> Result<Outcome> {
         sensors: &sensors,
         temperature_c: None,
         seed: o.seed,
-        cycles: o.cycles,
     };
     let mut writer = MemoryWriter {
         path: &memory_path,
         failure: None,
     };
-    let end = run_cycles(&setup, &mut memory, &mut writer)?;
+    let end = run_cycles(&setup, o.cycles, &mut memory, &mut writer)?;
     if let Some(e) = writer.failure {
         return Err(e.into());
     }

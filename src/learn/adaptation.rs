@@ -139,10 +139,7 @@ pub fn adapt(
             cable_total[m] += d * drum_to_cable[m];
         }
     }
-    let frictionless = {
-        let f = model.friction();
-        f.static_mu.is_zero() && f.kinetic_mu.is_zero()
-    };
+    let frictionless = model.friction().is_frictionless();
     let from_cache = cache
         .last
         .take()

@@ -156,6 +156,13 @@ impl JointFriction {
         }
     }
 
+    /// `true` when both the static and the kinetic μ are zero everywhere:
+    /// no joint ever sticks, and a state depends on the payout alone, not
+    /// on the path to it.
+    pub fn is_frictionless(&self) -> bool {
+        self.static_mu.is_zero() && self.kinetic_mu.is_zero()
+    }
+
     /// Largest admissible tension ratio `e^(μ·α)` at interior angle θ (rad).
     pub fn ratio_bound(&self, interior_angle_rad: f64, sliding: bool) -> f64 {
         let law = if sliding {

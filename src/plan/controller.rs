@@ -340,13 +340,10 @@ impl<'a> Controller<'a> {
                 };
                 (Box::new(planned), Some(sent))
             }
-            None => {
-                self.feedforward.clear();
-                match self.planner.next_command(&self.context, &self.state) {
-                    Decision::Stop(status) => return ControllerDecision::Stop(status),
-                    Decision::Command(c) => (c, None),
-                }
-            }
+            None => match self.planner.next_command(&self.context, &self.state) {
+                Decision::Stop(status) => return ControllerDecision::Stop(status),
+                Decision::Command(c) => (c, None),
+            },
         };
         let planning_time_s = clock.elapsed().as_secs_f64();
         if !self.guided_approach
@@ -397,15 +394,10 @@ impl<'a> Controller<'a> {
             .zip(&scale)
             .map(|(u, s)| u * (1.0 + s))
             .collect();
-        // The step limit binds the drum, the stroke the cable.
-        let m = &self.context.motors;
-        let admissible = sent.iter().zip(&cable).enumerate().all(|(c, (u, d))| {
-            let p = self.state.payout_m[c] + d;
-            u.abs() <= m.max_step_m[c] * (1.0 + 1e-9)
-                && p >= m.min_payout_m[c] - 1e-9
-                && p <= m.max_payout_m[c] + 1e-9
-        });
-        if !admissible {
+        if !self
+            .context
+            .drum_command_admissible(&self.state, sent, &cable)
+        {
             return None;
         }
         let trial = self.context.trial(&self.state, &cable);

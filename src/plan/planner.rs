@@ -111,10 +111,22 @@ impl<'a> PlanContext<'a> {
     /// Whether `command` keeps every motor in its stroke and step limits
     /// from `state`.
     pub fn command_admissible(&self, state: &DeploymentState, command: &[f64]) -> bool {
+        self.drum_command_admissible(state, command, command)
+    }
+
+    /// Whether a drum command `drum_m` that moves the cables by `cable_m`
+    /// keeps every motor within its step limit (which binds the drum) and
+    /// its stroke (which binds the cable payout) from `state`.
+    pub fn drum_command_admissible(
+        &self,
+        state: &DeploymentState,
+        drum_m: &[f64],
+        cable_m: &[f64],
+    ) -> bool {
         let m = &self.motors;
-        command.iter().enumerate().all(|(c, d)| {
+        drum_m.iter().zip(cable_m).enumerate().all(|(c, (u, d))| {
             let p = state.payout_m[c] + d;
-            d.abs() <= m.max_step_m[c] * (1.0 + 1e-9)
+            u.abs() <= m.max_step_m[c] * (1.0 + 1e-9)
                 && p >= m.min_payout_m[c] - 1e-9
                 && p <= m.max_payout_m[c] + 1e-9
         })

@@ -19,33 +19,10 @@ use serde::Serialize;
 
 use super::statistics::scenario_seed;
 use crate::learn::{adapt, Case, CaseConditions, CaseMemory, EndStateCache, FeatureScales};
-use crate::model::ForwardModel;
 use crate::plan::{
-    deploy_guided, folded_start, ClosedLoopSetup, DeployError, DeploymentProblem, Guidance,
-    PlanContext, PlanError, Policy,
+    deploy_guided, folded_start, ClosedLoopSetup, DeployError, Guidance, PlanContext, PlanError,
 };
-use crate::sim::{EffectModel, Plant, Sensor};
-
-/// Everything a run of cycles runs with.
-#[derive(Debug, Clone, Copy)]
-pub struct CyclesSetup<'a> {
-    /// The controller's model.
-    pub model: &'a ForwardModel,
-    /// The problem (fold, connection, limits).
-    pub problem: &'a DeploymentProblem,
-    /// The policy (with or without `[memory]`).
-    pub policy: &'a Policy,
-    /// The truth, with its hidden effects fixed for every cycle.
-    pub truth: &'a EffectModel,
-    /// The sensors read on the truth.
-    pub sensors: &'a [Sensor],
-    /// Temperature of every cycle, °C (`None`: the truth's reference).
-    pub temperature_c: Option<f64>,
-    /// Seed of the sensor noise (see the module documentation).
-    pub seed: u64,
-    /// Number of cycles.
-    pub cycles: usize,
-}
+use crate::sim::Plant;
 
 /// One cycle's figures: a row of the learning curve.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -104,10 +81,13 @@ pub struct CyclesEnd {
     pub stopped: Option<String>,
 }
 
-/// Runs the cycles, learning into `memory` (cases are appended to it).
+/// Runs `cycles` cycles of `setup` (its truth's hidden effects fixed for
+/// every cycle; its seed that of the sensor noise, see the module
+/// documentation), learning into `memory` (cases are appended to it).
 /// Errors only when the first deployment cannot start.
 pub fn run_cycles(
-    setup: &CyclesSetup,
+    setup: &ClosedLoopSetup,
+    cycles: usize,
     memory: &mut CaseMemory,
     observer: &mut dyn CycleObserver,
 ) -> Result<CyclesEnd, DeployError> {
@@ -127,7 +107,7 @@ pub fn run_cycles(
     let scales = FeatureScales::default();
     let mut end_states = EndStateCache::default();
     let mut results = Vec::new();
-    for cycle in 1..=setup.cycles {
+    for cycle in 1..=cycles {
         let clock = std::time::Instant::now();
         // The start gap is measured inside the deployment; retrieval
         // compares what is known before it.
@@ -159,13 +139,8 @@ pub fn run_cycles(
             .as_ref()
             .map_or_else(Guidance::default, |a| a.guidance.clone());
         let run = ClosedLoopSetup {
-            model,
-            problem,
-            policy,
-            truth: setup.truth,
-            sensors: setup.sensors,
-            temperature_c: setup.temperature_c,
             seed: scenario_seed(setup.seed, cycle),
+            ..*setup
         };
         let d = deploy_guided(&run, &guidance, Some(&mut plant), &mut ())?;
         let case = Case::of_deployment(&d, structure, setup.sensors, setup.temperature_c);
@@ -188,7 +163,7 @@ pub fn run_cycles(
         observer.on_cycle(&result, &case);
         memory.cases.push(case);
         results.push(result);
-        if cycle == setup.cycles {
+        if cycle == cycles {
             break;
         }
         if let Err(reason) = fold_back(&mut plant, &d.commands(), &motors.max_step_m, setup) {
@@ -210,7 +185,7 @@ fn fold_back(
     plant: &mut Plant,
     commands_m: &[Vec<f64>],
     max_step_m: &[f64],
-    setup: &CyclesSetup,
+    setup: &ClosedLoopSetup,
 ) -> Result<(), String> {
     let motors = max_step_m.len();
     let mut total = vec![0.0; motors];

@@ -131,9 +131,7 @@ impl ForwardModel {
         // increments of a command behave alike.
         if ws.continuation_step == 0.0 {
             // Without friction no joint changes state within an increment.
-            let frictionless =
-                self.friction.static_mu.is_zero() && self.friction.kinetic_mu.is_zero();
-            ws.continuation_step = if frictionless {
+            ws.continuation_step = if self.friction.is_frictionless() {
                 1.0
             } else {
                 self.settings.newton_first_continuation_step
