@@ -15,7 +15,7 @@
 //! stiffness is affine in the forces, `K(t) = K₀ + Σ_g t_g·G_g` (material
 //! stiffness `K₀`, geometric stiffness `G_g = Σ (1/L)(I − e·eᵀ)` over group
 //! `g`'s elements, with each multi-element group acting as a clustered cable,
-//! see [`super::stiffness`]). [`find_stable_prestress`] asks for
+//! see [`crate::model::stiffness`]). [`find_stable_prestress`] asks for
 //! `λ_min(K(t)) ≥ κ` by Kelley's cutting planes: while the solution violates
 //! it, each eigenvector `v` with `vᵀK v < κ` becomes the linear constraint
 //! `Σ_g t_g·vᵀG_g v ≥ κ − vᵀK₀v`, and the QP is solved again.

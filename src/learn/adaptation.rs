@@ -7,7 +7,8 @@
 //!    from the last trial; with none that near, the nearest.
 //! 2. **Linearisation at the case's end.** The case's drum commands, made
 //!    cable motion by its estimated payout scale, are applied to the
-//!    controller's model from the folded start; at that end state the
+//!    controller's model (`solve_case_end` says where that solve
+//!    starts); at that end state the
 //!    tangent gives the gaps' and limits' sensitivities to each motor's
 //!    payout ([`crate::plan::search::step_data`], the planner's own
 //!    linearisation), scaled to drum payout.
@@ -33,9 +34,9 @@ use crate::plan::{MemorySettings, PayoutScaleEstimator, PlanContext};
 /// The model's state at the end of the last case adapted, kept between
 /// adaptations. On a frictionless model the state is a function of the
 /// payout alone, so the next case's end is reached from it by the
-/// difference of the payouts (a few millimetres between cycles: one
-/// increment instead of forty). With friction the path matters and the
-/// cache is not used.
+/// difference of the payouts (a few millimetres between cycles), without
+/// relaxing the as-built state again. With friction the path matters and
+/// the cache is not used.
 #[derive(Debug, Clone, Default)]
 pub struct EndStateCache {
     last: Option<DeploymentState>,
@@ -139,50 +140,13 @@ pub fn adapt(
             cable_total[m] += d * drum_to_cable[m];
         }
     }
-    let frictionless = model.friction().is_frictionless();
-    let from_cache = cache
-        .last
-        .take()
-        .filter(|s| frictionless && s.payout_m.len() == motors);
-    let (mut end, payout_m) = match from_cache {
-        Some(last) => {
-            let rest: Vec<f64> = (0..motors)
-                .map(|m| start.payout_m[m] + cable_total[m] - last.payout_m[m])
-                .collect();
-            (last, rest)
-        }
-        None => (start.clone(), cable_total.clone()),
-    };
-    // Only the end state is needed (its limits enter the update), so the
-    // path is not checked; a frictionless model's end does not depend on
-    // the path, so it is reached in steps of a drum's largest step rather
-    // than the policy's increments.
-    let increment_m = if frictionless {
-        context
-            .motors
-            .max_step_m
-            .iter()
-            .copied()
-            .fold(0.0, f64::max)
-    } else {
-        context.policy.increment_m
-    };
-    let status = match model.apply_payout(
-        &mut end,
-        &mut Workspace::default(),
-        &payout_m,
-        increment_m,
-        &mut (),
-    ) {
-        Ok(r) => r.status,
-        Err(_) => RelaxStatus::Diverged,
-    };
-    if !status.is_converged() {
-        return Err(AdaptError::EndState {
-            case: case_index,
-            status,
-        });
-    }
+    let end =
+        solve_case_end(context, start, &cable_total, cache.last.take()).map_err(|status| {
+            AdaptError::EndState {
+                case: case_index,
+                status,
+            }
+        })?;
     cache.last = Some(end.clone());
     let response = PayoutResponse::tangent(model, &end).map_err(|e| AdaptError::Sensitivity {
         case: case_index,
@@ -237,4 +201,144 @@ pub fn adapt(
         ilc,
         guidance,
     }))
+}
+
+/// The controller's model at the end of a case: the state after cable
+/// payouts `cable_total_m` (per motor, m) from `start`.
+///
+/// Only the end state is needed (its limits enter the update), so the path
+/// is not checked. A frictionless model's end does not depend on the path,
+/// so the solve starts from whichever known equilibrium is nearest in
+/// payout: the end of the case adapted before (`cached`), the folded
+/// `start`, or the as-built state relaxed (payout 0, near where every
+/// deployment ends: one increment instead of the fold's eight), and goes
+/// in steps of a drum's largest step. With friction the path matters: it
+/// follows the case's payouts from `start` in the policy's increments.
+fn solve_case_end(
+    context: &PlanContext,
+    start: &DeploymentState,
+    cable_total_m: &[f64],
+    cached: Option<DeploymentState>,
+) -> Result<DeploymentState, RelaxStatus> {
+    let model = context.model;
+    let target_m: Vec<f64> = start
+        .payout_m
+        .iter()
+        .zip(cable_total_m)
+        .map(|(p, d)| p + d)
+        .collect();
+    let distance = |s: &DeploymentState| {
+        s.payout_m
+            .iter()
+            .zip(&target_m)
+            .map(|(p, t)| (t - p).abs())
+            .fold(0.0, f64::max)
+    };
+    let mut ws = Workspace::default();
+    let (mut end, increment_m) = if model.friction().is_frictionless() {
+        let mut nearest = cached
+            .filter(|s| s.payout_m.len() == target_m.len())
+            .filter(|s| distance(s) < distance(start))
+            .unwrap_or_else(|| start.clone());
+        let as_built_distance = target_m.iter().fold(0.0, |m: f64, t| m.max(t.abs()));
+        if as_built_distance < distance(&nearest) {
+            let mut as_built = model.reference_state();
+            if model.relax(&mut as_built, &mut ws).status.is_converged() {
+                nearest = as_built;
+            }
+        }
+        let largest_step_m = context
+            .motors
+            .max_step_m
+            .iter()
+            .copied()
+            .fold(0.0, f64::max);
+        (nearest, largest_step_m)
+    } else {
+        (start.clone(), context.policy.increment_m)
+    };
+    let delta_m: Vec<f64> = target_m
+        .iter()
+        .zip(&end.payout_m)
+        .map(|(t, p)| t - p)
+        .collect();
+    let status = match model.apply_payout(&mut end, &mut ws, &delta_m, increment_m, &mut ()) {
+        Ok(r) => r.status,
+        Err(_) => RelaxStatus::Diverged,
+    };
+    if status.is_converged() {
+        Ok(end)
+    } else {
+        Err(status)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::reference_bridge::{reference_bridge, BridgeParameters};
+    use crate::model::{ForwardModel, JointFriction, RelaxSettings};
+    use crate::plan::{folded_start, DeploymentProblem, Policy};
+
+    fn frictionless_bridge() -> ForwardModel {
+        let structure = reference_bridge(&BridgeParameters::default()).expect("bridge");
+        ForwardModel::new(
+            structure,
+            JointFriction::frictionless(),
+            RelaxSettings::default(),
+        )
+        .expect("model")
+    }
+
+    /// The end reached from the as-built state (or from a cached end) must
+    /// be the end the case's own path reaches: a frictionless elastic
+    /// structure's equilibrium depends on the payout alone. The solver
+    /// stops at an out-of-balance force of 1e-6 of the largest member
+    /// force; with member stiffnesses of order 1e6–1e7 N/m that leaves
+    /// node positions uncertain by well under 1e-7 m, so two paths must
+    /// agree to 1e-6 m.
+    #[test]
+    fn a_frictionless_case_end_does_not_depend_on_where_the_solve_starts() {
+        let model = frictionless_bridge();
+        let problem = DeploymentProblem::default();
+        let policy = Policy::default();
+        let start = folded_start(&model, &problem, policy.increment_m).expect("fold");
+        let context = PlanContext::new(&model, &problem, &policy, &start).expect("context");
+        let motors = start.payout_m.len();
+        // Reeled in to 1 cm short of the as-built payout: nearer the
+        // as-built state than the fold.
+        let total: Vec<f64> = start.payout_m.iter().map(|p| 0.01 - p).collect();
+        let mut along_the_path = start.clone();
+        let r = model
+            .apply_payout(
+                &mut along_the_path,
+                &mut Workspace::default(),
+                &total,
+                policy.increment_m,
+                &mut (),
+            )
+            .expect("payout");
+        assert!(r.status.is_converged());
+
+        let from_as_built = solve_case_end(&context, &start, &total, None).expect("end");
+        assert!(along_the_path.max_position_difference_m(&from_as_built) < 1e-6);
+
+        // A cached end 2 cm away (nearer than both) leads there too.
+        let mut cached = start.clone();
+        let to_cache: Vec<f64> = total.iter().map(|t| t - 0.02).collect();
+        model
+            .apply_payout(
+                &mut cached,
+                &mut Workspace::default(),
+                &to_cache,
+                0.05,
+                &mut (),
+            )
+            .expect("payout");
+        let from_cache = solve_case_end(&context, &start, &total, Some(cached)).expect("end");
+        assert!(along_the_path.max_position_difference_m(&from_cache) < 1e-6);
+        for m in 0..motors {
+            assert!((from_cache.payout_m[m] - along_the_path.payout_m[m]).abs() < 1e-12);
+        }
+    }
 }
