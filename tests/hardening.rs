@@ -99,7 +99,7 @@ fn a_friction_rig_with_a_non_finite_or_extreme_tension_or_angle_is_an_error_not_
         let dir = dir_with(&[("e.toml", &rig.replace(from, to))]);
         let e = failed_with(&tdeploy(&["experiment", "e.toml"], dir.path()), 2);
         assert!(
-            e.starts_with(&format!("error: e.toml: line ")) && e.contains(&format!("`{field}`")),
+            e.starts_with("error: e.toml: line ") && e.contains(&format!("`{field}`")),
             "{to}: {e}"
         );
     }

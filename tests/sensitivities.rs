@@ -17,6 +17,7 @@
 //!   positions by far less than the truncation (the error still halves
 //!   with `h` at 1e-6 m), so it is below 1e-5 of the largest entry.
 //! - Sensitivity rounding: central differences over 1 µm, ~1e-10 relative.
+//!
 //! So 1e-3 is 4.5× the worst expected error. A joint put in the wrong state
 //! changes responses by far more: paying out and reeling in differ by tens
 //! of percent at μ = 0.2 (checked below), and each is compared with its own

@@ -200,13 +200,13 @@ fn replay_table(r: &Replay, motors: &[String], pairs: usize) -> CsvTable {
                         .map(|(a, b)| (a - b).to_string()),
                 );
             }
-            None => row.extend(std::iter::repeat(String::new()).take(2 * motors.len())),
+            None => row.extend(std::iter::repeat_n(String::new(), 2 * motors.len())),
         }
         row.extend(s.measured_gaps_m.iter().map(|g| opt(*g)));
         row.extend(s.logged_predicted_gaps_m.iter().map(|g| g.to_string()));
         match &s.policy_predicted_gaps_m {
             Some(g) => row.extend(g.iter().map(|g| g.to_string())),
-            None => row.extend(std::iter::repeat(String::new()).take(pairs)),
+            None => row.extend(std::iter::repeat_n(String::new(), pairs)),
         }
         table.row(row);
     }

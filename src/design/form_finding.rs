@@ -150,11 +150,11 @@ pub fn stiffness_parts(
                     }
                 }
             }
-            add_outer(&mut g, &rows, &[(a, -e), (b, e)], -1.0 / l);
+            add_outer(&mut g, rows, &[(a, -e), (b, e)], -1.0 / l);
             grad.push((a, -e));
             grad.push((b, e));
         }
-        add_outer(&mut material, &rows, &grad, group.axial_stiffness_n_per_m);
+        add_outer(&mut material, rows, &grad, group.axial_stiffness_n_per_m);
         geometric.push(g);
     }
     (material, geometric)

@@ -178,9 +178,9 @@ pub struct MemorySettings {
     /// motor), so one update removes most of the last error and a noisy
     /// one moves the commands little. Larger learns more slowly.
     pub ilc_regularisation: f64,
-    /// Standard deviation of the payout-scale prior taken from the case,
-    /// 1. Default 0.01: the spread of the estimate between cycles of one
-    /// bridge.
+    /// Standard deviation of the payout-scale prior taken from the case
+    /// (dimensionless). Default 0.01: the spread of the estimate between
+    /// cycles of one bridge.
     pub payout_scale_prior_sd: f64,
 }
 

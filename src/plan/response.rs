@@ -129,7 +129,7 @@ impl IndependentParts {
             .map(|m| of_node[m.nodes[0]].or(of_node[m.nodes[1]]))
             .collect();
         for (c, cable) in s.continuous_cables.iter().enumerate() {
-            of_force_row.extend(std::iter::repeat(of_cable[c]).take(cable.segment_count()));
+            of_force_row.extend(std::iter::repeat_n(of_cable[c], cable.segment_count()));
         }
         IndependentParts {
             of_node,

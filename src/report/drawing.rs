@@ -264,8 +264,8 @@ mod tests {
             forces: &forces,
             label: "designed",
         };
-        let one = state_views_svg(&m.structure(), drawn, None, "bridge").unwrap();
-        let two = state_views_svg(&m.structure(), drawn, Some(drawn), "bridge").unwrap();
+        let one = state_views_svg(m.structure(), drawn, None, "bridge").unwrap();
+        let two = state_views_svg(m.structure(), drawn, Some(drawn), "bridge").unwrap();
         let lines = m.structure().members.len() + m.structure().segment_count();
         // The designed state has no slack member: one polyline per line per
         // view, plus the axes plotters draws (the same count in both).

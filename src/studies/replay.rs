@@ -164,7 +164,7 @@ pub fn default_cycle(log: &MeasurementLog) -> Option<u64> {
     for i in 0..log.cycles.len() {
         if let Ok(s) = locate_start(log, i) {
             let fold = mean(&s.start_payout_m);
-            if best.map_or(true, |(_, b)| fold > b) {
+            if best.is_none_or(|(_, b)| fold > b) {
                 best = Some((s.cycle, fold));
             }
         }
@@ -222,7 +222,7 @@ fn locate_start(log: &MeasurementLog, index: usize) -> Result<ReplayStart, Repla
     } else {
         let mut best: Option<(usize, f64)> = None;
         for (k, p) in payouts.iter().enumerate() {
-            if measured(k) && best.map_or(true, |(_, b)| mean(p) > b) {
+            if measured(k) && best.is_none_or(|(_, b)| mean(p) > b) {
                 best = Some((k, mean(p)));
             }
         }
