@@ -226,3 +226,62 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
         .all(|u| u.abs() <= 0.05 + 1e-12));
     assert_eq!(d.status.label(), "connected");
 }
+
+/// `evaluate` with several cycles per scenario reports, for each run, the
+/// last cycle of the cycles study on the scenario's truth, sensors and
+/// fold (the same deployments run a second way, through `run_cycles`),
+/// with the violations of every cycle.
+#[test]
+fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
+    use tensegrity_deploy::studies::evaluation::{evaluate, EvaluationSetup};
+    let (structure, model, _) = bridge();
+    let policies = [
+        read_policy(Path::new("policies/qp.toml")).unwrap(),
+        read_policy(Path::new("policies/memory.toml")).unwrap(),
+    ];
+    let distribution = ScenarioDistribution::default();
+    let problem = DeploymentProblem::default();
+    let setup = EvaluationSetup {
+        model: &model,
+        policies: &policies,
+        distribution: &distribution,
+        problem: &problem,
+        seed: 1,
+        cycles: 2,
+    };
+    let (scenarios, results) = evaluate(&setup, &[0, 3], &|| {});
+    assert_eq!(results.len(), 4);
+    for r in &results {
+        let scenario = scenarios.iter().find(|s| s.index == r.scenario).unwrap();
+        let truth = scenario.truth(&structure);
+        let sensors = scenario.sensors(&structure);
+        let problem = scenario.problem(&problem);
+        let run = ClosedLoopSetup {
+            model: &model,
+            problem: &problem,
+            policy: &policies[r.policy],
+            truth: &truth,
+            sensors: &sensors,
+            temperature_c: scenario.temperature_c,
+            seed: scenario.seed,
+        };
+        let end = run_cycles(&run, 2, &mut CaseMemory::default(), &mut ()).unwrap();
+        assert_eq!(end.stopped, None);
+        let last = end.results.last().unwrap();
+        assert_eq!(r.status, last.status);
+        assert_eq!(r.commands, last.commands);
+        assert_eq!(r.corrective_commands, last.corrective_commands);
+        assert_eq!(r.approach_gap_m, last.approach_gap_m);
+        assert_eq!(r.final_true_gap_m, last.final_true_gap_m);
+        let violations: usize = end.results.iter().map(|c| c.truth_limit_violations).sum();
+        assert_eq!(r.truth_violations, violations);
+    }
+    // The memory policy's second cycle learnt from its first: it differs
+    // from the memoryless one's somewhere.
+    let memoryless: Vec<_> = results.iter().filter(|r| r.policy == 0).collect();
+    let memory: Vec<_> = results.iter().filter(|r| r.policy == 1).collect();
+    assert!(memoryless
+        .iter()
+        .zip(&memory)
+        .any(|(a, b)| a.approach_gap_m != b.approach_gap_m));
+}

@@ -510,6 +510,7 @@ fn the_evaluation_is_the_same_at_any_thread_count_and_sharding() {
         distribution: &distribution,
         problem: &problem,
         seed: 3,
+        cycles: 1,
     };
     // Planning times are wall clock: the one value allowed to differ.
     let timeless = |mut r: RunResult| {

@@ -144,6 +144,17 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
 }
 
 #[test]
+fn cycles_out_of_range_exit_2_naming_the_flag() {
+    let tmp = tempfile::tempdir().unwrap();
+    for bad in ["0", "101"] {
+        let out = evaluate(&tmp.path().join("c"), &["--cycles", bad]);
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--cycles"), "{err}");
+    }
+}
+
+#[test]
 fn a_bad_distribution_file_exits_2_naming_file_line_and_field() {
     let tmp = tempfile::tempdir().unwrap();
     let file = tmp.path().join("d.toml");

@@ -33,7 +33,7 @@ use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::io::FileError;
 use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::JointFriction;
-use tensegrity_deploy::plan::{ClosedLoopSetup, Policy};
+use tensegrity_deploy::plan::{ClosedLoopSetup, Deployment, Policy};
 use tensegrity_deploy::report::figures::grouped_bars_svg;
 use tensegrity_deploy::sim::default_truth::default_truth;
 use tensegrity_deploy::sim::standard_sensors;
@@ -118,7 +118,7 @@ struct MemoryWriter<'a> {
 }
 
 impl CycleObserver for MemoryWriter<'_> {
-    fn on_cycle(&mut self, result: &CycleResult, case: &Case) {
+    fn on_cycle(&mut self, result: &CycleResult, _: &Deployment, case: &Case) {
         if self.failure.is_none() {
             if let Err(e) = append_case(self.path, case) {
                 self.failure = Some(e);

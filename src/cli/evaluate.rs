@@ -1,5 +1,5 @@
 //! `tdeploy evaluate [--policy P]… [--scenarios N] [--seed S]
-//! [--distribution F] [--model M] [--problem F] [--shard k/n]
+//! [--distribution F] [--model M] [--problem F] [--cycles K] [--shard k/n]
 //! [--threads N] [-o DIR] [--force]`: offline evaluation of policies on
 //! the same seeded scenarios ([`tensegrity_deploy::studies::evaluation`]).
 //!
@@ -40,6 +40,10 @@ use super::{value, Outcome};
 /// for (a million deployments is about a day on 2 cores).
 pub const MAX_SCENARIOS: usize = 1_000_000;
 
+/// Most cycles per scenario (the learning curve of `tdeploy cycles` has
+/// settled well before).
+pub const MAX_CYCLES: usize = 100;
+
 /// The `evaluate` subcommand's arguments.
 pub fn command() -> Command {
     Command::new("evaluate")
@@ -50,6 +54,7 @@ pub fn command() -> Command {
         .arg(Arg::new("distribution").long("distribution").value_parser(value_parser!(PathBuf)).help("Scenario distribution file (TOML, format tensegrity-deploy/scenarios/1). Default: joint friction, motor slip and backlash, stiffness and joint-mass errors over their plausible ranges; standard sensor noise; the 40 cm fold"))
         .arg(Arg::new("model").long("model").value_parser(value_parser!(PathBuf)).help("Model file the controller plans on. Default: the reference bridge without friction"))
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (its start fold is replaced by each scenario's)"))
+        .arg(Arg::new("cycles").long("cycles").default_value("1").value_parser(value_parser!(usize)).help("Deployment-fold cycles per scenario (1 to 100), each run from an empty case memory: how a policy with a [memory] section does after learning. Each run's row reports its last cycle; a limit broken in any cycle counts"))
         .arg(Arg::new("shard").long("shard").default_value("1/1").help("Run shard k of n (scenarios i with i mod n = k − 1); `tdeploy merge` joins the shards"))
         .arg(Arg::new("threads").long("threads").value_parser(value_parser!(usize)).help("Worker threads, at least 1 (default: one per core); the results do not depend on it"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/evaluate").value_parser(value_parser!(PathBuf)).help("Folder for evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg, timing.csv"))
@@ -71,6 +76,8 @@ pub struct Options {
     pub model: Option<PathBuf>,
     /// Problem file; `None`: the default problem.
     pub problem: Option<PathBuf>,
+    /// Deployment-fold cycles per scenario.
+    pub cycles: usize,
     /// This run's shard.
     pub shard: Shard,
     /// Worker threads; `None`: rayon's default.
@@ -92,6 +99,10 @@ impl Options {
         if !(1..=MAX_SCENARIOS).contains(&scenarios) {
             bail!("--scenarios: {scenarios} is not from 1 to {MAX_SCENARIOS}");
         }
+        let cycles: usize = value(m, "cycles")?;
+        if !(1..=MAX_CYCLES).contains(&cycles) {
+            bail!("--cycles: {cycles} is not from 1 to {MAX_CYCLES}");
+        }
         let shard_text: String = value(m, "shard")?;
         let shard = Shard::parse(&shard_text)
             .with_context(|| format!("--shard: `{shard_text}` is not k/n with 1 ≤ k ≤ n"))?;
@@ -105,6 +116,7 @@ impl Options {
             distribution: m.get_one::<PathBuf>("distribution").cloned(),
             model: m.get_one::<PathBuf>("model").cloned(),
             problem: m.get_one::<PathBuf>("problem").cloned(),
+            cycles,
             shard,
             threads,
             out: value(m, "out")?,
@@ -163,6 +175,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             .model
             .as_ref()
             .map_or("reference".into(), |p| p.display().to_string()),
+        cycles: o.cycles,
         distribution: distribution.clone(),
     };
     // Claimed before the work, so that a refusal costs nothing.
@@ -170,9 +183,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
 
     let indices = o.shard.scenarios(o.scenarios);
     say!(
-        "evaluate: {} × {} scenarios (shard {}/{} of {}, seed {}); policies {}",
+        "evaluate: {} × {} scenarios × {} cycles (shard {}/{} of {}, seed {}); policies {}",
         indices.len(),
         policies.len(),
+        o.cycles,
         o.shard.index,
         o.shard.count,
         o.scenarios,
@@ -193,6 +207,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         distribution: &distribution,
         problem: &problem,
         seed: o.seed,
+        cycles: o.cycles,
     };
     let sweep = || evaluate(&setup, &indices, &|| bar.inc(1));
     let (scenarios, results) = match o.threads {

@@ -27,13 +27,14 @@ fn num(v: Option<f64>, digits: usize) -> String {
 /// `folder` (which must exist). Returns how many runs broke a truth limit.
 pub fn report(record: &EvaluationRecord, runs: &EvaluationRuns, folder: &Path) -> Result<usize> {
     say!(
-        "{:<14} {:>9} {:>15} {:>9} {:>9} {:>11} {:>10} {:>10} {:>9} {:>9} {:>6} {:>9}",
+        "{:<14} {:>9} {:>15} {:>9} {:>9} {:>11} {:>10} {:>10} {:>10} {:>9} {:>9} {:>6} {:>9}",
         "policy",
         "success",
         "Wilson 95 %",
         "cmds med",
         "cmds p95",
         "corrective",
+        "approach",
         "gap med",
         "gap p95",
         "travel",
@@ -51,6 +52,7 @@ pub fn report(record: &EvaluationRecord, runs: &EvaluationRuns, folder: &Path) -
         "commands_median",
         "commands_p95",
         "corrective_median",
+        "approach_gap_median_m",
         "final_gap_median_m",
         "final_gap_p95_m",
         "cable_travel_median_m",
@@ -64,7 +66,7 @@ pub fn report(record: &EvaluationRecord, runs: &EvaluationRuns, folder: &Path) -
         violations += s.violations;
         let rate = s.successes as f64 / s.runs.max(1) as f64;
         say!(
-            "{:<14} {:>8.0}% {:>7.0}–{:>3.0} % {:>9} {:>9} {:>11} {:>7} mm {:>7} mm {:>7} m {:>9.2} {:>6} {:>9}",
+            "{:<14} {:>8.0}% {:>7.0}–{:>3.0} % {:>9} {:>9} {:>11} {:>7} mm {:>7} mm {:>7} mm {:>7} m {:>9.2} {:>6} {:>9}",
             name,
             100.0 * rate,
             100.0 * s.success_interval.0,
@@ -72,6 +74,7 @@ pub fn report(record: &EvaluationRecord, runs: &EvaluationRuns, folder: &Path) -
             num(s.commands_median, 1),
             num(s.commands_p95, 1),
             num(s.corrective_median, 1),
+            num(s.approach_gap_median_m.map(|g| 1e3 * g), 1),
             num(s.final_gap_median_m.map(|g| 1e3 * g), 1),
             num(s.final_gap_p95_m.map(|g| 1e3 * g), 1),
             num(s.travel_median_m, 2),
@@ -90,6 +93,7 @@ pub fn report(record: &EvaluationRecord, runs: &EvaluationRuns, folder: &Path) -
             opt(s.commands_median),
             opt(s.commands_p95),
             opt(s.corrective_median),
+            opt(s.approach_gap_median_m),
             opt(s.final_gap_median_m),
             opt(s.final_gap_p95_m),
             opt(s.travel_median_m),

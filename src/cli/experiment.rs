@@ -427,6 +427,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         distribution: &distribution,
         problem: &problem,
         seed: e.seed,
+        cycles: 1,
     };
     let indices: Vec<usize> = (0..e.scenarios).collect();
     let (scenarios, results) = evaluate(&setup, &indices, &|| bar.inc(1));
@@ -443,6 +444,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
             .map(super::evaluate::policy_fingerprint)
             .collect::<Result<_>>()?,
         model: format!("reference, joint friction mu = {}", e.model_mu),
+        cycles: 1,
         distribution: distribution.clone(),
     };
     let runs = EvaluationRuns::new(&distribution, names, &scenarios, results);

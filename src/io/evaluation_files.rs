@@ -17,9 +17,9 @@
 //! ```
 //!
 //! **`evaluation.toml`**: what was run (format
-//! `tensegrity-deploy/evaluation/1`): seed, scenario count, shard,
-//! policy names and fingerprints, the controller model's source and the
-//! distribution itself. Shards merge only if everything but the shard
+//! `tensegrity-deploy/evaluation/2`): seed, scenario count, cycles per
+//! scenario, shard, policy names and fingerprints, the controller model's
+//! source and the distribution itself. Shards merge only if everything but the shard
 //! agrees.
 //!
 //! **`runs.csv`**: one row per scenario and policy, in scenario then
@@ -27,7 +27,10 @@
 //! [`crate::studies::evaluation::ScenarioDistribution::drawn_names`]),
 //! then `policy,status,succeeded,commands,corrective_commands,
 //! final_measured_gap_m,final_true_gap_m,cable_travel_m,
-//! truth_worst_utilisation,truth_violations` (SI units; empty = none).
+//! truth_worst_utilisation,truth_violations,approach_gap_m` (SI units;
+//! empty = none; with several cycles per scenario, the last cycle's,
+//! violations and utilisation over all cycles). Format 1 had neither the
+//! cycles nor the approach gap.
 //! Numbers are written as the shortest text that reads back to the same
 //! value, so a merge re-writes the rows of its shards byte for byte.
 //!
@@ -47,10 +50,10 @@ use crate::studies::evaluation::{RunResult, Scenario, ScenarioDistribution, Shar
 /// The `format` of a scenario-distribution file.
 pub const DISTRIBUTION_FORMAT: &str = "tensegrity-deploy/scenarios/1";
 /// The `format` of `evaluation.toml`.
-pub const EVALUATION_FORMAT: &str = "tensegrity-deploy/evaluation/1";
+pub const EVALUATION_FORMAT: &str = "tensegrity-deploy/evaluation/2";
 
 /// The columns of `runs.csv` after the drawn values.
-const RESULT_COLUMNS: [&str; 10] = [
+const RESULT_COLUMNS: [&str; 11] = [
     "policy",
     "status",
     "succeeded",
@@ -61,6 +64,7 @@ const RESULT_COLUMNS: [&str; 10] = [
     "cable_travel_m",
     "truth_worst_utilisation",
     "truth_violations",
+    "approach_gap_m",
 ];
 
 /// Reads and validates a scenario-distribution file.
@@ -95,6 +99,9 @@ pub struct EvaluationRecord {
     pub policy_fingerprints: Vec<String>,
     /// The controller's model: `reference` or the model file given.
     pub model: String,
+    /// Deployment-fold cycles per scenario and policy (each run reports
+    /// its last cycle).
+    pub cycles: usize,
     /// The scenario distribution.
     pub distribution: ScenarioDistribution,
 }
@@ -236,6 +243,7 @@ impl EvaluationRuns {
                 r.cable_travel_m.to_string(),
                 r.worst_utilisation.to_string(),
                 r.truth_violations.to_string(),
+                opt(r.approach_gap_m),
             ]);
             table.row(row);
         }
@@ -340,6 +348,7 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
             cable_travel_m: number(at + 7)?,
             worst_utilisation: number(at + 8)?,
             truth_violations: count(at + 9)?,
+            approach_gap_m: optional(at + 10)?,
             planning_time_median_s: None,
         });
     }

@@ -20,7 +20,8 @@ use serde::Serialize;
 use super::statistics::scenario_seed;
 use crate::learn::{adapt, Case, CaseConditions, CaseMemory, EndStateCache, FeatureScales};
 use crate::plan::{
-    deploy_guided, folded_start, ClosedLoopSetup, DeployError, Guidance, PlanContext, PlanError,
+    deploy_guided, folded_start, ClosedLoopSetup, DeployError, Deployment, Guidance, PlanContext,
+    PlanError,
 };
 use crate::sim::Plant;
 
@@ -62,13 +63,13 @@ pub struct CycleResult {
 /// Receives each cycle as it ends (the CLI stores the case and moves its
 /// progress bar; numerics never print).
 pub trait CycleObserver {
-    /// Called after cycle `result.cycle`, with the case it added to the
-    /// memory.
-    fn on_cycle(&mut self, result: &CycleResult, case: &Case);
+    /// Called after cycle `result.cycle`, with its deployment and the case
+    /// it added to the memory.
+    fn on_cycle(&mut self, result: &CycleResult, deployment: &Deployment, case: &Case);
 }
 
 impl CycleObserver for () {
-    fn on_cycle(&mut self, _: &CycleResult, _: &Case) {}
+    fn on_cycle(&mut self, _: &CycleResult, _: &Deployment, _: &Case) {}
 }
 
 /// Why the cycles stopped early.
@@ -160,7 +161,7 @@ pub fn run_cycles(
             planning_time_s: adaptation_time_s
                 + d.records.iter().map(|r| r.planning_time_s).sum::<f64>(),
         };
-        observer.on_cycle(&result, &case);
+        observer.on_cycle(&result, &d, &case);
         memory.cases.push(case);
         results.push(result);
         if cycle == cycles {

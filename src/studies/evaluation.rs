@@ -27,11 +27,13 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use super::cycles::{run_cycles, CycleObserver, CycleResult};
 use super::statistics::{median, percentile, scenario_seed, wilson_interval};
-use crate::model::{EffectKind, Effects, ForwardModel};
-use crate::plan::closed_loop::{deploy_closed_loop, ClosedLoopSetup, Deployment};
+use crate::learn::{Case, CaseMemory};
+use crate::model::{EffectKind, Effects, ForwardModel, Structure};
+use crate::plan::closed_loop::{deploy_closed_loop, ClosedLoopSetup, DeployError, Deployment};
 use crate::plan::{DeploymentProblem, PerMotor, PlanStatus, Policy};
-use crate::sim::{standard_sensors, EffectModel, SensorTarget};
+use crate::sim::{standard_sensors, EffectModel, Sensor, SensorTarget};
 
 /// Where the scenarios come from: a range per drawn quantity.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -266,6 +268,33 @@ pub struct Scenario {
 }
 
 impl Scenario {
+    /// The truth of this scenario on `structure`: its hidden effects.
+    pub fn truth(&self, structure: &Structure) -> EffectModel {
+        EffectModel::for_measurement(structure.clone(), self.effects)
+    }
+
+    /// The standard sensors of `structure` with this scenario's noise.
+    pub fn sensors(&self, structure: &Structure) -> Vec<Sensor> {
+        standard_sensors(structure)
+            .into_iter()
+            .map(|mut sensor| {
+                sensor.noise_sd = match sensor.target {
+                    SensorTarget::Position { .. } => self.position_noise_m,
+                    _ => self.load_cell_noise_n,
+                };
+                sensor
+            })
+            .collect()
+    }
+
+    /// `base` with this scenario's start fold.
+    pub fn problem(&self, base: &DeploymentProblem) -> DeploymentProblem {
+        DeploymentProblem {
+            start_payout_m: PerMotor::All(self.fold_m),
+            ..base.clone()
+        }
+    }
+
     /// The drawn values in the order of
     /// [`ScenarioDistribution::drawn_names`].
     pub fn drawn_values(&self, distribution: &ScenarioDistribution) -> Vec<f64> {
@@ -336,6 +365,9 @@ pub struct RunResult {
     pub worst_utilisation: f64,
     /// Truth limits broken (count over increments).
     pub truth_violations: usize,
+    /// Largest measured gap after the first approach, m (the error a
+    /// case memory learns to remove; `None` if no approach was measured).
+    pub approach_gap_m: Option<f64>,
     /// Median planning time per command, s (wall clock: the one value
     /// that varies from run to run).
     pub planning_time_median_s: Option<f64>,
@@ -373,6 +405,7 @@ impl RunResult {
                     .map(|r| r.truth_worst_utilisation)
                     .fold(0.0, f64::max),
                 truth_violations: d.truth_limit_violations,
+                approach_gap_m: d.approach_gap_m(),
                 planning_time_median_s: median(
                     d.records.iter().map(|r| r.planning_time_s).collect(),
                 ),
@@ -389,9 +422,65 @@ impl RunResult {
                 cable_travel_m: 0.0,
                 worst_utilisation: 0.0,
                 truth_violations: 0,
+                approach_gap_m: None,
                 planning_time_median_s: None,
             },
         }
+    }
+}
+
+/// Collects each cycle's [`RunResult`] as [`run_cycles`] reports it.
+struct CycleRuns {
+    scenario: usize,
+    policy: usize,
+    tolerance_m: f64,
+    results: Vec<RunResult>,
+}
+
+impl CycleObserver for CycleRuns {
+    fn on_cycle(&mut self, _: &CycleResult, deployment: &Deployment, _: &Case) {
+        let outcome = Ok(deployment.clone());
+        self.results.push(RunResult::of(
+            self.scenario,
+            self.policy,
+            &outcome,
+            self.tolerance_m,
+        ));
+    }
+}
+
+impl RunResult {
+    /// The result of `cycles` deployment-fold cycles on one scenario from
+    /// the results of the cycles that ran (`start_error`: why the first
+    /// could not start): the last cycle's figures, since the cycles before
+    /// it are the learning, except that limits broken in any cycle count
+    /// (`truth_violations` summed, `worst_utilisation` the largest) and
+    /// fail the run. A run whose truth could not be folded back before the
+    /// last cycle has the status `cycles_stopped` and did not succeed.
+    pub fn of_cycles(
+        scenario: usize,
+        policy: usize,
+        per_cycle: Vec<RunResult>,
+        cycles: usize,
+        start_error: Option<DeployError>,
+    ) -> RunResult {
+        let ran = per_cycle.len();
+        let violations: usize = per_cycle.iter().map(|r| r.truth_violations).sum();
+        let utilisation = per_cycle
+            .iter()
+            .map(|r| r.worst_utilisation)
+            .fold(0.0, f64::max);
+        let Some(mut last) = per_cycle.into_iter().last() else {
+            let error = start_error.map(|e| e.to_string()).unwrap_or_default();
+            return RunResult::of(scenario, policy, &Err(error), 0.0);
+        };
+        if ran < cycles {
+            last.status = "cycles_stopped".into();
+        }
+        last.succeeded &= ran == cycles && violations == 0;
+        last.truth_violations = violations;
+        last.worst_utilisation = utilisation;
+        last
     }
 }
 
@@ -410,6 +499,9 @@ pub struct PolicySummary {
     pub commands_p95: Option<f64>,
     /// Median corrective commands over successful runs.
     pub corrective_median: Option<f64>,
+    /// Median largest measured gap after the first approach over all
+    /// started runs, m.
+    pub approach_gap_median_m: Option<f64>,
     /// Median final largest true gap over all started runs, m.
     pub final_gap_median_m: Option<f64>,
     /// 95th percentile of it, m.
@@ -451,6 +543,7 @@ pub fn summarise_results(results: &[RunResult], policy: usize) -> PolicySummary 
                 .filter_map(|r| r.corrective_commands.map(|c| c as f64))
                 .collect(),
         ),
+        approach_gap_median_m: median(started.iter().filter_map(|r| r.approach_gap_m).collect()),
         final_gap_median_m: median(gaps()),
         final_gap_p95_m: percentile(gaps(), 0.95),
         travel_median_m: median(started.iter().map(|r| r.cable_travel_m).collect()),
@@ -499,6 +592,11 @@ pub struct EvaluationSetup<'a> {
     pub problem: &'a DeploymentProblem,
     /// Seed of the scenario draws.
     pub seed: u64,
+    /// Deployment-fold cycles per scenario, at least 1. With more than
+    /// one, each (scenario, policy) run starts from an empty case memory
+    /// and runs [`run_cycles`] on the scenario's truth; its result is
+    /// [`RunResult::of_cycles`].
+    pub cycles: usize,
 }
 
 /// Runs every policy on the scenarios `indices` in parallel; `run_done` is
@@ -522,21 +620,9 @@ pub fn evaluate(
         .par_iter()
         .map(|&(s, p)| {
             let scenario = &scenarios[s];
-            let truth = EffectModel::for_measurement(structure.clone(), scenario.effects);
-            let sensors: Vec<_> = standard_sensors(structure)
-                .into_iter()
-                .map(|mut sensor| {
-                    sensor.noise_sd = match sensor.target {
-                        SensorTarget::Position { .. } => scenario.position_noise_m,
-                        _ => scenario.load_cell_noise_n,
-                    };
-                    sensor
-                })
-                .collect();
-            let problem = DeploymentProblem {
-                start_payout_m: PerMotor::All(scenario.fold_m),
-                ..setup.problem.clone()
-            };
+            let truth = scenario.truth(structure);
+            let sensors = scenario.sensors(structure);
+            let problem = scenario.problem(setup.problem);
             let run = ClosedLoopSetup {
                 model: setup.model,
                 problem: &problem,
@@ -546,9 +632,21 @@ pub fn evaluate(
                 temperature_c: scenario.temperature_c,
                 seed: scenario.seed,
             };
-            let outcome = deploy_closed_loop(&run, &mut ()).map_err(|e| e.to_string());
+            let result = if setup.cycles <= 1 {
+                let outcome = deploy_closed_loop(&run, &mut ()).map_err(|e| e.to_string());
+                RunResult::of(scenario.index, p, &outcome, tolerance)
+            } else {
+                let mut each = CycleRuns {
+                    scenario: scenario.index,
+                    policy: p,
+                    tolerance_m: tolerance,
+                    results: Vec::new(),
+                };
+                let end = run_cycles(&run, setup.cycles, &mut CaseMemory::default(), &mut each);
+                RunResult::of_cycles(scenario.index, p, each.results, setup.cycles, end.err())
+            };
             run_done();
-            RunResult::of(scenario.index, p, &outcome, tolerance)
+            result
         })
         .collect();
     (scenarios, results)
@@ -557,6 +655,56 @@ pub fn evaluate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn cycle(commands: usize, violations: usize, utilisation: f64) -> RunResult {
+        RunResult {
+            scenario: 3,
+            policy: 1,
+            status: "connected".into(),
+            succeeded: violations == 0,
+            commands,
+            corrective_commands: Some(1),
+            final_measured_gap_m: Some(0.01),
+            final_true_gap_m: Some(0.009),
+            cable_travel_m: 4.0,
+            worst_utilisation: utilisation,
+            truth_violations: violations,
+            approach_gap_m: Some(0.012),
+            planning_time_median_s: None,
+        }
+    }
+
+    /// The last cycle's figures, but a limit broken while learning counts
+    /// against the run, and a run cut short does not succeed.
+    #[test]
+    fn a_cycles_run_reports_its_last_cycle_and_every_cycles_violations() {
+        let whole = RunResult::of_cycles(
+            3,
+            1,
+            vec![cycle(9, 0, 0.4), cycle(10, 2, 0.9), cycle(8, 0, 0.5)],
+            3,
+            None,
+        );
+        assert_eq!(whole.commands, 8);
+        assert_eq!(whole.truth_violations, 2);
+        assert_eq!(whole.worst_utilisation, 0.9);
+        assert!(!whole.succeeded);
+        assert_eq!(whole.status, "connected");
+
+        let clean = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4), cycle(8, 0, 0.5)], 2, None);
+        assert!(clean.succeeded);
+        assert_eq!((clean.commands, clean.truth_violations), (8, 0));
+
+        let cut = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4)], 2, None);
+        assert_eq!(cut.status, "cycles_stopped");
+        assert!(!cut.succeeded);
+
+        let none = RunResult::of_cycles(3, 1, Vec::new(), 2, None);
+        assert_eq!(
+            (none.status.as_str(), none.succeeded),
+            ("not_started", false)
+        );
+    }
 
     #[test]
     fn shards_partition_the_scenarios() {
