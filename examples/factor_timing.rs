@@ -1,4 +1,14 @@
-//! Temporary: dense vs sparse factorisation times against a DR iteration.
+//! Where the factorisation cost models come from
+//! (`numerics::block_matrix::cost`, `DR_NS_PER_ELEMENT` in the solver):
+//! per structure (bridges of 2 to 16 modules per half, N×N nets), the time
+//! of one DR iteration, of assembling and factorising its tangent with
+//! every block dense and every block sparse, and the estimates.
+//!
+//!     cargo run --release --example factor_timing
+//!     cargo run --release --example factor_timing -- solves
+//!
+//! `solves` times the nets from flat (1e-3 N) by default, with Newton
+//! forced (no cost limit), and by pure DR.
 use nalgebra::Vector3;
 use std::time::Instant;
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
@@ -58,7 +68,45 @@ fn time<F: FnMut()>(mut f: F) -> f64 {
     }
     t.elapsed().as_secs_f64() / k as f64
 }
+fn solves() {
+    for n in [5usize, 7, 11, 15, 21, 31] {
+        let mut line = format!("net{n}:");
+        for (name, iters, ratio) in [
+            ("default", 12, 40.0),
+            ("forced", 12, 1e12),
+            ("pure_dr", 0, 40.0),
+        ] {
+            let settings = RelaxSettings {
+                tol_force_rel: 1e-300,
+                tol_force_abs: 1e-3,
+                newton_max_iter: iters,
+                newton_max_cost_ratio: ratio,
+                newton_max_dofs: 100000,
+                ..RelaxSettings::default()
+            };
+            let model = ForwardModel::new(net(n), JointFriction::frictionless(), settings).unwrap();
+            let mut ws = Workspace::default();
+            let mut st = model.reference_state();
+            let r = model.relax(&mut st, &mut ws);
+            let t = time(|| {
+                let mut st = model.reference_state();
+                model.relax(&mut st, &mut ws);
+            });
+            line += &format!(
+                " {name} {:.3} ms ({}+{} {:?})",
+                t * 1e3,
+                r.newton_iterations,
+                r.iterations,
+                r.status
+            );
+        }
+        println!("{line}");
+    }
+}
 fn main() {
+    if std::env::args().any(|a| a == "solves") {
+        return solves();
+    }
     let cases: Vec<(String, Structure)> = vec![
         ("bridge2".into(), bridge(2)),
         ("bridge4".into(), bridge(4)),

@@ -14,10 +14,14 @@ use nalgebra::{DMatrix, Matrix3};
 
 use super::sparse_block::{BlockPattern, SparseBlock};
 
-/// Blocks below this many rows are always dense: a sparse factorisation's
-/// fixed costs (ordering, permuting, allocations) outweigh its savings
-/// there (measured: 27 rows of the 5×5 net, sparse 7 µs, dense 5 µs).
-pub const MIN_SPARSE_ROWS: usize = 48;
+/// Blocks below this many rows are always dense, without a symbolic
+/// analysis to estimate the sparse cost (made once per model, it would be
+/// paid by every small model built): a sparse factorisation's fixed costs
+/// (ordering, permuting, allocations) outweigh its savings there
+/// (measured: the 5×5 net's 27 rows sparse 7 µs, dense 4 µs; the 7×7
+/// net's 75 rows 22 µs against 19 µs; the bridge's 60-row halves 80 µs
+/// against 35 µs).
+pub const MIN_SPARSE_ROWS: usize = 100;
 
 /// Time models of one assembly and factorisation of a block, ns, fitted
 /// to `cargo run --release --example factor_timing` (tangents of the
