@@ -12,6 +12,12 @@
 //! Symmetry is tested numerically, to [`SYMMETRY_TOL`] of the largest
 //! entry (a frictionless cable's tangent is symmetric only to rounding);
 //! the Cholesky factors are those of the symmetric part.
+//!
+//! Sparse blocks (large ones, see [`super::BlockLayout::new`]) are
+//! factorised the same two ways by faer's sparse kernels
+//! ([`super::sparse_block`]), on the symbolic analysis their pattern
+//! keeps, so only the numeric factorisation is repeated from one tangent
+//! to the next.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
@@ -23,7 +29,8 @@ use faer::linalg::triangular_solve::{
 use faer::{Mat, Par};
 use nalgebra::{DMatrix, DVector};
 
-use super::block_matrix::{BlockMatrix, DenseBlock};
+use super::block_matrix::{Block, BlockMatrix, DenseBlock};
+use super::sparse_block::SparseBlock;
 
 /// Largest `|a_ij − a_ji|`, relative to the block's largest entry, of a
 /// block treated as symmetric. Rounding in the assembly of a symmetric
@@ -43,9 +50,13 @@ enum Factors {
 }
 
 #[derive(Debug, Clone)]
-struct FactorBlock {
-    block: DenseBlock,
-    factors: Factors,
+enum FactorBlock {
+    Dense {
+        block: DenseBlock,
+        factors: Factors,
+    },
+    /// Holds its own factors.
+    Sparse(SparseBlock),
 }
 
 /// Block-diagonal factors of a square matrix.
@@ -70,9 +81,19 @@ impl BlockLu {
     pub fn factorise(mut matrix: BlockMatrix) -> Option<Self> {
         let blocks = std::mem::take(&mut matrix.blocks);
         let mut factored = Vec::with_capacity(blocks.len());
-        for mut block in blocks {
-            let factors = factorise_block(&mut block)?;
-            factored.push(FactorBlock { block, factors });
+        for block in blocks {
+            factored.push(match block {
+                Block::Dense(mut block) => {
+                    let factors = factorise_block(&mut block)?;
+                    FactorBlock::Dense { block, factors }
+                }
+                Block::Sparse(mut block) => {
+                    if !block.factorise(SYMMETRY_TOL) {
+                        return None;
+                    }
+                    FactorBlock::Sparse(block)
+                }
+            });
         }
         Some(BlockLu {
             blocks: factored,
@@ -84,7 +105,14 @@ impl BlockLu {
     /// the next matrix into without allocating.
     pub fn into_storage(self) -> BlockMatrix {
         let mut m = self.shape;
-        m.blocks = self.blocks.into_iter().map(|b| b.block).collect();
+        m.blocks = self
+            .blocks
+            .into_iter()
+            .map(|b| match b {
+                FactorBlock::Dense { block, .. } => Block::Dense(block),
+                FactorBlock::Sparse(block) => Block::Sparse(block),
+            })
+            .collect();
         m.clear();
         m
     }
@@ -93,7 +121,21 @@ impl BlockLu {
     pub fn solve(&self, rhs: &DVector<f64>) -> DVector<f64> {
         let mut x = DVector::zeros(self.shape.size());
         let mut col = Mat::<f64>::zeros(0, 1);
-        for FactorBlock { block, factors } in &self.blocks {
+        for factor_block in &self.blocks {
+            let (block, factors) = match factor_block {
+                FactorBlock::Dense { block, factors } => (block, factors),
+                FactorBlock::Sparse(block) => {
+                    col.resize_with(block.rows.len(), 1, |_, _| 0.0);
+                    for (i, &r) in block.rows.iter().enumerate() {
+                        col[(i, 0)] = rhs[r];
+                    }
+                    block.solve_in_place(col.as_mut());
+                    for (i, &r) in block.rows.iter().enumerate() {
+                        x[r] = col[(i, 0)];
+                    }
+                    continue;
+                }
+            };
             let n = block.dim();
             col.resize_with(n, 1, |_, _| 0.0);
             match factors {
@@ -124,9 +166,10 @@ impl BlockLu {
     /// Whether every block was factorised by Cholesky (symmetric positive
     /// definite), for tests of which kernel runs.
     pub fn is_cholesky(&self) -> bool {
-        self.blocks
-            .iter()
-            .all(|b| matches!(b.factors, Factors::Cholesky))
+        self.blocks.iter().all(|b| match b {
+            FactorBlock::Dense { factors, .. } => matches!(factors, Factors::Cholesky),
+            FactorBlock::Sparse(block) => block.is_cholesky(),
+        })
     }
 }
 

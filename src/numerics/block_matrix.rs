@@ -1,11 +1,169 @@
-//! A square matrix stored as dense diagonal blocks, to assemble a tangent
+//! A square matrix stored as diagonal blocks, to assemble a tangent
 //! straight into the pieces that [`super::BlockLu`] factorises: free DOFs
 //! that no chain of members joins (the two halves of the bridge) never
 //! couple, so the off-block entries are all zero and are not stored (two
 //! 60×60 blocks instead of one 120×120 matrix, and no copying out).
+//!
+//! A block is dense, or sparse on a shared [`BlockPattern`] where a
+//! [`BlockLayout`] gives it one (large blocks: see [`BlockLayout::new`]).
+
+use std::sync::Arc;
 
 use faer::{MatMut, MatRef};
 use nalgebra::{DMatrix, Matrix3};
+
+use super::sparse_block::{BlockPattern, SparseBlock};
+
+/// Blocks below this many rows are always dense, without a symbolic
+/// analysis to estimate the sparse cost (made once per model, it would be
+/// paid by every small model built): a sparse factorisation's fixed costs
+/// (ordering, permuting, allocations) outweigh its savings there
+/// (measured: the 5×5 net's 27 rows sparse 7 µs, dense 4 µs; the 7×7
+/// net's 75 rows 22 µs against 19 µs; the bridge's 60-row halves 80 µs
+/// against 35 µs).
+pub const MIN_SPARSE_ROWS: usize = 100;
+
+/// Time models of one assembly and factorisation of a block, ns, fitted
+/// to `cargo run --release --example factor_timing` (tangents of the
+/// bridges with 2 to 16 modules per half and of the 5×5 to 31×31 nets,
+/// 2026-11-24, this machine; within a factor 2 of every measurement, and
+/// the choice between the two right in every case measured).
+pub mod cost {
+    use super::BlockPattern;
+
+    /// Dense: per flop of an LU (⅔·b³; faer's blocked kernels, measured
+    /// on the Cholesky that symmetric tangents take, 0.009 ns per such
+    /// flop on blocks of 250 to 2500 rows), per entry (zeroing,
+    /// assembling, the symmetry test: 2 ns), per row (per-column
+    /// overheads that dominate small blocks: 100 ns).
+    pub fn dense_ns(rows: usize) -> f64 {
+        let b = rows as f64;
+        0.009 * (2.0 / 3.0) * b * b * b + 2.0 * b * b + 100.0 * b
+    }
+
+    /// Sparse: per flop of the Cholesky factor ([`BlockPattern::cholesky_flops`],
+    /// 0.06 ns: small supernodes run far below the dense rate) and per
+    /// stored entry of the matrix (assembly by binary search in a column,
+    /// the symmetric copy and faer's permutation of it: 30 ns).
+    pub fn sparse_ns(pattern: &BlockPattern) -> f64 {
+        0.06 * pattern.cholesky_flops() + 30.0 * pattern.nonzeros() as f64
+    }
+}
+
+/// How a matrix is split into diagonal blocks and how each is stored:
+/// densely, or sparse on a pattern whose symbolic analysis is shared by
+/// every matrix assembled on the layout.
+#[derive(Debug, Clone)]
+pub struct BlockLayout {
+    size: usize,
+    blocks: Vec<Vec<usize>>,
+    patterns: Vec<Option<Arc<BlockPattern>>>,
+}
+
+impl BlockLayout {
+    /// Every block dense.
+    pub fn dense(size: usize, blocks: &[Vec<usize>]) -> Self {
+        BlockLayout {
+            size,
+            blocks: blocks.to_vec(),
+            patterns: vec![None; blocks.len()],
+        }
+    }
+
+    /// Each block stored the way it is estimated to factorise faster
+    /// ([`BlockLayout::factorisation_cost_ns`]): sparse, holding the entries
+    /// `coupled` (global row, column pairs; each stored with its transpose,
+    /// and every diagonal entry), or dense. Pairs between blocks are
+    /// ignored. Blocks under [`MIN_SPARSE_ROWS`] are dense without an
+    /// analysis, as is a block whose symbolic analysis fails.
+    pub fn new(size: usize, blocks: &[Vec<usize>], coupled: &[(usize, usize)]) -> Self {
+        let mut layout = BlockLayout::with_sparse_from(size, blocks, coupled, MIN_SPARSE_ROWS);
+        for (b, pattern) in layout.patterns.iter_mut().enumerate() {
+            let dense = cost::dense_ns(blocks[b].len());
+            if pattern
+                .as_ref()
+                .is_some_and(|p| cost::sparse_ns(p) >= dense)
+            {
+                *pattern = None;
+            }
+        }
+        layout
+    }
+
+    /// Every block of at least `sparse_from_rows` rows sparse (as in
+    /// [`BlockLayout::new`]), whatever it costs: for tests and timings.
+    pub fn with_sparse_from(
+        size: usize,
+        blocks: &[Vec<usize>],
+        coupled: &[(usize, usize)],
+        sparse_from_rows: usize,
+    ) -> Self {
+        let mut layout = BlockLayout::dense(size, blocks);
+        let sparse = |rows: &Vec<usize>| !rows.is_empty() && rows.len() >= sparse_from_rows;
+        if !blocks.iter().any(sparse) {
+            return layout;
+        }
+        let place = placement(size, blocks);
+        let mut entries: Vec<Vec<(usize, usize)>> = vec![Vec::new(); blocks.len()];
+        for &(r, c) in coupled {
+            if let (Some(&(br, i)), Some(&(bc, j))) = (place.get(r), place.get(c)) {
+                if br == bc && br != usize::MAX && sparse(&blocks[br]) {
+                    entries[br].push((i, j));
+                }
+            }
+        }
+        for (b, rows) in blocks.iter().enumerate() {
+            if sparse(rows) {
+                let local = std::mem::take(&mut entries[b]);
+                layout.patterns[b] = BlockPattern::new(rows.len(), local).map(Arc::new);
+            }
+        }
+        layout
+    }
+
+    /// Estimated time of assembling and factorising one matrix on this
+    /// layout, ns (see [`cost`]): what a Newton iteration that
+    /// refactorises costs beyond the residual.
+    pub fn factorisation_cost_ns(&self) -> f64 {
+        self.blocks
+            .iter()
+            .zip(&self.patterns)
+            .map(|(rows, p)| match p {
+                Some(p) => cost::sparse_ns(p),
+                None => cost::dense_ns(rows.len()),
+            })
+            .sum()
+    }
+
+    /// Number of rows (and columns).
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// The blocks of rows.
+    pub fn blocks(&self) -> &[Vec<usize>] {
+        &self.blocks
+    }
+
+    /// The pattern of block `b`, if it is sparse.
+    pub fn pattern(&self, b: usize) -> Option<&BlockPattern> {
+        self.patterns.get(b).and_then(|p| p.as_deref())
+    }
+}
+
+/// Per global row: its block and its index there (`usize::MAX` for a row
+/// in no block).
+fn placement(size: usize, blocks: &[Vec<usize>]) -> Vec<(usize, usize)> {
+    let mut place = vec![(usize::MAX, usize::MAX); size];
+    for (b, rows) in blocks.iter().enumerate() {
+        for (i, &r) in rows.iter().enumerate() {
+            if let Some(p) = place.get_mut(r) {
+                *p = (b, i);
+            }
+        }
+    }
+    place
+}
 
 /// Anything a stiffness matrix can be assembled into, entry by entry or
 /// three by three (the rows of two nodes).
@@ -82,43 +240,86 @@ impl DenseBlock {
     }
 }
 
-/// A square matrix of dense diagonal blocks over given groups of rows.
+/// One diagonal block, dense or sparse.
+#[derive(Debug, Clone)]
+pub(super) enum Block {
+    Dense(DenseBlock),
+    Sparse(SparseBlock),
+}
+
+impl Block {
+    fn rows(&self) -> &[usize] {
+        match self {
+            Block::Dense(b) => &b.rows,
+            Block::Sparse(b) => &b.rows,
+        }
+    }
+
+    #[inline]
+    fn add(&mut self, i: usize, j: usize, value: f64) {
+        match self {
+            Block::Dense(b) => {
+                let at = b.at(i, j);
+                b.values[at] += value;
+            }
+            Block::Sparse(b) => b.add(i, j, value),
+        }
+    }
+}
+
+/// A square matrix of diagonal blocks over given groups of rows.
 #[derive(Debug, Clone)]
 pub struct BlockMatrix {
     /// Per global row: its block and its index there (`usize::MAX` for a
     /// row in no block, whose entries are dropped).
     place: Vec<(usize, usize)>,
-    pub(super) blocks: Vec<DenseBlock>,
+    pub(super) blocks: Vec<Block>,
 }
 
 impl BlockMatrix {
     /// A zero matrix of `size` rows on the given blocks of rows (disjoint,
-    /// each row below `size`; see [`super::FreeDofs::blocks`]). Entries
-    /// added between two different blocks, or on a row in no block, are
-    /// dropped: the blocks must cover every coupling.
+    /// each row below `size`; see [`super::FreeDofs::blocks`]), all dense.
+    /// Entries added between two different blocks, or on a row in no
+    /// block, are dropped: the blocks must cover every coupling.
     pub fn zeros(size: usize, blocks: &[Vec<usize>]) -> Self {
-        let mut place = vec![(usize::MAX, usize::MAX); size];
-        for (b, rows) in blocks.iter().enumerate() {
-            for (i, &r) in rows.iter().enumerate() {
-                if let Some(p) = place.get_mut(r) {
-                    *p = (b, i);
-                }
-            }
-        }
+        BlockMatrix::zeros_on(&BlockLayout::dense(size, blocks))
+    }
+
+    /// A zero matrix on `layout`. Its sparse blocks refuse to factorise
+    /// after an entry outside their pattern was added (a pattern must hold
+    /// every entry that can be nonzero).
+    pub fn zeros_on(layout: &BlockLayout) -> Self {
         BlockMatrix {
-            place,
-            blocks: blocks.iter().map(|rows| DenseBlock::zeros(rows)).collect(),
+            place: placement(layout.size, &layout.blocks),
+            blocks: layout
+                .blocks
+                .iter()
+                .zip(&layout.patterns)
+                .map(|(rows, pattern)| match pattern {
+                    Some(p) => Block::Sparse(SparseBlock::zeros(rows, Arc::clone(p))),
+                    None => Block::Dense(DenseBlock::zeros(rows)),
+                })
+                .collect(),
         }
     }
 
-    /// The blocks of `k` (entries between blocks dropped).
+    /// The blocks of `k` (entries between blocks dropped), all dense.
     pub fn from_dense(k: &DMatrix<f64>, blocks: &[Vec<usize>]) -> Self {
-        let mut m = BlockMatrix::zeros(k.nrows(), blocks);
+        BlockMatrix::from_dense_on(k, &BlockLayout::dense(k.nrows(), blocks))
+    }
+
+    /// The blocks of `k` on `layout` (entries between blocks, and nonzero
+    /// entries outside a sparse block's pattern, dropped).
+    pub fn from_dense_on(k: &DMatrix<f64>, layout: &BlockLayout) -> Self {
+        let mut m = BlockMatrix::zeros_on(layout);
         for block in &mut m.blocks {
-            for j in 0..block.dim() {
-                for i in 0..block.dim() {
-                    let at = block.at(i, j);
-                    block.values[at] = k[(block.rows[i], block.rows[j])];
+            let rows = block.rows().to_vec();
+            for (j, &c) in rows.iter().enumerate() {
+                for (i, &r) in rows.iter().enumerate() {
+                    let v = k[(r, c)];
+                    if v != 0.0 {
+                        block.add(i, j, v);
+                    }
                 }
             }
         }
@@ -133,24 +334,54 @@ impl BlockMatrix {
     /// Sets every entry to zero, keeping the storage.
     pub fn clear(&mut self) {
         for b in &mut self.blocks {
-            b.values.fill(0.0);
+            match b {
+                Block::Dense(b) => b.values.fill(0.0),
+                Block::Sparse(b) => b.clear(),
+            }
         }
     }
 
-    /// Whether the blocks are those of `blocks` over `size` rows (so that
-    /// the storage can be reused for them).
+    /// Whether the blocks are those of `blocks` over `size` rows, all
+    /// dense (so that the storage can be reused for them).
     pub fn has_layout(&self, size: usize, blocks: &[Vec<usize>]) -> bool {
         self.size() == size
             && self.blocks.len() == blocks.len()
-            && self.blocks.iter().zip(blocks).all(|(b, r)| b.rows == *r)
+            && self
+                .blocks
+                .iter()
+                .zip(blocks)
+                .all(|(b, r)| matches!(b, Block::Dense(d) if d.rows == *r))
+    }
+
+    /// Whether the storage is that of `layout` (same blocks, the same
+    /// shared patterns), so that it can be reused for it.
+    pub fn is_on(&self, layout: &BlockLayout) -> bool {
+        self.size() == layout.size
+            && self.blocks.len() == layout.blocks.len()
+            && self
+                .blocks
+                .iter()
+                .zip(layout.blocks.iter().zip(&layout.patterns))
+                .all(|(b, (rows, pattern))| match (b, pattern) {
+                    (Block::Dense(d), None) => d.rows == *rows,
+                    (Block::Sparse(s), Some(p)) => s.rows == *rows && Arc::ptr_eq(&s.pattern, p),
+                    _ => false,
+                })
+    }
+
+    /// Whether any block is stored sparse.
+    pub fn has_sparse_blocks(&self) -> bool {
+        self.blocks.iter().any(|b| matches!(b, Block::Sparse(_)))
     }
 
     /// Entry (`row`, `col`); zero between blocks.
     pub fn get(&self, row: usize, col: usize) -> f64 {
         match (self.place.get(row), self.place.get(col)) {
             (Some(&(br, i)), Some(&(bc, j))) if br == bc && br != usize::MAX => {
-                let b = &self.blocks[br];
-                b.values[b.at(i, j)]
+                match &self.blocks[br] {
+                    Block::Dense(b) => b.values[b.at(i, j)],
+                    Block::Sparse(b) => b.get(i, j),
+                }
             }
             _ => 0.0,
         }
@@ -163,9 +394,7 @@ impl MatrixAssembly for BlockMatrix {
             return;
         };
         if br == bc && br != usize::MAX {
-            let b = &mut self.blocks[br];
-            let at = b.at(i, j);
-            b.values[at] += value;
+            self.blocks[br].add(i, j, value);
         }
     }
 
@@ -186,8 +415,7 @@ impl MatrixAssembly for BlockMatrix {
             for (c, col) in cols.iter().enumerate() {
                 if let Some((bc, j)) = col {
                     if *bc == br {
-                        let at = target.at(i, *j);
-                        target.values[at] += block[(a, c)];
+                        target.add(i, *j, block[(a, c)]);
                     }
                 }
             }

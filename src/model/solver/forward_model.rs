@@ -29,6 +29,9 @@ pub struct ForwardModel {
     pub(super) size_m: f64,
     pub(super) free_dofs: FreeDofs,
     pub(super) dof_blocks: Vec<Vec<usize>>,
+    /// How tangents are stored and factorised (dense or sparse blocks),
+    /// made at the first Newton solve: see `ForwardModel::tangent_layout`.
+    pub(super) tangent_layout: std::sync::OnceLock<crate::numerics::BlockLayout>,
 }
 
 /// Forces in every member and segment of a state.
@@ -117,6 +120,7 @@ impl ForwardModel {
             size_m,
             free_dofs,
             dof_blocks,
+            tangent_layout: std::sync::OnceLock::new(),
         })
     }
 

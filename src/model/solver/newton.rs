@@ -44,17 +44,20 @@ use super::residual::SlipMapping;
 use super::workspace::KeptTangent;
 use super::{ForwardModel, Workspace};
 use crate::model::state::{DeploymentState, JointSlip};
-use crate::model::stiffness::{assemble_tangent_stiffness, JointMode};
-use crate::numerics::BlockLu;
+use crate::model::stiffness::{assemble_tangent_stiffness, tangent_layout, JointMode};
+use crate::numerics::{BlockLayout, BlockLu};
 
 /// Payout fraction of the probe that finds the predictor's load.
 const PROBE: f64 = 1e-6;
 
-/// Cost of one DR iteration per element, in flops of a dense LU: measured
-/// on the bridge and the cable nets (release build, 2026-11-23), 12–16 ns
-/// per element per iteration against about 0.14 ns per flop of nalgebra's
-/// LU on blocks of 60 to 250 rows (`cargo bench --bench relaxation`).
-const DR_FLOPS_PER_ELEMENT: f64 = 115.0;
+/// Time of one DR iteration per element, ns: measured with
+/// `cargo run --release --example factor_timing` (256 iterations of
+/// each; release build, 2026-11-24), 8–11 ns on the 5×5 to 31×31 nets,
+/// 12–17 ns on the bridges of 2 to 16 modules per half (their continuous
+/// cables' friction mapping costs more). In the units of the factorisation
+/// estimate ([`crate::numerics::block_matrix::cost`], same machine and
+/// date), so their ratio carries to other machines.
+const DR_NS_PER_ELEMENT: f64 = 10.0;
 
 /// How far (relative to the structure size) the state a kept tangent was
 /// assembled at may be from the one a predictor needs: 1e-4 of the 4 m
@@ -77,25 +80,39 @@ impl ForwardModel {
         let free = self.free_dof_count();
         s.newton_max_iter > 0
             && free > 0
-            && free <= s.newton_max_dofs
+            && self.largest_dense_block() <= s.newton_max_dofs
             && self.newton_cost_ratio() <= s.newton_max_cost_ratio
     }
 
+    /// How this model's tangents are stored and factorised: each DOF block
+    /// dense or sparse, whichever is estimated to be faster (made once, at
+    /// the first call, with the sparse blocks' symbolic analyses).
+    fn tangent_layout(&self) -> &BlockLayout {
+        self.tangent_layout.get_or_init(|| tangent_layout(self))
+    }
+
+    /// Rows of the largest block stored dense (whose memory grows with
+    /// their square).
+    fn largest_dense_block(&self) -> usize {
+        let layout = self.tangent_layout();
+        (0..layout.blocks().len())
+            .filter(|&b| layout.pattern(b).is_none())
+            .map(|b| layout.blocks()[b].len())
+            .max()
+            .unwrap_or(0)
+    }
+
     /// Estimated cost of one Newton factorisation in DR iterations: the
-    /// dense LU of each coupled block (⅔·b³ flops) plus assembling and
-    /// copying the dense tangent (about 2·n² for n free DOFs), over one DR
-    /// iteration at [`DR_FLOPS_PER_ELEMENT`]. Depends on the structure's
-    /// topology only, so the choice of method is the same for every solve
-    /// of a model (deterministic whatever the history).
+    /// assembly and factorisation of each block by the kernel it uses
+    /// ([`BlockLayout::factorisation_cost_ns`]: ⅔·b³ flops for a dense
+    /// block, the flops of its symbolic Cholesky factor and its entries for
+    /// a sparse one), over one DR iteration at [`DR_NS_PER_ELEMENT`].
+    /// Depends on the structure's topology only, so the choice of method
+    /// is the same for every solve of a model (deterministic whatever the
+    /// history).
     pub(super) fn newton_cost_ratio(&self) -> f64 {
-        let n = self.free_dof_count() as f64;
-        let lu: f64 = self
-            .dof_blocks()
-            .iter()
-            .map(|b| 2.0 / 3.0 * (b.len() as f64).powi(3))
-            .sum();
-        let dr = DR_FLOPS_PER_ELEMENT * self.elements.len().max(1) as f64;
-        (lu + 2.0 * n * n) / dr
+        let dr = DR_NS_PER_ELEMENT * self.elements.len().max(1) as f64;
+        self.tangent_layout().factorisation_cost_ns() / dr
     }
 
     /// Solves one payout increment from the equilibrium `state` by Newton
@@ -402,7 +419,7 @@ impl ForwardModel {
     /// singular.
     fn factorise_tangent(&self, state: &DeploymentState, ws: &mut Workspace) -> Option<BlockLu> {
         ws.factorisations += 1;
-        let mut k = ws.tangent_storage(self.free_dof_count(), self.dof_blocks());
+        let mut k = ws.tangent_storage(self.tangent_layout());
         assemble_tangent_stiffness(self, state, JointMode::AsMapped, &mut k);
         BlockLu::factorise(k)
     }
@@ -522,11 +539,26 @@ mod tests {
 
     #[test]
     fn newton_is_chosen_by_the_cost_of_its_factorisation() {
-        // The flop count by hand for the 11×11 net: one block of 9·9·3 =
-        // 243 DOFs, 2·11·10 = 220 cables.
+        // The 11×11 net: one block of 9·9·3 = 243 DOFs, 2·11·10 = 220
+        // cables, stored sparse. By hand: each free node couples to itself
+        // and its free neighbours, 3×3 entries per pair; interior nodes
+        // (7·7) have 4 free neighbours, edge nodes (4·7) 3, corners (4) 2.
         let net = square_net(11);
-        let by_hand = (2.0 / 3.0 * 243f64.powi(3) + 2.0 * 243f64.powi(2)) / (115.0 * 220.0);
+        let pairs = 7 * 7 * 5 + 4 * 7 * 4 + 4 * 3;
+        let layout = net.tangent_layout();
+        let pattern = layout.pattern(0).expect("the 11×11 net's block is sparse");
+        assert_eq!(pattern.nonzeros(), 9 * pairs);
+        let sparse = 0.06 * pattern.cholesky_flops() + 30.0 * (9 * pairs) as f64;
+        let dense = 0.009 * 2.0 / 3.0 * 243f64.powi(3) + 2.0 * 243f64.powi(2) + 100.0 * 243.0;
+        assert!(sparse < dense);
+        let by_hand = sparse / (10.0 * 220.0);
         assert!((net.newton_cost_ratio() - by_hand).abs() < 1e-9 * by_hand);
+        // The Cholesky flops lie between the no-fill bound (the lower
+        // triangle's columns as they are) and the dense n³/3.
+        let no_fill = 243.0 * (((9 * pairs + 243) / 2) as f64 / 243.0).powi(2);
+        assert!(
+            pattern.cholesky_flops() > no_fill && pattern.cholesky_flops() < 243f64.powi(3) / 3.0
+        );
         assert!(!net.newton_enabled());
         // Its solve is then DR alone, and still converges.
         let mut state = net.reference_state();

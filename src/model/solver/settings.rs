@@ -41,9 +41,10 @@ pub struct RelaxSettings {
     /// whenever Newton stalls (slackening members, loss of stability), and
     /// the convergence test is the same either way.
     pub newton_max_iter: usize,
-    /// Newton is skipped on structures with more free degrees of freedom
-    /// than this (its dense tangent grows with their square in memory).
-    /// Default 1500.
+    /// Newton is skipped on structures with a block of more free degrees
+    /// of freedom than this stored dense (its memory grows with their
+    /// square; blocks that factorise faster sparse are stored sparse and
+    /// not limited). Default 1500.
     pub newton_max_dofs: usize,
     /// Newton is skipped where one factorisation of the tangent is
     /// estimated to cost more than this many DR iterations (see

@@ -4,7 +4,7 @@ use nalgebra::Vector3;
 
 use super::counters::NewtonCounters;
 use crate::model::state::{DeploymentState, JointSlip};
-use crate::numerics::{BlockLu, BlockMatrix};
+use crate::numerics::{BlockLayout, BlockLu, BlockMatrix};
 
 /// Reusable buffers for [`ForwardModel::relax`]; one per thread.
 #[derive(Debug, Clone, Default)]
@@ -64,12 +64,12 @@ impl Workspace {
         self.slip_start.copy_from_slice(&state.joint_slip);
     }
 
-    /// Zeroed block storage for a tangent of `size` rows on `blocks`: the
-    /// last one's if it has that layout, else new.
-    pub(super) fn tangent_storage(&mut self, size: usize, blocks: &[Vec<usize>]) -> BlockMatrix {
+    /// Zeroed block storage for a tangent on `layout`: the last one's if
+    /// it is on that layout, else new.
+    pub(super) fn tangent_storage(&mut self, layout: &BlockLayout) -> BlockMatrix {
         match self.tangent_storage.take() {
-            Some(m) if m.has_layout(size, blocks) => m,
-            _ => BlockMatrix::zeros(size, blocks),
+            Some(m) if m.is_on(layout) => m,
+            _ => BlockMatrix::zeros_on(layout),
         }
     }
 
