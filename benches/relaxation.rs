@@ -41,6 +41,7 @@ fn single_increment(c: &mut Criterion) {
             "1 cm on one cable, μ = {mu}: {:?}, {} Newton + {} DR iterations",
             r.status, r.newton_iterations, r.iterations
         );
+        eprintln!("  {:?}", ws.newton_counters());
         c.bench_function(&format!("bridge_1cm_one_cable_mu{mu}"), |b| {
             b.iter_batched(
                 || start.clone(),

@@ -178,6 +178,37 @@ impl JointFriction {
     }
 }
 
+impl JointFriction {
+    /// A floor of [`Self::ratio_bound`] at the interior angle whose cosine
+    /// is `cos_interior` (clamped to [−1, 1]), cheap to compute (no `acos`,
+    /// no `exp`): `1 + μ_min·α_chord`, with `μ_min` the smallest μ of the
+    /// law (a table's interpolation stays within its values),
+    /// `α_chord = √(2(1 − cos α)) ≤ α` (the chord of an arc is shorter than
+    /// the arc) and `1 + x ≤ eˣ`, shrunk by 1e-12 relative to cover the
+    /// rounding of the bound's own evaluation.
+    pub fn ratio_bound_floor(&self, cos_interior: f64, sliding: bool) -> f64 {
+        let law = if sliding {
+            &self.kinetic_mu
+        } else {
+            &self.static_mu
+        };
+        let mu_min = match law {
+            FrictionCoefficient::Constant(mu) => *mu,
+            FrictionCoefficient::Table { mu, .. } => {
+                mu.iter().copied().fold(f64::INFINITY, f64::min)
+            }
+        };
+        let c = cos_interior.clamp(-1.0, 1.0);
+        // cos α for α = π − θ is −cos θ; for α = θ it is cos θ.
+        let cos_alpha = match self.convention {
+            AngleConvention::Wrap => -c,
+            AngleConvention::Interior => c,
+        };
+        let chord = (2.0 * (1.0 - cos_alpha)).max(0.0).sqrt();
+        (1.0 + mu_min * chord) * (1.0 - 1e-12)
+    }
+}
+
 fn validate(law: &FrictionCoefficient) -> Result<(), FrictionError> {
     match law {
         FrictionCoefficient::Constant(mu) => {
@@ -271,6 +302,42 @@ mod tests {
             mu: vec![0.1, 0.1],
         };
         assert!(JointFriction::new(t, AngleConvention::Wrap).is_err());
+    }
+
+    proptest::proptest! {
+        /// The cheap floor never exceeds the bound it stands in for, for
+        /// either convention, constant or tabulated μ, sticking or sliding,
+        /// and is within second order of it for small μ·α.
+        #[test]
+        fn bound_floor_is_below_the_bound(
+            theta in 0.0f64..=PI,
+            mu in 0.0f64..1.0,
+            table_mu in proptest::collection::vec(0.0f64..1.0, 3),
+            interior in proptest::bool::ANY,
+            sliding in proptest::bool::ANY,
+        ) {
+            let convention = if interior { AngleConvention::Interior } else { AngleConvention::Wrap };
+            let table = FrictionCoefficient::Table {
+                interior_angle_rad: vec![0.5, 1.5, 2.5],
+                mu: table_mu,
+            };
+            for law in [FrictionCoefficient::Constant(mu), table] {
+                let f = JointFriction::with_kinetic(law.clone(), FrictionCoefficient::Constant(0.5 * mu), convention).unwrap();
+                // The cosine as the mapping computes it, from unit vectors.
+                let cos = theta.cos();
+                let bound = f.ratio_bound(cos.clamp(-1.0, 1.0).acos(), sliding);
+                let floor = f.ratio_bound_floor(cos, sliding);
+                proptest::prop_assert!(floor <= bound, "{floor} > {bound}");
+            }
+            // With constant μ it is close, so that it decides most joints:
+            // eˣ − 1 − x ≤ x²·eˣ/2 (x = μα) and α − chord ≤ α³/24.
+            let f = JointFriction::new(FrictionCoefficient::Constant(mu), convention).unwrap();
+            let bound = f.ratio_bound(theta.cos().clamp(-1.0, 1.0).acos(), sliding);
+            let alpha = convention.capstan_angle(theta);
+            let x = mu * alpha;
+            let gap = bound - f.ratio_bound_floor(theta.cos(), sliding);
+            proptest::prop_assert!(gap <= 0.5 * x * x * bound + mu * alpha.powi(3) / 24.0 + 1e-11, "gap {gap}");
+        }
     }
 
     #[test]

@@ -72,60 +72,71 @@ fn would_slide(t_a: f64, t_b: f64, start_slip: JointSlip) -> (bool, f64, f64, bo
 const INLINE_JOINTS: usize = 32;
 
 /// The capstan bounds of a cable's joints for one geometry (index 0
-/// unused), computed once per mapping: the angle (an `acos`) and the bound
-/// (an `exp`) are most of a mapping's cost.
-struct JointCones {
+/// unused), each computed when first asked for and kept for the rest of
+/// the mapping: the angle (an `acos`) and the bound (an `exp`) are most of
+/// a mapping's cost, and a joint that sticks with room to spare never
+/// needs them (see [`Self::reaches_edge`]).
+struct JointCones<'a> {
+    dirs: &'a [Vector3<f64>],
+    friction: &'a JointFriction,
+    /// `[kinetic, static]` bounds of each joint; NaN until computed.
     inline: [[f64; 2]; INLINE_JOINTS],
     heap: Vec<[f64; 2]>,
-    n: usize,
 }
 
-impl JointCones {
-    fn new(dirs: &[Vector3<f64>], friction: &JointFriction) -> Self {
+impl<'a> JointCones<'a> {
+    fn new(dirs: &'a [Vector3<f64>], friction: &'a JointFriction) -> Self {
         let n = dirs.len();
-        let mut cones = JointCones {
-            inline: [[1.0; 2]; INLINE_JOINTS],
-            heap: Vec::new(),
-            n,
-        };
-        if n > INLINE_JOINTS {
-            cones.heap = vec![[1.0; 2]; n];
-        }
-        let same = friction.static_mu == friction.kinetic_mu;
-        for j in 1..n {
-            let theta = interior_angle(&dirs[j - 1], &dirs[j]);
-            let kinetic = friction.ratio_bound(theta, true);
-            let stat = if same {
-                kinetic
+        JointCones {
+            dirs,
+            friction,
+            inline: [[f64::NAN; 2]; INLINE_JOINTS],
+            heap: if n > INLINE_JOINTS {
+                vec![[f64::NAN; 2]; n]
             } else {
-                friction.ratio_bound(theta, false)
-            };
-            cones.slot(j)[0] = kinetic;
-            cones.slot(j)[1] = stat;
-        }
-        cones
-    }
-
-    fn slot(&mut self, j: usize) -> &mut [f64; 2] {
-        if self.n > INLINE_JOINTS {
-            &mut self.heap[j]
-        } else {
-            &mut self.inline[j]
+                Vec::new()
+            },
         }
     }
 
     /// The bound at joint `j`: kinetic while sliding, else static.
-    fn bound(&self, j: usize, sliding: bool) -> f64 {
-        let b = if self.n > INLINE_JOINTS {
-            self.heap[j]
+    fn bound(&mut self, j: usize, sliding: bool) -> f64 {
+        let (dirs, friction) = (self.dirs, self.friction);
+        let b = if dirs.len() > INLINE_JOINTS {
+            &mut self.heap[j]
         } else {
-            self.inline[j]
+            &mut self.inline[j]
         };
+        if b[0].is_nan() {
+            let theta = interior_angle(&dirs[j - 1], &dirs[j]);
+            b[0] = friction.ratio_bound(theta, true);
+            b[1] = if friction.static_mu == friction.kinetic_mu {
+                b[0]
+            } else {
+                friction.ratio_bound(theta, false)
+            };
+        }
         if sliding {
             b[0]
         } else {
             b[1]
         }
+    }
+
+    /// Whether joint `j`, between tensions `hi ≥ lo`, reaches its cone's
+    /// edge within `tol_n`: `hi − b·lo ≥ −tol_n` for its bound `b`
+    /// (kinetic if `sliding`, else static). Decided without the bound where
+    /// a floor of it ([`JointFriction::ratio_bound_floor`]) already says
+    /// no: `floor ≤ b` makes `hi − floor·lo ≥ hi − b·lo` in floating point
+    /// too (the products and the difference round monotonically), so the
+    /// answer is the same as from the bound itself, NaN included.
+    fn reaches_edge(&mut self, j: usize, sliding: bool, hi: f64, lo: f64, tol_n: f64) -> bool {
+        let cos_interior = -self.dirs[j - 1].dot(&self.dirs[j]);
+        let floor = self.friction.ratio_bound_floor(cos_interior, sliding);
+        if hi - floor * lo < -tol_n {
+            return false;
+        }
+        hi - self.bound(j, sliding) * lo >= -tol_n
     }
 }
 
@@ -171,10 +182,10 @@ pub fn map_cable(
     friction: &JointFriction,
     tol_n: f64,
 ) -> f64 {
-    let cones = JointCones::new(dirs, friction);
+    let mut cones = JointCones::new(dirs, friction);
     for _ in 0..MAX_ACTIVE_SET_ROUNDS {
-        distribute(ea_n, lengths_m, rest_m, slip, start, &cones);
-        if !revise_slip(ea_n, lengths_m, rest_m, slip, start, &cones, tol_n) {
+        distribute(ea_n, lengths_m, rest_m, slip, start, &mut cones);
+        if !revise_slip(ea_n, lengths_m, rest_m, slip, start, &mut cones, tol_n) {
             return 0.0;
         }
     }
@@ -193,7 +204,7 @@ fn revise_slip(
     rest_m: &[f64],
     slip: &mut [JointSlip],
     start: IncrementStart<'_>,
-    cones: &JointCones,
+    cones: &mut JointCones<'_>,
     tol_n: f64,
 ) -> bool {
     let mut changed = false;
@@ -206,8 +217,7 @@ fn revise_slip(
                 let t_b = segment_tension(ea_n, lengths_m[j], rest_m[j]);
                 let (towards_motor, hi, lo, sliding_this_way) =
                     would_slide(t_a, t_b, start.slip[j]);
-                let b = cones.bound(j, sliding_this_way);
-                if hi - b * lo >= -tol_n && hi > 0.0 {
+                if cones.reaches_edge(j, sliding_this_way, hi, lo, tol_n) && hi > 0.0 {
                     if towards_motor {
                         JointSlip::TowardsMotor
                     } else {
@@ -346,18 +356,20 @@ pub fn map_cable_with_slip(
         rest_m,
         slip,
         start,
-        &JointCones::new(dirs, friction),
+        &mut JointCones::new(dirs, friction),
     );
 }
 
-/// [`map_cable_with_slip`] with the cones computed.
+/// [`map_cable_with_slip`] with the cones computed. `rest_m` on entry is
+/// only a starting guess for the cluster tensions (see
+/// [`cluster_tension`]); the result does not depend on it.
 fn distribute(
     ea_n: f64,
     lengths_m: &[f64],
     rest_m: &mut [f64],
     slip: &[JointSlip],
     start: IncrementStart<'_>,
-    cones: &JointCones,
+    cones: &mut JointCones<'_>,
 ) {
     let n = rest_m.len();
     let mut first = 0;
@@ -366,74 +378,147 @@ fn distribute(
         while last + 1 < n && slip[last + 1] != JointSlip::Stuck {
             last += 1;
         }
-        // Tension ratios along the cluster.
-        let mut w = [1.0f64; 64];
-        let m = last - first + 1;
-        let mut weights = Vec::new();
-        let w: &mut [f64] = if m <= w.len() {
-            &mut w[..m]
-        } else {
-            weights.resize(m, 1.0);
-            &mut weights
-        };
-        for j in first + 1..=last {
-            let b = cones.bound(j, true);
-            let i = j - first;
-            w[i] = match slip[j] {
-                JointSlip::TowardsMotor => w[i - 1] / b,
-                _ => w[i - 1] * b,
-            };
-        }
         if first == last {
-            // A stuck segment keeps its material exactly.
+            // A stuck segment keeps its material exactly (the common case:
+            // no weights to build, nothing to solve).
             rest_m[first] = start.rest_m[first];
-            first = last + 1;
-            continue;
-        }
-        let material: f64 = start.rest_m[first..=last].iter().sum();
-        let length: f64 = lengths_m[first..=last].iter().sum();
-        if length <= material {
-            // Slack as a whole: sliding joints let every segment go slack
-            // (a joint with one slack side holds no tension on the other),
-            // so the material is shared out in proportion to length.
-            let scale = material / length;
-            for (r, l) in rest_m[first..=last]
-                .iter_mut()
-                .zip(&lengths_m[first..=last])
-            {
-                *r = scale * l;
-            }
         } else {
-            let lens = &lengths_m[first..=last];
-            let excess = |t: f64| -> (f64, f64) {
-                let mut f = -material;
-                let mut df = 0.0;
-                for (l, wi) in lens.iter().zip(w.iter()) {
-                    let denom = ea_n + wi * t;
-                    f += ea_n * l / denom;
-                    df -= ea_n * l * wi / (denom * denom);
-                }
-                (f, df)
-            };
-            // f(T) = Σ EA·L_i/(EA + w_i·T) − S is convex and decreasing with
-            // f(0) > 0, so Newton from T = 0 climbs to the root from the left
-            // without overshooting; nearly linear for T ≪ EA, it takes 2–4
-            // steps.
-            let mut t = 0.0f64;
-            for _ in 0..50 {
-                let (f, df) = excess(t);
-                let step = -f / df;
-                t += step;
-                if !(step.abs() > 1e-12 * t.max(1.0)) {
-                    break;
-                }
-            }
-            for (i, r) in rest_m[first..=last].iter_mut().enumerate() {
-                *r = ea_n * lens[i] / (ea_n + w[i] * t);
-            }
+            distribute_cluster(
+                ea_n,
+                &lengths_m[first..=last],
+                &mut rest_m[first..=last],
+                &slip[first..=last],
+                &start.rest_m[first..=last],
+                |j| cones.bound(first + j, true),
+            );
         }
         first = last + 1;
     }
+}
+
+/// Segments a sliding cluster may have before its tension ratios spill to
+/// the heap.
+const INLINE_CLUSTER: usize = 16;
+
+/// Distributes the material `start_rest_m` of one cluster of segments
+/// joined by sliding joints (`slip[0]` is the joint before the cluster and
+/// ignored) over it, with `kinetic_bound(j)` the kinetic bound at the
+/// cluster's joint `j` (1-based within the cluster).
+fn distribute_cluster(
+    ea_n: f64,
+    lens: &[f64],
+    rest_m: &mut [f64],
+    slip: &[JointSlip],
+    start_rest_m: &[f64],
+    mut kinetic_bound: impl FnMut(usize) -> f64,
+) {
+    let m = lens.len();
+    let material: f64 = start_rest_m.iter().sum();
+    let length: f64 = lens.iter().sum();
+    if length <= material {
+        // Slack as a whole: sliding joints let every segment go slack
+        // (a joint with one slack side holds no tension on the other),
+        // so the material is shared out in proportion to length.
+        let scale = material / length;
+        for (r, l) in rest_m.iter_mut().zip(lens) {
+            *r = scale * l;
+        }
+        return;
+    }
+    // Tension ratios along the cluster, w_0 = 1.
+    let mut inline = [1.0f64; INLINE_CLUSTER];
+    let mut heap = Vec::new();
+    let w: &mut [f64] = if m <= INLINE_CLUSTER {
+        &mut inline[..m]
+    } else {
+        heap.resize(m, 1.0);
+        &mut heap
+    };
+    for i in 1..m {
+        let b = kinetic_bound(i);
+        w[i] = match slip[i] {
+            JointSlip::TowardsMotor => w[i - 1] / b,
+            _ => w[i - 1] * b,
+        };
+    }
+    // The tension the guess gives the first segment (w_0 = 1): close to
+    // the answer when the guess is the last mapping's result.
+    let guess = segment_tension(ea_n, lens[0], rest_m[0]);
+    let (t, _) = cluster_tension(ea_n, lens, w, material, guess);
+    for ((r, l), wi) in rest_m.iter_mut().zip(lens).zip(w.iter()) {
+        *r = ea_n * l / (ea_n + wi * t);
+    }
+}
+
+/// The cluster tension `T ≥ 0`, N, at which segments of lengths `lens`
+/// with tensions `w_i·T` hold `material` m in all:
+/// `f(T) = Σ EA·L_i/(EA + w_i·T) − material = 0`, for a cluster that is
+/// taut (`Σ L_i > material`, so `f(0) > 0`).
+///
+/// `f` is convex and decreasing, so Newton from a point left of the root
+/// climbs to it monotonically without overshooting, and from a point right
+/// of it overshoots once, to the left (the tangent of a convex function
+/// lies below it), then climbs. The start is `guess_n` (the last mapping's
+/// tension: one or two steps from the root over a DR iteration's motion)
+/// where it is a finite non-negative number, else 0; an overshoot below 0
+/// is clamped to 0, where `f > 0`. Nearly linear for `T ≪ EA`, it takes
+/// 2–4 steps from 0. Returns `T` and the evaluations of `f` it took.
+fn cluster_tension(
+    ea_n: f64,
+    lens: &[f64],
+    w: &[f64],
+    material: f64,
+    guess_n: f64,
+) -> (f64, usize) {
+    let excess = |t: f64| -> (f64, f64) {
+        let mut f = -material;
+        let mut df = 0.0;
+        for (l, wi) in lens.iter().zip(w) {
+            let denom = ea_n + wi * t;
+            let part = ea_n * l / denom;
+            f += part;
+            df -= part * wi / denom;
+        }
+        (f, df)
+    };
+    let mut t = if guess_n.is_finite() && guess_n > 0.0 {
+        guess_n
+    } else {
+        0.0
+    };
+    // Exact Newton left of the root stays left with f falling. Once f is
+    // down to its rounding (a few ε·S: T to ~1e-10 N at EA ~ 1e6 N, as
+    // much as 1e-12·T at a few hundred newtons, so the step test may never
+    // pass) a step that crosses the root or does not lower f is noise: the
+    // better of the last two iterates is as close as T gets. Without this
+    // test, such solves ran all 50 steps (once most of a mapping's cost).
+    let mut evaluations = 0;
+    let mut previous: Option<(f64, f64)> = None;
+    for _ in 0..50 {
+        let (f, df) = excess(t);
+        evaluations += 1;
+        if let Some((f_prev, t_prev)) = previous {
+            if f_prev > 0.0 && !(f > 0.0 && f < f_prev) {
+                if !(f.abs() <= f_prev) {
+                    t = t_prev;
+                }
+                break;
+            }
+        }
+        if f == 0.0 {
+            break;
+        }
+        previous = Some((f, t));
+        let next = t - f / df;
+        // A NaN stays a NaN (and reaches the residual's divergence test).
+        let next = if next < 0.0 { 0.0 } else { next };
+        let moved = next - t;
+        t = next;
+        if !(moved.abs() > 1e-12 * t.max(1.0)) {
+            break;
+        }
+    }
+    (t, evaluations)
 }
 
 /// Material Δ ≥ 0 to move from the low-tension segment into the
@@ -685,6 +770,138 @@ mod slip_state_tests {
                 prop_assert!((a - b).abs() < 1e-6, "segment {}: {} vs {} ({:?} vs {:?})", i, a, b, slip_a, slip_s);
             }
         }
+    }
+
+    proptest! {
+        /// Newton for a cluster's tension from any guess (the last
+        /// mapping's tension, a wild one, none) ends where the cold start
+        /// from T = 0 does: rest lengths to 1e-12 relative, T to its
+        /// rounding. The guess only saves steps.
+        #[test]
+        fn warm_started_cluster_tension_equals_the_cold_one(
+            tensions in proptest::collection::vec(50.0f64..2000.0, 1..6),
+            log_ratio in proptest::collection::vec(-0.4f64..0.4, 6),
+            guess_factor in 0.0f64..3.0,
+            guess_shift in -5.0f64..5.0,
+            ea in 5e5f64..3e6,
+        ) {
+            let m = tensions.len();
+            let lens: Vec<f64> = (0..m).map(|i| 0.5 + 0.05 * i as f64).collect();
+            let mut w = vec![1.0; m];
+            for i in 1..m {
+                w[i] = w[i - 1] * log_ratio[i].exp();
+            }
+            let material: f64 = lens.iter().zip(&tensions).map(|(l, t)| l / (1.0 + t / ea)).sum();
+            let (cold, cold_evaluations) = cluster_tension(ea, &lens, &w, material, 0.0);
+            // Nearly linear at strains ~1e-3: a handful of steps from 0,
+            // and at most two from the answer itself (once the 50-step
+            // limit, in rounding noise).
+            prop_assert!(cold_evaluations <= 6, "{} evaluations", cold_evaluations);
+            prop_assert!(cluster_tension(ea, &lens, &w, material, cold).1 <= 2);
+            // The residual at the cold answer is at rounding level.
+            let f: f64 = lens.iter().zip(&w).map(|(l, wi)| ea * l / (ea + wi * cold)).sum::<f64>() - material;
+            prop_assert!(f.abs() < 1e-13 * material, "f = {}", f);
+            // T itself is only defined to the rounding of f over its slope
+            // (f sums m + 1 numbers near the material, a few ε·S, over
+            // |f'| ≈ ΣL/EA): about 1e-10 N here. The rest lengths it gives, what the
+            // mapping returns, agree far closer than 1e-12 relative.
+            let slope: f64 = lens.iter().zip(&w).map(|(l, wi)| ea * l * wi / (ea + wi * cold).powi(2)).sum();
+            let t_tol = 10.0 * (m + 1) as f64 * f64::EPSILON * material / slope;
+            for guess in [cold, cold * guess_factor, cold + guess_shift, 1e9, f64::NAN, -1.0] {
+                let (warm, _) = cluster_tension(ea, &lens, &w, material, guess);
+                prop_assert!((warm - cold).abs() <= t_tol, "guess {}: {} vs {}", guess, warm, cold);
+                for (l, wi) in lens.iter().zip(&w) {
+                    let (a, b) = (ea * l / (ea + wi * warm), ea * l / (ea + wi * cold));
+                    prop_assert!((a - b).abs() <= 1e-12 * b, "guess {}: rest {} vs {}", guess, a, b);
+                }
+            }
+        }
+
+        /// The lazily computed cones equal the bound from the angle, and
+        /// the floor's shortcut decides a joint as the bound would.
+        #[test]
+        fn lazy_cones_equal_fresh_ones(
+            bend in proptest::collection::vec(-1.5f64..1.5, 4),
+            mu_s in 0.0f64..0.5,
+            mu_k in 0.0f64..0.5,
+            hi in 0.0f64..2000.0,
+            ratio in 0.2f64..1.0,
+        ) {
+            let dirs: Vec<Vector3<f64>> = bend
+                .iter()
+                .enumerate()
+                .map(|(i, b)| Vector3::new(b.cos(), b.sin(), 0.1 * i as f64).normalize())
+                .collect();
+            let f = JointFriction::with_kinetic(
+                crate::model::friction::FrictionCoefficient::Constant(mu_s),
+                crate::model::friction::FrictionCoefficient::Constant(mu_k),
+                crate::model::friction::AngleConvention::Wrap,
+            ).unwrap();
+            let mut cones = JointCones::new(&dirs, &f);
+            let lo = ratio * hi;
+            for j in 1..dirs.len() {
+                let theta = interior_angle(&dirs[j - 1], &dirs[j]);
+                for sliding in [false, true] {
+                    let b = f.ratio_bound(theta, sliding);
+                    let tol = 1e-3;
+                    let by_bound = hi - b * lo >= -tol;
+                    prop_assert_eq!(cones.reaches_edge(j, sliding, hi, lo, tol), by_bound);
+                    prop_assert_eq!(cones.bound(j, sliding), b);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_warm_guess_does_not_change_the_distribution() {
+        // Joint 1 slides towards the motor, joint 2 towards the end, joint
+        // 3 sticks: one cluster of three segments and one stuck segment.
+        let dirs: Vec<Vector3<f64>> = [
+            Vector3::new(1.0, 0.2, 0.0),
+            Vector3::new(1.0, -0.3, 0.1),
+            Vector3::new(0.8, 0.4, -0.2),
+            Vector3::new(1.0, 0.0, 0.3),
+        ]
+        .iter()
+        .map(|d| d.normalize())
+        .collect();
+        let lengths = [0.6, 0.7, 0.65, 0.5];
+        let ea = 7e5;
+        let start: Vec<f64> = lengths
+            .iter()
+            .zip([700.0, 500.0, 650.0, 300.0])
+            .map(|(l, n)| l / (1.0 + n / ea))
+            .collect();
+        let slip = [
+            JointSlip::Stuck,
+            JointSlip::TowardsMotor,
+            JointSlip::TowardsEnd,
+            JointSlip::Stuck,
+        ];
+        let begin = IncrementStart {
+            rest_m: &start,
+            slip: &[JointSlip::Stuck; 4],
+        };
+        let f = JointFriction::constant(0.2).unwrap();
+        // Cold: a slack first segment in the guess starts Newton at T = 0.
+        let mut cold = lengths.to_vec();
+        cold[0] = 2.0 * lengths[0];
+        map_cable_with_slip(ea, &lengths, &dirs, &mut cold, &slip, begin, &f);
+        assert!(segment_tension(ea, lengths[0], cold[0]) > 100.0);
+        for guess in [cold.clone(), start.clone(), vec![0.5; 4]] {
+            let mut warm = guess;
+            map_cable_with_slip(ea, &lengths, &dirs, &mut warm, &slip, begin, &f);
+            for i in 0..4 {
+                assert!(
+                    (warm[i] - cold[i]).abs() <= 1e-12 * cold[i],
+                    "{warm:?} vs {cold:?}"
+                );
+            }
+        }
+        // Material is conserved within the cluster; the stuck segment keeps its own.
+        let sum = |r: &[f64]| r[..3].iter().sum::<f64>();
+        assert!((sum(&cold) - sum(&start)).abs() < 1e-14);
+        assert_eq!(cold[3], start[3]);
     }
 
     #[test]
