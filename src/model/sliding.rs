@@ -492,6 +492,10 @@ fn cluster_tension(
     // pass) a step that crosses the root or does not lower f is noise: the
     // better of the last two iterates is as close as T gets. Without this
     // test, such solves ran all 50 steps (once most of a mapping's cost).
+    // f sums m + 1 numbers of the material's size, so it is known to a few
+    // ε·S and T to that over |f′|: a smaller step is noise, from either
+    // side of the root (a start at the root stops after one evaluation).
+    let f_rounding = 4.0 * (lens.len() + 1) as f64 * f64::EPSILON * material;
     let mut evaluations = 0;
     let mut previous: Option<(f64, f64)> = None;
     for _ in 0..50 {
@@ -514,7 +518,7 @@ fn cluster_tension(
         let next = if next < 0.0 { 0.0 } else { next };
         let moved = next - t;
         t = next;
-        if !(moved.abs() > 1e-12 * t.max(1.0)) {
+        if !(moved.abs() > (1e-12 * t.max(1.0)).max(f_rounding / df.abs())) {
             break;
         }
     }
