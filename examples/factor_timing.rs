@@ -9,7 +9,6 @@
 //!
 //! `solves` times the nets from flat (1e-3 N) by default, with Newton
 //! forced (no cost limit), and by pure DR.
-use nalgebra::Vector3;
 use std::time::Instant;
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::model::stiffness::{assemble_tangent_stiffness, tangent_layout};
@@ -17,36 +16,11 @@ use tensegrity_deploy::model::*;
 use tensegrity_deploy::numerics::{BlockLayout, BlockLu, BlockMatrix};
 
 fn net(n: usize) -> Structure {
-    let mut nodes = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            let edge = i == 0 || j == 0 || i == n - 1 || j == n - 1;
-            nodes.push(Node {
-                id: format!("n{i}_{j}"),
-                position_m: Vector3::new(i as f64, j as f64, 0.0),
-                mass_kg: 0.0,
-                fixed: [edge; 3],
-                load_n: Vector3::new(0.0, 0.0, if edge { 0.0 } else { -1000.0 }),
-            });
-        }
-    }
-    let mut members = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            let k = j * n + i;
-            for (o, ok) in [(k + 1, i + 1 < n), (k + n, j + 1 < n)] {
-                if ok {
-                    members.push(Member {
-                        id: format!("c{}", members.len()),
-                        kind: MemberKind::Cable { ea_n: 1_256_636.0 },
-                        nodes: [k, o],
-                        rest_length_m: 0.998,
-                    });
-                }
-            }
-        }
-    }
-    Structure::new("net", nodes, members, vec![], Vector3::zeros(), vec![]).unwrap()
+    tensegrity_deploy::design::square_net(&tensegrity_deploy::design::SquareNetParameters {
+        nodes_per_side: n,
+        ..Default::default()
+    })
+    .expect("a valid net")
 }
 fn bridge(m: usize) -> Structure {
     reference_bridge(&BridgeParameters {

@@ -495,38 +495,16 @@ mod tests {
     }
 
     /// An N×N net as the peer benchmark's (perimeter pinned, 1 m grid,
-    /// prestressed by rest lengths 0.998 m, so its flat tangent is SPD).
+    /// prestressed by rest lengths 0.998 m, so its flat tangent is SPD),
+    /// unloaded.
     fn square_net(n: usize) -> ForwardModel {
-        use crate::model::{Member, MemberKind};
-        let nodes = (0..n * n)
-            .map(|k| {
-                let (i, j) = (k % n, k / n);
-                let edge = i == 0 || j == 0 || i == n - 1 || j == n - 1;
-                Node {
-                    id: format!("n{k}"),
-                    position_m: Vector3::new(i as f64, j as f64, 0.0),
-                    mass_kg: 0.0,
-                    fixed: [edge; 3],
-                    load_n: Vector3::zeros(),
-                }
-            })
-            .collect();
-        let mut members = Vec::new();
-        for k in 0..n * n {
-            let (i, j) = (k % n, k / n);
-            for (other, ok) in [(k + 1, i + 1 < n), (k + n, j + 1 < n)] {
-                if ok {
-                    members.push(Member {
-                        id: format!("c{}", members.len()),
-                        kind: MemberKind::Cable { ea_n: 1_256_636.0 },
-                        nodes: [k, other],
-                        rest_length_m: 0.998,
-                    });
-                }
-            }
-        }
-        let s = Structure::new("net", nodes, members, vec![], Vector3::zeros(), vec![]).unwrap();
-        ForwardModel::new(s, JointFriction::frictionless(), RelaxSettings::default()).unwrap()
+        let net = crate::design::square_net(&crate::design::SquareNetParameters {
+            nodes_per_side: n,
+            free_node_load_n: 0.0,
+            ..Default::default()
+        })
+        .unwrap();
+        ForwardModel::new(net, JointFriction::frictionless(), RelaxSettings::default()).unwrap()
     }
 
     /// Solves `k·x = rhs` on every block stored sparse and on every block
