@@ -162,7 +162,7 @@ impl<'a> JointCones<'a> {
 /// an increment), the material is distributed for it exactly
 /// ([`map_cable_with_slip`]), and joints that contradict the result are
 /// flipped, until none does. Should that not settle in
-/// [`MAX_ACTIVE_SET_ROUNDS`] rounds, Gauss–Seidel sweeps finish: each joint
+/// `MAX_ACTIVE_SET_ROUNDS` rounds, Gauss–Seidel sweeps finish: each joint
 /// is solved in turn from `Δ_j = 0` given its neighbours (so a joint that
 /// over-slid earlier slides back), until a sweep finds nothing to change.
 ///

@@ -1,7 +1,7 @@
 //! The equilibrium solver, one concept per file: [`settings`], [`status`],
-//! the [`forward_model`] type, the two-node [`element`] force law, the
-//! [`residual`] with the friction return mapping, dynamic relaxation
-//! ([`relax`]), Newton with the consistent friction tangent ([`newton`]),
+//! the [`forward_model`] type, the two-node `element` force law, the
+//! `residual` with the friction return mapping, dynamic relaxation
+//! ([`relax`]), Newton with the consistent friction tangent (`newton`),
 //! commands applied in increments ([`command`]), and the payout
 //! sensitivities of an equilibrium ([`sensitivity`]).
 

@@ -32,7 +32,7 @@
 //!    of the tangent in which exactly those joints slide.
 //!
 //! All loads and violation rates are central differences over
-//! [`STEP_M`] of the exact functions (segment tension law, capstan bound,
+//! `STEP_M` (1 µm) of the exact functions (segment tension law, capstan bound,
 //! the material distribution of sliding clusters by
 //! [`crate::model::sliding::map_cable_with_slip`]), so they are accurate to
 //! second order in the step (relative error about 1e-12). Forces and
@@ -122,7 +122,7 @@ pub struct PayoutSensitivities {
 pub enum SensitivityError {
     /// The tangent is singular (mechanism) or not positive along the load
     /// (unstable), or no consistent pattern of sliding joints was found in
-    /// [`MAX_ROUNDS`] revisions.
+    /// 4n + 4 active-set revisions (n joints in the cluster).
     #[error("motor {motor}, {direction:?}: the tangent stiffness is singular or unstable")]
     UnstableTangent {
         /// The motor (continuous cable) index.
