@@ -122,7 +122,7 @@ pub struct PayoutSensitivities {
 pub enum SensitivityError {
     /// The tangent is singular (mechanism) or not positive along the load
     /// (unstable), or no consistent pattern of sliding joints was found in
-    /// 4n + 4 active-set revisions (n joints in the cluster).
+    /// 4n + 4 active-set revisions (n candidate sliding joints).
     #[error("motor {motor}, {direction:?}: the tangent stiffness is singular or unstable")]
     UnstableTangent {
         /// The motor (continuous cable) index.
