@@ -187,6 +187,7 @@ pub fn adapt(
         min_payout_m: context.motors.min_payout_m.clone(),
         max_payout_m: context.motors.max_payout_m.clone(),
         max_step_m: context.motors.max_step_m.clone(),
+        max_total_change_m: settings.ilc_max_change_m,
     };
     let ilc = learn_commands(&data, settings.ilc_regularisation);
     let guidance = Guidance {

@@ -11,6 +11,7 @@
 //!   subject to   |u_jm + Δu_jm| ≤ step_m                      (drum step)
 //!                min_m ≤ p0_m + Σ_{i≤j} (u_im + Δu_im) ≤ max_m   (stroke)
 //!                lower_l ≤ f_l + L_l·Σ_j Δu_j ≤ upper_l          (members)
+//!                |Σ_j Δu_jm| ≤ r                              (trust region)
 //! ```
 //!
 //! where `G` is the sensitivity of the end gaps to each motor's drum
@@ -29,6 +30,15 @@
 //! path of a high-friction bridge enough for the model to refuse a
 //! command the case had sent.) A drum's step limit moves the rest to
 //! earlier commands.
+//!
+//! The trust region r bounds how far one update moves a motor's total
+//! payout. `G` and `L` come from a frictionless model at the case's end;
+//! on a truth whose cables are softer than the model's or stick at the
+//! joints, the real gain can be twice the model's in some directions, and
+//! the unbounded update then swings by centimetres from cycle to cycle
+//! (10–28 mm per motor on some drawn truths, against at most 4 mm on the
+//! default one), taking segments slack that the model still sees in
+//! tension. Inside r the linearisation held on every truth tried.
 //!
 //! [`formulate`] builds the QP (pure, inspected by tests); [`learn_commands`]
 //! solves it through the one Clarabel adapter.
@@ -62,6 +72,10 @@ pub struct IlcData {
     pub max_payout_m: Vec<f64>,
     /// Largest change per command per motor, m.
     pub max_step_m: Vec<f64>,
+    /// Largest total change of a motor's payout over the update,
+    /// `|Σ_j Δu_jm|`, m (infinite: none): the trust region r of the
+    /// linearisation at the case's end.
+    pub max_total_change_m: f64,
 }
 
 impl IlcData {
@@ -117,6 +131,16 @@ pub enum IlcRow {
     StrokeMin {
         /// Command.
         command: usize,
+        /// Motor.
+        motor: usize,
+    },
+    /// `Σ_j Δu_jm ≤ max_total_change_m`.
+    TotalOut {
+        /// Motor.
+        motor: usize,
+    },
+    /// `−Σ_j Δu_jm ≤ max_total_change_m`.
+    TotalIn {
         /// Motor.
         motor: usize,
     },
@@ -220,6 +244,15 @@ pub fn formulate(data: &IlcData, regularisation: f64) -> IlcFormulation {
                 command: j,
                 motor: c,
             });
+        }
+    }
+    if data.max_total_change_m.is_finite() {
+        let r = data.max_total_change_m.max(0.0);
+        for c in 0..m {
+            g_rows.push((vec![(total(c), 1.0)], r));
+            rows.push(IlcRow::TotalOut { motor: c });
+            g_rows.push((vec![(total(c), -1.0)], r));
+            rows.push(IlcRow::TotalIn { motor: c });
         }
     }
     for (l, limit) in data.limits.iter().enumerate() {
@@ -352,6 +385,7 @@ mod tests {
             min_payout_m: vec![-0.1, -0.1],
             max_payout_m: vec![0.5, 0.5],
             max_step_m: vec![0.05, 0.05],
+            max_total_change_m: f64::INFINITY,
         }
     }
 
@@ -425,5 +459,39 @@ mod tests {
         // Unconstrained it would reel in 0.3·0.02/0.09 ≈ 6.7 cm; the limit
         // allows 5 mm.
         assert!((total - -0.005).abs() < 1e-6, "{total}");
+    }
+
+    /// The trust region caps a motor's total change at r where its
+    /// unconstrained update exceeds it, and leaves the others: motor 0
+    /// would move s0 = −0.3 e/(0.09 + ρ_eff) ≈ −6.7 cm (see the
+    /// unconstrained test) and ends at −r; motor 1 keeps its unconstrained
+    /// 1 mm (the motors are decoupled in this G).
+    #[test]
+    fn the_trust_region_bounds_each_motors_total_change() {
+        let (j, rho, r) = (4, 1e-4, 0.005);
+        let mut d = data(j, [0.02, -0.0002, 0.0]);
+        d.max_total_change_m = r;
+        let f = formulate(&d, rho);
+        let totals = f
+            .rows
+            .iter()
+            .filter(|w| matches!(w, IlcRow::TotalOut { .. } | IlcRow::TotalIn { .. }))
+            .count();
+        assert_eq!(totals, 2 * 2);
+        let u = learn_commands(&d, rho);
+        assert!(u.status.is_solved(), "{:?}", u.status);
+        let total = |c: usize| u.commands_m.iter().map(|x| x[c] + 0.04).sum::<f64>();
+        // Motor 0 at the bound (solver tolerance ~1e-10 m).
+        assert!((total(0) + r).abs() < 1e-7, "{}", total(0));
+        // Motor 1 is free: its unconstrained change, 0.2·0.0002/(0.04 +
+        // ρ_eff), is 1 mm, inside r.
+        let inverse: f64 = (0..j).map(|k| 1.0 / command_weight(k, j, rho)).sum();
+        let s1 = 0.2 * 0.0002 / (0.04 + 1.0 / inverse);
+        assert!(s1 < r);
+        assert!((total(1) - s1).abs() < 1e-7, "{} vs {s1}", total(1));
+        // The predicted gap is what the capped update leaves of e.
+        let left0 = 0.02 + 0.3 * -r;
+        let left1 = -0.0002 + 0.2 * s1;
+        assert!((u.predicted_end_gap_m - left0.hypot(left1)).abs() < 1e-7);
     }
 }
