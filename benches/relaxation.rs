@@ -131,38 +131,12 @@ fn cable_net_solve(c: &mut Criterion) {
 /// grid, perimeter pinned, tension-only cables, EA 1256.636 kN, rest length
 /// 0.998 × initial, −1 kN on every free node.
 fn square_net(n: usize, newton: bool) -> ForwardModel {
-    use nalgebra::Vector3;
-    use tensegrity_deploy::model::{Member, MemberKind, Node, Structure};
-    let mut nodes = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            let edge = i == 0 || j == 0 || i == n - 1 || j == n - 1;
-            nodes.push(Node {
-                id: format!("n{i}_{j}"),
-                position_m: Vector3::new(i as f64, j as f64, 0.0),
-                mass_kg: 0.0,
-                fixed: [edge; 3],
-                load_n: Vector3::new(0.0, 0.0, if edge { 0.0 } else { -1000.0 }),
-            });
-        }
-    }
-    let mut members = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            let k = j * n + i;
-            for (other, ok) in [(k + 1, i + 1 < n), (k + n, j + 1 < n)] {
-                if ok {
-                    members.push(Member {
-                        id: format!("c{}", members.len()),
-                        kind: MemberKind::Cable { ea_n: 1_256_636.0 },
-                        nodes: [k, other],
-                        rest_length_m: 0.998,
-                    });
-                }
-            }
-        }
-    }
-    let s = Structure::new("net", nodes, members, vec![], Vector3::zeros(), vec![]).unwrap();
+    use tensegrity_deploy::design::{square_net, SquareNetParameters};
+    let s = square_net(&SquareNetParameters {
+        nodes_per_side: n,
+        ..Default::default()
+    })
+    .unwrap();
     let settings = RelaxSettings {
         tol_force_rel: 1e-300,
         tol_force_abs: 1e-3,

@@ -504,37 +504,12 @@ mod tests {
 
     /// The peer benchmark's N×N net (perimeter pinned, 1 m grid).
     fn square_net(n: usize) -> ForwardModel {
-        use crate::model::{Member, MemberKind, Node, Structure};
-        use nalgebra::Vector3;
-        let nodes = (0..n * n)
-            .map(|k| {
-                let (i, j) = (k % n, k / n);
-                let edge = i == 0 || j == 0 || i == n - 1 || j == n - 1;
-                Node {
-                    id: format!("n{k}"),
-                    position_m: Vector3::new(i as f64, j as f64, 0.0),
-                    mass_kg: 0.0,
-                    fixed: [edge; 3],
-                    load_n: Vector3::new(0.0, 0.0, if edge { 0.0 } else { -1000.0 }),
-                }
-            })
-            .collect();
-        let mut members = Vec::new();
-        for k in 0..n * n {
-            let (i, j) = (k % n, k / n);
-            for (other, ok) in [(k + 1, i + 1 < n), (k + n, j + 1 < n)] {
-                if ok {
-                    members.push(Member {
-                        id: format!("c{}", members.len()),
-                        kind: MemberKind::Cable { ea_n: 1_256_636.0 },
-                        nodes: [k, other],
-                        rest_length_m: 0.998,
-                    });
-                }
-            }
-        }
-        let s = Structure::new("net", nodes, members, vec![], Vector3::zeros(), vec![]).unwrap();
-        ForwardModel::new(s, JointFriction::frictionless(), RelaxSettings::default()).unwrap()
+        let net = crate::design::square_net(&crate::design::SquareNetParameters {
+            nodes_per_side: n,
+            ..Default::default()
+        })
+        .unwrap();
+        ForwardModel::new(net, JointFriction::frictionless(), RelaxSettings::default()).unwrap()
     }
 
     #[test]
