@@ -152,12 +152,7 @@ pub fn adapt(
         case: case_index,
         reason: e.to_string(),
     })?;
-    let max_step = context
-        .motors
-        .max_step_m
-        .iter()
-        .copied()
-        .fold(0.0, f64::max);
+    let max_step = context.motors.largest_step_m();
     let terminal = step_data(context, &end, &response, max_step);
     let to_drum = |mut g: DMatrix<f64>| {
         for (m, k) in drum_to_cable.iter().enumerate() {
@@ -248,13 +243,7 @@ fn solve_case_end(
                 nearest = as_built;
             }
         }
-        let largest_step_m = context
-            .motors
-            .max_step_m
-            .iter()
-            .copied()
-            .fold(0.0, f64::max);
-        (nearest, largest_step_m)
+        (nearest, context.motors.largest_step_m())
     } else {
         (start.clone(), context.policy.increment_m)
     };

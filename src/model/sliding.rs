@@ -856,11 +856,10 @@ mod slip_state_tests {
         }
     }
 
-    #[test]
-    fn a_warm_guess_does_not_change_the_distribution() {
-        // Joint 1 slides towards the motor, joint 2 towards the end, joint
-        // 3 sticks: one cluster of three segments and one stuck segment.
-        let dirs: Vec<Vector3<f64>> = [
+    /// A four-segment cable bent at every joint: segment directions,
+    /// lengths (m) and EA (N).
+    fn bent_cable() -> (Vec<Vector3<f64>>, [f64; 4], f64) {
+        let dirs = [
             Vector3::new(1.0, 0.2, 0.0),
             Vector3::new(1.0, -0.3, 0.1),
             Vector3::new(0.8, 0.4, -0.2),
@@ -869,8 +868,14 @@ mod slip_state_tests {
         .iter()
         .map(|d| d.normalize())
         .collect();
-        let lengths = [0.6, 0.7, 0.65, 0.5];
-        let ea = 7e5;
+        (dirs, [0.6, 0.7, 0.65, 0.5], 7e5)
+    }
+
+    #[test]
+    fn a_warm_guess_does_not_change_the_distribution() {
+        // Joint 1 slides towards the motor, joint 2 towards the end, joint
+        // 3 sticks: one cluster of three segments and one stuck segment.
+        let (dirs, lengths, ea) = bent_cable();
         let start: Vec<f64> = lengths
             .iter()
             .zip([700.0, 500.0, 650.0, 300.0])
@@ -910,17 +915,7 @@ mod slip_state_tests {
 
     #[test]
     fn mapping_with_the_mappings_own_slip_states_reproduces_it() {
-        let dirs: Vec<Vector3<f64>> = [
-            Vector3::new(1.0, 0.2, 0.0),
-            Vector3::new(1.0, -0.3, 0.1),
-            Vector3::new(0.8, 0.4, -0.2),
-            Vector3::new(1.0, 0.0, 0.3),
-        ]
-        .iter()
-        .map(|d| d.normalize())
-        .collect();
-        let lengths = [0.6, 0.7, 0.65, 0.5];
-        let ea = 7e5;
+        let (dirs, lengths, ea) = bent_cable();
         let t = |l: f64, n: f64| l / (1.0 + n / ea);
         for tensions in [
             [900.0, 500.0, 480.0, 300.0],

@@ -133,6 +133,13 @@ pub struct MotorLimits {
     pub max_step_m: Vec<f64>,
 }
 
+impl MotorLimits {
+    /// The largest step limit of any motor, m (0 without motors).
+    pub fn largest_step_m(&self) -> f64 {
+        self.max_step_m.iter().copied().fold(0.0, f64::max)
+    }
+}
+
 impl DeploymentProblem {
     /// Checks every field: finite, in range, and consistent (the start
     /// inside the stroke range, minimum below maximum).
