@@ -364,6 +364,19 @@ fn a_fold_the_motors_cannot_reel_in_is_not_reachable_and_exits_1() {
     );
     assert!(summary["largest_final_true_gap_m"].as_f64().unwrap() > 0.06);
     assert_eq!(summary["truth_limit_violations"], 0);
+    // The output records the problem it solved: the file given, its
+    // values (here the shortened reel-in) with every other field's default.
+    assert_eq!(summary["problem"], "short.toml");
+    let recorded =
+        tensegrity_deploy::io::problem_file::read_problem(&dir.path().join("o/problem.toml"))
+            .unwrap();
+    let given =
+        tensegrity_deploy::io::problem_file::read_problem(&dir.path().join("short.toml")).unwrap();
+    assert_eq!(recorded, given);
+    assert_eq!(
+        recorded.min_payout_m,
+        tensegrity_deploy::plan::PerMotor::All(0.35)
+    );
 }
 
 #[test]

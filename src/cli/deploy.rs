@@ -26,6 +26,9 @@
 //!   model files (`tdeploy compare DIR/truth.toml DIR/log` shows the
 //!   sensor noise alone; with `model.toml`, what the controller's model
 //!   misses);
+//! - `problem.toml`: the problem solved (given or the default), every
+//!   field written out (`tdeploy replay DIR/log --problem DIR/problem.toml`
+//!   replays under the same limits);
 //! - `deployment.csv`: one row per step (0: the start): predicted,
 //!   measured and true gap per pair, the truth's utilisation, minimum
 //!   tension and limit violations along the command, the planner's QP
@@ -49,6 +52,7 @@ use serde::Serialize;
 use tensegrity_deploy::io::log::write_log;
 use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
 use tensegrity_deploy::io::output::ResultsFolder;
+use tensegrity_deploy::io::problem_file::problem_to_toml;
 use tensegrity_deploy::io::{write_atomically, write_json, CsvTable};
 use tensegrity_deploy::measure::log::{Cycle, MeasurementLog};
 use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction};
@@ -245,6 +249,9 @@ struct Summary<'a> {
     planner: &'static str,
     truth: String,
     model: String,
+    /// The problem file given, or the built-in default; `problem.toml`
+    /// beside the summary holds its values either way.
+    problem: String,
     commands: usize,
     max_commands: usize,
     connection_tolerance_m: f64,
@@ -496,6 +503,11 @@ pub fn run(o: &Options) -> Result<Outcome> {
         &out.join("model.toml"),
         model_file.to_toml(&o.out).as_bytes(),
     )?;
+    // The problem solved, so that `replay --problem` can use its limits.
+    write_atomically(
+        &out.join("problem.toml"),
+        problem_to_toml(&problem).as_bytes(),
+    )?;
     deployment_table(&d).write(&out.join("deployment.csv"))?;
     timing_table(&d).write(&out.join("timing.csv"))?;
     let truth_model = truth_forward_model(&truth)?;
@@ -542,6 +554,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
         planner: policy.planner.as_str(),
         truth: truth_words,
         model: model_words,
+        problem: o.problem.as_ref().map_or_else(
+            || "the default problem".to_string(),
+            |p| p.display().to_string(),
+        ),
         commands: d.records.len(),
         max_commands: policy.max_commands,
         connection_tolerance_m: problem.connection_tolerance_m,
@@ -594,7 +610,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             );
         }
         say!(
-            "results in {} (commands.csv, log/, deployment.csv, summary.json, deployment.svg, timing.csv)",
+            "results in {} (commands.csv, log/, problem.toml, deployment.csv, summary.json, deployment.svg, timing.csv)",
             out.display()
         );
     }

@@ -60,7 +60,7 @@ pub fn command() -> Command {
         .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder (from tdeploy deploy's log/, tdeploy lab, or a bridge)"))
         .arg(Arg::new("policy").long("policy").value_parser(value_parser!(PathBuf)).help("Policy file (default: policies/qp.toml's settings, built in)"))
         .arg(Arg::new("model").long("model").value_parser(value_parser!(PathBuf)).help("Model file of the controller (and the base of the calibration). Default: the reference bridge without friction"))
-        .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file for the limits and the connection tolerance (its start payout is replaced by the logged start). Default: the documented default problem"))
+        .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file for the limits and the connection tolerance (its start payout is replaced by the logged start; `deploy` writes the one it solved to DIR/problem.toml). Default: the documented default problem"))
         .arg(Arg::new("cycle").long("cycle").value_parser(value_parser!(u64)).help("Cycle of the log to replay, by its label (default: the one with the largest fold)"))
         .arg(Arg::new("fit").long("fit").value_delimiter(',').help("Calibrate by fitting these effects in turn (e.g. joint_friction,motor) instead of the full diagnosis"))
         .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects the diagnosis looks for at most (1 to the number of effects)"))

@@ -34,6 +34,15 @@ pub fn read_problem(path: &Path) -> Result<DeploymentProblem, FileError> {
     parse_problem(&text, path)
 }
 
+/// The text of a problem file for `problem`: every field written out, so
+/// that a run's output records the problem it solved whatever its source
+/// (a file or the built-in default). [`parse_problem`] reads it back.
+pub fn problem_to_toml(problem: &DeploymentProblem) -> String {
+    // A problem is plain numbers and lists: serialising cannot fail.
+    let body = toml::to_string(problem).expect("a deployment problem serialises to TOML");
+    format!("format = \"{PROBLEM_FORMAT}\"\n{body}")
+}
+
 /// Parses a problem file; `path` names it in errors.
 pub fn parse_problem(text: &str, path: &Path) -> Result<DeploymentProblem, FileError> {
     let problem: DeploymentProblem = parse_versioned(text, path, PROBLEM_FORMAT)?;
@@ -143,6 +152,18 @@ mod tests {
             }
             e => panic!("{e}"),
         }
+    }
+
+    #[test]
+    fn a_written_problem_reads_back_equal() {
+        let mut problem = DeploymentProblem::default();
+        problem.max_step_m = crate::plan::PerMotor::Each(vec![0.05, 0.04, 0.03]);
+        problem.connection_tolerance_m = 0.025;
+        let text = problem_to_toml(&problem);
+        assert_eq!(parse_problem(&text, Path::new("p.toml")).unwrap(), problem);
+        let default = DeploymentProblem::default();
+        let text = problem_to_toml(&default);
+        assert_eq!(parse_problem(&text, Path::new("p.toml")).unwrap(), default);
     }
 
     #[test]
