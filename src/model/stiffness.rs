@@ -388,6 +388,7 @@ mod tests {
     use crate::model::state::JointSlip;
     use crate::model::structure::{ContinuousCable, Node, Structure};
     use crate::model::RelaxSettings;
+    use crate::numerics::BlockMatrix;
 
     /// A V-shaped continuous cable from two supports over one free joint.
     fn v_cable(rest_scale: f64) -> ForwardModel {
@@ -412,6 +413,68 @@ mod tests {
         };
         let s = Structure::new("v", nodes, vec![], vec![cable], Vector3::zeros(), vec![]).unwrap();
         ForwardModel::new(s, JointFriction::frictionless(), RelaxSettings::default()).unwrap()
+    }
+
+    /// Regression: a continuous cable over a support (a fixed joint
+    /// between free ones) was split into two DOF blocks at the support, and
+    /// the block storage dropped the coupling that a cluster sliding over
+    /// all its joints puts between the free nodes on either side.
+    #[test]
+    fn a_cable_sliding_over_a_support_keeps_both_sides_in_one_block() {
+        let node = |id: &str, p: [f64; 3], fixed: bool| Node {
+            id: id.into(),
+            position_m: Vector3::from(p),
+            mass_kg: 0.0,
+            fixed: [fixed; 3],
+            load_n: Vector3::zeros(),
+        };
+        // W shape: motor, joint, support seat, joint, end.
+        let nodes = vec![
+            node("motor", [0.0, 0.0, 0.0], true),
+            node("j1", [1.0, 0.1, -0.5], false),
+            node("seat", [2.0, 0.0, 0.0], true),
+            node("j2", [3.0, -0.1, -0.4], false),
+            node("end", [4.0, 0.0, 0.0], true),
+        ];
+        let len = |a: usize, b: usize| (nodes[b].position_m - nodes[a].position_m).norm();
+        let cable = ContinuousCable {
+            id: "c".into(),
+            path: vec![0, 1, 2, 3, 4],
+            ea_n: 1e5,
+            segment_rest_lengths_m: (0..4).map(|i| 0.99 * len(i, i + 1)).collect(),
+        };
+        let s = Structure::new("w", nodes, vec![], vec![cable], Vector3::zeros(), vec![]).unwrap();
+        let model = ForwardModel::new(
+            s,
+            JointFriction::constant(0.1).unwrap(),
+            RelaxSettings::default(),
+        )
+        .unwrap();
+        assert_eq!(model.dof_blocks().len(), 1, "{:?}", model.dof_blocks());
+        // Every joint sliding towards the motor: one cluster over j1, the
+        // seat and j2.
+        let mut state = model.reference_state();
+        for slip in state.joint_slip.iter_mut().skip(1) {
+            *slip = JointSlip::TowardsMotor;
+        }
+        let (dense, dofs) = tangent_stiffness(&model, &state, JointMode::AsMapped);
+        let (j1, j2) = (dofs.index[1][0].unwrap(), dofs.index[3][0].unwrap());
+        let coupling = (0..3)
+            .flat_map(|a| (0..3).map(move |b| (a, b)))
+            .map(|(a, b)| dense[(j1 + a, j2 + b)].abs())
+            .fold(0.0, f64::max);
+        assert!(
+            coupling > 1e-3 * dense.amax(),
+            "{coupling} of {}",
+            dense.amax()
+        );
+        let mut blocks = BlockMatrix::zeros_on(&tangent_layout(&model));
+        assemble_tangent_stiffness(&model, &state, JointMode::AsMapped, &mut blocks);
+        for r in 0..dense.nrows() {
+            for c in 0..dense.ncols() {
+                assert_eq!(blocks.get(r, c), dense[(r, c)], "entry ({r}, {c})");
+            }
+        }
     }
 
     /// Central differences of the out-of-balance force, for comparison.

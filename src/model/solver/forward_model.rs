@@ -102,12 +102,26 @@ impl ForwardModel {
         }
         let size_m = (hi - lo).norm().max(1e-3);
         let free_dofs = FreeDofs::from_fixed(structure.nodes.iter().map(|n| &n.fixed));
+        // A cluster of sliding joints couples every node of its cable, a
+        // support on the path included: a cable's free nodes form one
+        // chain whatever lies between them (its windows alone would split
+        // the cable at a fixed joint and drop the coupling).
+        let cable_free_nodes: Vec<Vec<usize>> = structure
+            .continuous_cables
+            .iter()
+            .map(|c| {
+                c.path
+                    .iter()
+                    .copied()
+                    .filter(|&n| structure.nodes[n].is_free())
+                    .collect()
+            })
+            .collect();
         let dof_blocks = free_dofs.blocks(
             structure.members.iter().map(|m| m.nodes).chain(
-                structure
-                    .continuous_cables
+                cable_free_nodes
                     .iter()
-                    .flat_map(|c| c.path.windows(2).map(|w| [w[0], w[1]])),
+                    .flat_map(|path| path.windows(2).map(|w| [w[0], w[1]])),
             ),
         );
         Ok(ForwardModel {
