@@ -1,6 +1,9 @@
 #![warn(missing_docs)]
 // `!(a <= b)` is how this crate treats NaN as a failure; keep it.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Loops over the three axes index positions, forces and fixity masks of
+// one node together; an iterator over one of them reads worse.
+#![allow(clippy::needless_range_loop)]
 //! # tensegrity-deploy
 //!
 //! Deployment planning and learning for a deployable "hollow-rope"

@@ -69,12 +69,8 @@ fn formulation_dimensions_and_signs_on_a_hand_made_case() {
     let p: DMatrix<f64> = 2.0 * (j.transpose() * &j + 1e-5 * DMatrix::<f64>::identity(4, 4));
     assert!((&qp.hessian - &p).abs().max() < 1e-15, "{}", qp.hessian);
     let q = [2.0 * 0.1 + 1e-6, 1e-6, -2.0 * 2.0 * 0.1 + 1e-6, 1e-6];
-    for k in 0..4 {
-        assert!(
-            (qp.linear[k] - q[k]).abs() < 1e-15,
-            "q[{k}] = {}",
-            qp.linear[k]
-        );
+    for (k, (got, want)) in qp.linear.iter().zip(q).enumerate() {
+        assert!((got - want).abs() < 1e-15, "q[{k}] = {got}");
     }
     // Rows: per motor 2 non-negativity + 2 step bounds + 2 stroke, then the
     // limit from below and above.

@@ -156,9 +156,11 @@ mod tests {
 
     #[test]
     fn a_written_problem_reads_back_equal() {
-        let mut problem = DeploymentProblem::default();
-        problem.max_step_m = crate::plan::PerMotor::Each(vec![0.05, 0.04, 0.03]);
-        problem.connection_tolerance_m = 0.025;
+        let problem = DeploymentProblem {
+            max_step_m: crate::plan::PerMotor::Each(vec![0.05, 0.04, 0.03]),
+            connection_tolerance_m: 0.025,
+            ..Default::default()
+        };
         let text = problem_to_toml(&problem);
         assert_eq!(parse_problem(&text, Path::new("p.toml")).unwrap(), problem);
         let default = DeploymentProblem::default();
