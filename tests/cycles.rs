@@ -9,7 +9,7 @@ use tensegrity_deploy::io::memory_file::read_memory;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::CaseMemory;
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Structure};
-use tensegrity_deploy::plan::{ClosedLoopSetup, DeploymentProblem, Policy};
+use tensegrity_deploy::plan::{ClosedLoopSetup, DeploymentProblem, MemorySettings, Policy};
 use tensegrity_deploy::sim::{default_truth, standard_sensors, EffectModel, Sensor};
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleResult};
 use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
@@ -284,4 +284,70 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
         .iter()
         .zip(&memory)
         .any(|(a, b)| a.approach_gap_m != b.approach_gap_m));
+}
+
+/// Five cycles of `policy` on drawn scenario `index` of `seed`, set up as
+/// `tdeploy evaluate --cycles 5` sets it up (the scenario's truth,
+/// sensors, fold, temperature and noise seed).
+fn scenario_cycles(policy: &Policy, seed: u64, index: usize) -> Vec<CycleResult> {
+    let (structure, model, _) = bridge();
+    let scenario = ScenarioDistribution::default().draw(seed, index);
+    let truth = scenario.truth(&structure);
+    let sensors = scenario.sensors(&structure);
+    let problem = scenario.problem(&DeploymentProblem::default());
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: scenario.temperature_c,
+        seed: scenario.seed,
+    };
+    let end = run_cycles(&setup, 5, &mut CaseMemory::default(), &mut ()).unwrap();
+    assert_eq!(end.stopped, None);
+    end.results
+}
+
+/// The two drawn truths on which the memory policy broke a limit that the
+/// memoryless one kept (seed 2 scenario 15: μ = 0.30; seed 3 scenario
+/// 25: cables 0.61× as stiff as the model's). There the ILC update, free
+/// to move each motor on its own, spread the motors of one half up to
+/// 7 mm apart to fit the gaps' lateral components, and the half's axial
+/// cable, which no sensor reads, went to 0 N (the memoryless runs keep it
+/// above 29 N). With the motors of a half kept within 1 mm of each other
+/// (the default `ilc_max_spread_m`) every cycle connects with no limit
+/// broken; without the bound (1 m) the same runs break one, so the check
+/// can fail.
+#[test]
+fn keeping_a_halfs_motors_together_keeps_the_unmeasured_axial_cables_taut() {
+    let bounded = read_policy(Path::new("policies/memory.toml")).unwrap();
+    let settings = bounded.memory.unwrap();
+    assert_eq!(settings.ilc_max_spread_m, 0.001);
+    let mut unbounded = bounded.clone();
+    unbounded.memory = Some(MemorySettings {
+        ilc_max_spread_m: 1.0,
+        ..settings
+    });
+    for (seed, index) in [(2, 15), (3, 25)] {
+        let violations = |p: &Policy| -> Vec<usize> {
+            scenario_cycles(p, seed, index)
+                .iter()
+                .map(|c| {
+                    assert_eq!(c.status, "connected", "seed {seed} scenario {index}");
+                    c.truth_limit_violations
+                })
+                .collect()
+        };
+        let free = violations(&unbounded);
+        assert!(
+            free.iter().sum::<usize>() > 0,
+            "seed {seed} scenario {index}: {free:?}"
+        );
+        let kept = violations(&bounded);
+        assert!(
+            kept.iter().all(|v| *v == 0),
+            "seed {seed} scenario {index}: {kept:?}"
+        );
+    }
 }

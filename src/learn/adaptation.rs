@@ -27,7 +27,7 @@ use super::ilc::{learn_commands, IlcData, IlcUpdate};
 use super::memory::{CaseMemory, FeatureScales};
 use crate::model::{DeploymentState, RelaxStatus, Workspace};
 use crate::plan::closed_loop::Guidance;
-use crate::plan::response::PayoutResponse;
+use crate::plan::response::{IndependentParts, PayoutResponse};
 use crate::plan::search::step_data;
 use crate::plan::{MemorySettings, PayoutScaleEstimator, PlanContext};
 
@@ -183,6 +183,8 @@ pub fn adapt(
         max_payout_m: context.motors.max_payout_m.clone(),
         max_step_m: context.motors.max_step_m.clone(),
         max_total_change_m: settings.ilc_max_change_m,
+        motor_group: IndependentParts::of(model).of_cable,
+        max_group_spread_m: settings.ilc_max_spread_m,
     };
     let ilc = learn_commands(&data, settings.ilc_regularisation);
     let guidance = Guidance {

@@ -12,6 +12,7 @@
 //!                min_m ≤ p0_m + Σ_{i≤j} (u_im + Δu_im) ≤ max_m   (stroke)
 //!                lower_l ≤ f_l + L_l·Σ_j Δu_j ≤ upper_l          (members)
 //!                |Σ_j Δu_jm| ≤ r                              (trust region)
+//!                |Σ_j (u_jm + Δu_jm) − Σ_j (u_jn + Δu_jn)| ≤ d   (m, n in one group)
 //! ```
 //!
 //! where `G` is the sensitivity of the end gaps to each motor's drum
@@ -38,9 +39,14 @@
 //! the unbounded update then swings by centimetres from cycle to cycle
 //! (10–28 mm per motor on some drawn truths, against at most 4 mm on the
 //! default one), taking segments slack that the model still sees in
-//! tension. The bound does not make the update safe on every truth: with
-//! r = 4 mm, 3 of 40 drawn truths on each of two seeds still slacken an
-//! axial cable on the final approach (README, "Case memory").
+//! tension. The bound alone did not make the update safe on every truth:
+//! with r = 4 mm, 3 of 40 drawn truths on each of two seeds still
+//! slackened an axial cable. There the update had spread the motors of
+//! one half apart (up to 7 mm), to fit the lateral components of the
+//! gaps, and the truth's axial cable, which no sensor sees and whose
+//! response to that spread the frictionless model gets wrong, went slack.
+//! So the updated totals of one group's motors are also kept within d of
+//! each other (`max_group_spread_m`).
 //!
 //! [`formulate`] builds the QP (pure, inspected by tests); [`learn_commands`]
 //! solves it through the one Clarabel adapter.
@@ -78,6 +84,14 @@ pub struct IlcData {
     /// `|Σ_j Δu_jm|`, m (infinite: none): the trust region r of the
     /// linearisation at the case's end.
     pub max_total_change_m: f64,
+    /// The motor group of each motor (`None`: in none): motors of one
+    /// group (one bridge half) move together under the spread bound.
+    pub motor_group: Vec<Option<usize>>,
+    /// Largest difference between the updated total payout changes of two
+    /// motors of one group, `|Σ_j (u_jm + Δu_jm) − Σ_j (u_jn + Δu_jn)|`, m
+    /// (infinite: none). Where the last commands already differ by more,
+    /// the update may not widen the difference.
+    pub max_group_spread_m: f64,
 }
 
 impl IlcData {
@@ -145,6 +159,22 @@ pub enum IlcRow {
     TotalIn {
         /// Motor.
         motor: usize,
+    },
+    /// The updated total payout change of `motor` exceeds that of
+    /// `other` (same group) by at most `max_group_spread_m`:
+    /// `Σ_j (u_jm + Δu_jm) − Σ_j (u_jn + Δu_jn) ≤ d`.
+    SpreadOut {
+        /// Motor.
+        motor: usize,
+        /// The other motor of its group.
+        other: usize,
+    },
+    /// The same, `other` exceeding `motor`.
+    SpreadIn {
+        /// Motor.
+        motor: usize,
+        /// The other motor of its group.
+        other: usize,
     },
     /// Limit `limit` from below.
     LimitLower {
@@ -255,6 +285,27 @@ pub fn formulate(data: &IlcData, regularisation: f64) -> IlcFormulation {
             rows.push(IlcRow::TotalOut { motor: c });
             g_rows.push((vec![(total(c), -1.0)], r));
             rows.push(IlcRow::TotalIn { motor: c });
+        }
+    }
+    if data.max_group_spread_m.is_finite() {
+        // On the updated totals, not on the update: a bound per update
+        // would let the spread grow by d every cycle.
+        let d = data.max_group_spread_m.max(0.0);
+        let last_total: Vec<f64> = (0..m)
+            .map(|c| data.commands_m.iter().map(|u| u[c]).sum())
+            .collect();
+        let group = |c: usize| data.motor_group.get(c).copied().flatten();
+        for a in 0..m {
+            for b in a + 1..m {
+                if group(a).is_none() || group(a) != group(b) {
+                    continue;
+                }
+                let spread = last_total[a] - last_total[b];
+                g_rows.push((vec![(total(a), 1.0), (total(b), -1.0)], d - spread));
+                rows.push(IlcRow::SpreadOut { motor: a, other: b });
+                g_rows.push((vec![(total(a), -1.0), (total(b), 1.0)], d + spread));
+                rows.push(IlcRow::SpreadIn { motor: a, other: b });
+            }
         }
     }
     for (l, limit) in data.limits.iter().enumerate() {
@@ -388,6 +439,8 @@ mod tests {
             max_payout_m: vec![0.5, 0.5],
             max_step_m: vec![0.05, 0.05],
             max_total_change_m: f64::INFINITY,
+            motor_group: vec![Some(0), Some(0)],
+            max_group_spread_m: f64::INFINITY,
         }
     }
 
@@ -495,5 +548,46 @@ mod tests {
         let left0 = 0.02 + 0.3 * -r;
         let left1 = -0.0002 + 0.2 * s1;
         assert!((u.predicted_end_gap_m - left0.hypot(left1)).abs() < 1e-7);
+    }
+
+    /// The group spread bound against the regularised least-squares
+    /// solution on the bound, by hand. Free, motor 1's total would rise
+    /// by ~30 mm and motor 0's fall by ~10 mm; bounded by d, the totals
+    /// lie on `s1 − s0 = d + (T0 − T1)` (T: the last commands' totals),
+    /// and minimising along that line, `s0 = s1 − c`, gives
+    /// `s1·(0.13 + 2ρ_eff) = −0.3 e_x − 0.2 e_y + (0.09 + ρ_eff)·c`.
+    #[test]
+    fn the_spread_bound_keeps_a_groups_totals_together() {
+        let (j, rho, d_max) = (4, 1e-4, 0.005);
+        let (ex, ey) = (0.003, -0.006);
+        let inverse: f64 = (0..j).map(|k| 1.0 / command_weight(k, j, rho)).sum();
+        let rho_eff = 1.0 / inverse;
+        let check = |motor1_command: f64, c: f64| {
+            let mut d = data(j, [ex, ey, 0.0]);
+            for u in &mut d.commands_m {
+                u[1] = motor1_command;
+            }
+            d.max_group_spread_m = d_max;
+            let spread_rows = formulate(&d, rho)
+                .rows
+                .iter()
+                .filter(|w| matches!(w, IlcRow::SpreadOut { .. } | IlcRow::SpreadIn { .. }))
+                .count();
+            assert_eq!(spread_rows, 2);
+            let u = learn_commands(&d, rho);
+            assert!(u.status.is_solved(), "{:?}", u.status);
+            let change =
+                |m: usize, base: f64| u.commands_m.iter().map(|x| x[m] - base).sum::<f64>();
+            let (s0, s1) = (change(0, -0.04), change(1, motor1_command));
+            let s1_hand = (-0.3 * ex - 0.2 * ey + (0.09 + rho_eff) * c) / (0.13 + 2.0 * rho_eff);
+            // Solver tolerance ~1e-10 m, as in the unbounded test.
+            assert!((s1 - s1_hand).abs() < 1e-7, "{s1} vs {s1_hand}");
+            assert!((s1 - s0 - c).abs() < 1e-7, "{s0} {s1} {c}");
+        };
+        // Equal last commands: the totals end d apart.
+        check(-0.04, d_max);
+        // Last commands already 40 mm apart (motor 1 reeled in less): the
+        // update may not widen that, so both totals change alike.
+        check(-0.03, 0.0);
     }
 }
