@@ -2,21 +2,42 @@
 //! what happened at every command: the tool for finding out why a
 //! scenario failed.
 //!
-//! `cargo run --release --example deployment_scenario -- POLICY SEED SCENARIO...`
-//! (the experiment's scenarios: the default distribution of `tdeploy
-//! evaluate`; the controller plans on the frictionless model).
+//! `cargo run --release --example deployment_scenario -- POLICY SEED [--cycles N] SCENARIO...`
+//! (the scenarios of `tdeploy evaluate`: the default distribution, each
+//! scenario's fold, sensors and temperature; the controller plans on the
+//! frictionless model). With `--cycles N` every scenario runs N
+//! deployment-fold cycles as `tdeploy evaluate --cycles N` does, and each
+//! cycle's commands are printed.
 
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::policy_file::read_policy;
+use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::DeploymentProblem;
-use tensegrity_deploy::plan::{deploy_closed_loop, ClosedLoopSetup};
-use tensegrity_deploy::sim::standard_sensors;
-use tensegrity_deploy::sim::EffectModel;
+use tensegrity_deploy::plan::{deploy_closed_loop, ClosedLoopSetup, Deployment};
+use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult};
 use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
 
+/// Prints each cycle's deployment as it ends.
+struct PrintCycles;
+
+impl CycleObserver for PrintCycles {
+    fn on_cycle(&mut self, result: &CycleResult, deployment: &Deployment, _: &Case) {
+        println!("-- cycle {}", result.cycle);
+        print_deployment(deployment);
+    }
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut cycles = 1;
+    if let Some(k) = args.iter().position(|a| a == "--cycles") {
+        cycles = args.get(k + 1).ok_or("--cycles needs a number")?.parse()?;
+        args.drain(k..k + 2);
+    }
+    if args.len() < 3 {
+        return Err("usage: POLICY SEED [--cycles N] SCENARIO...".into());
+    }
     let policy = read_policy(std::path::Path::new(&args[0]))?;
     let seed: u64 = args[1].parse()?;
     let wanted: Vec<usize> = args[2..]
@@ -30,38 +51,58 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         RelaxSettings::default(),
     )?;
     let distribution = ScenarioDistribution::default();
-    let problem = DeploymentProblem::default();
-    let sensors = standard_sensors(&structure);
+    let base_problem = DeploymentProblem::default();
     for s in wanted.iter().map(|&i| distribution.draw(seed, i)) {
         println!("== scenario {} effects {:?}", s.index, s.effects);
-        let truth = EffectModel::for_measurement(structure.clone(), s.effects);
+        // As `tdeploy evaluate` sets a scenario up.
+        let truth = s.truth(&structure);
+        let sensors = s.sensors(&structure);
+        let problem = s.problem(&base_problem);
         let setup = ClosedLoopSetup {
             model: &model,
             problem: &problem,
             policy: &policy,
             truth: &truth,
             sensors: &sensors,
-            temperature_c: None,
+            temperature_c: s.temperature_c,
             seed: s.seed,
         };
+        if cycles > 1 {
+            match run_cycles(&setup, cycles, &mut CaseMemory::default(), &mut PrintCycles) {
+                Err(e) => println!("error: {e}"),
+                Ok(end) => {
+                    if let Some(why) = end.stopped {
+                        println!("stopped: {why}");
+                    }
+                }
+            }
+            continue;
+        }
         match deploy_closed_loop(&setup, &mut ()) {
             Err(e) => println!("error: {e}"),
-            Ok(d) => {
-                println!(
-                    "start measured {:?} true {:?}",
-                    d.start
-                        .measured_gaps_m
-                        .iter()
-                        .map(|g| g.map(|g| (g * 1e3).round()))
-                        .collect::<Vec<_>>(),
-                    d.start
-                        .true_gaps_m
-                        .iter()
-                        .map(|g| (g * 1e3).round())
-                        .collect::<Vec<_>>()
-                );
-                for r in &d.records {
-                    println!(
+            Ok(d) => print_deployment(&d),
+        }
+    }
+    Ok(())
+}
+
+/// Prints a deployment command by command.
+fn print_deployment(d: &Deployment) {
+    println!(
+        "start measured {:?} true {:?}",
+        d.start
+            .measured_gaps_m
+            .iter()
+            .map(|g| g.map(|g| (g * 1e3).round()))
+            .collect::<Vec<_>>(),
+        d.start
+            .true_gaps_m
+            .iter()
+            .map(|g| (g * 1e3).round())
+            .collect::<Vec<_>>()
+    );
+    for r in &d.records {
+        println!(
                         "cmd {:2} u[mm] {:?}\n   pred {:?} meas {:?} true {:?} util {:.2} minT {:.1} N qp {:?} tr {:?} rej {} active {:?}",
                         r.index,
                         r.command_m.iter().map(|u| (u * 1e3).round()).collect::<Vec<_>>(),
@@ -70,13 +111,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         r.true_gaps_m.iter().map(|g| (g * 1e3).round()).collect::<Vec<_>>(),
                         r.truth_worst_utilisation, r.truth_min_tension_n, r.qp_status, r.trust_region_m, r.rejected_trials, r.active_constraints
                     );
-                    for v in &r.truth_violations {
-                        println!("   VIOLATION {v}");
-                    }
-                }
-                println!("status {:?}", d.status);
-            }
+        for v in &r.truth_violations {
+            println!("   VIOLATION {v}");
         }
     }
-    Ok(())
+    println!("status {:?}", d.status);
 }

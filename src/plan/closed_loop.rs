@@ -390,6 +390,7 @@ pub fn model_correction(
             if let (Some(row), Some(value)) = (load_cell_row(model, state, sensor.target), reading)
             {
                 correction.force_offsets_n[row] = value - predicted[row];
+                correction.force_measured[row] = true;
             }
         }
     }

@@ -32,6 +32,10 @@ pub struct ModelCorrection {
     pub gap_offsets_m: Vec<Vector3<f64>>,
     /// Offset of each force row (members, then segments), N.
     pub force_offsets_n: Vec<f64>,
+    /// Whether a sensor read each force row at the last measurement
+    /// (members, then segments; missing rows count as unmeasured): the
+    /// planner keeps a wider margin on the forces no sensor sees.
+    pub force_measured: Vec<bool>,
 }
 
 impl ModelCorrection {
@@ -40,12 +44,18 @@ impl ModelCorrection {
         ModelCorrection {
             gap_offsets_m: vec![Vector3::zeros(); pairs],
             force_offsets_n: vec![0.0; force_rows],
+            force_measured: vec![false; force_rows],
         }
     }
 
     /// The offset of force row `row`, N (zero where none is recorded).
     pub fn force_offset_n(&self, row: usize) -> f64 {
         self.force_offsets_n.get(row).copied().unwrap_or(0.0)
+    }
+
+    /// Whether a sensor read force row `row` at the last measurement.
+    pub fn force_row_measured(&self, row: usize) -> bool {
+        self.force_measured.get(row).copied().unwrap_or(false)
     }
 
     /// The offset of midspan pair `pair`'s gap vector, m.

@@ -9,7 +9,7 @@
 use std::time::Instant;
 
 use super::correction::ModelCorrection;
-use super::limits::{LimitCheck, Limits};
+use super::limits::{force_row_name, force_rows, LimitCheck, Limits};
 use super::outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 use super::policy::{PlannerKind, Policy, PolicyError};
 use super::problem::{DeploymentProblem, MotorLimits};
@@ -141,6 +141,7 @@ impl<'a> PlanContext<'a> {
         let mut next = state.clone();
         let mut watch = LimitWatch {
             context: self,
+            start_rows_n: self.corrected_force_rows(state),
             worst: None,
         };
         let status = match self.model.apply_payout(
@@ -164,6 +165,56 @@ impl<'a> PlanContext<'a> {
             status,
             check,
         }
+    }
+}
+
+impl PlanContext<'_> {
+    /// The model's force rows at `state` plus the measured offsets, N.
+    fn corrected_force_rows(&self, state: &DeploymentState) -> Vec<f64> {
+        let mut rows = force_rows(self.model, state);
+        for (f, o) in rows.iter_mut().zip(&self.correction.force_offsets_n) {
+            *f += o;
+        }
+        rows
+    }
+
+    /// The tensions no sensor reads (cables, springs and segments without
+    /// a load cell) whose fall from `start_rows_n` to `rows_n` (force
+    /// rows with their offsets, N) leaves less than the policy's
+    /// `unmeasured_force_fall_margin` times that fall above their lower
+    /// limit (less `tolerance_n`), named. The model sees such a force's
+    /// level and slope only as well as its effects match the bridge's, so
+    /// a fall it predicts to end just above the limit may end below it.
+    pub fn unmeasured_fall_violations(
+        &self,
+        start_rows_n: &[f64],
+        rows_n: &[f64],
+        tolerance_n: f64,
+    ) -> Vec<String> {
+        let beta = self.policy.unmeasured_force_fall_margin;
+        if beta <= 0.0 {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        for (r, ((&f0, &f), b)) in start_rows_n
+            .iter()
+            .zip(rows_n)
+            .zip(&self.limits.force)
+            .enumerate()
+        {
+            if self.limits.euler_n[r].is_some() || self.correction.force_row_measured(r) {
+                continue;
+            }
+            let fall = f0 - f;
+            if fall > 0.0 && f - beta * fall < b.lower_n - tolerance_n {
+                out.push(format!(
+                    "{} (unmeasured) at {f:.1} N after a {fall:.1} N fall: less than {beta} × the fall above {:.1} N",
+                    force_row_name(self.model.structure(), r),
+                    b.lower_n
+                ));
+            }
+        }
+        out
     }
 }
 
@@ -197,6 +248,8 @@ impl Trial {
 /// Collects the worst limit values over a command's increments.
 struct LimitWatch<'c, 'a> {
     context: &'c PlanContext<'a>,
+    /// Force rows at the command's start, with offsets, N.
+    start_rows_n: Vec<f64>,
     worst: Option<LimitCheck>,
 }
 
@@ -205,12 +258,18 @@ impl IncrementObserver for LimitWatch<'_, '_> {
         if !r.status.is_converged() {
             return;
         }
-        let c = self.context.limits.check(
+        let mut c = self.context.limits.check(
             self.context.model,
             state,
             r.tolerance_n,
             &self.context.correction.force_offsets_n,
         );
+        let rows = self.context.corrected_force_rows(state);
+        c.violations.extend(self.context.unmeasured_fall_violations(
+            &self.start_rows_n,
+            &rows,
+            r.tolerance_n,
+        ));
         self.worst = Some(worst_along_path(self.worst.take(), c));
     }
 }

@@ -98,9 +98,46 @@ pub fn step_data(
         // stuck segment that any small move slackens a little).
         let lower = b.lower_n + p.force_margin_n.min(0.5 * (f - b.lower_n).max(0.0));
         let upper = b.upper_n - p.force_margin_n.min(0.5 * (b.upper_n - f).max(0.0));
-        let near_lower = f - lower <= swing + p.force_margin_n;
+        // A tension no sensor reads has no offset to correct its level,
+        // and the model's slope may be off too: its predicted fall counts
+        // (1 + β) times against the lower limit. With F above that limit,
+        // F + (1 + β)·ΔF ≥ lower implies F + ΔF ≥ lower, so the one row
+        // bounds both (a rise passes either way).
+        let inflate = 1.0 + p.unmeasured_force_fall_margin;
+        let unmeasured_tension = inflate > 1.0
+            && context.limits.euler_n[r].is_none()
+            && !context.correction.force_row_measured(r);
+        let fall_swing = if unmeasured_tension {
+            inflate * swing
+        } else {
+            swing
+        };
+        let near_lower = f - lower <= fall_swing + p.force_margin_n;
         let near_upper = upper - f <= swing + p.force_margin_n;
         if !(near_lower || near_upper) {
+            continue;
+        }
+        if near_lower && unmeasured_tension {
+            limits.push(LinearLimit {
+                name: force_row_name(s, r),
+                value: f,
+                pay_out: out.iter().map(|g| inflate * g).collect(),
+                reel_in: inn.iter().map(|g| inflate * g).collect(),
+                lower,
+                upper: f64::INFINITY,
+                scale: FORCE_SCALE_N,
+            });
+            if near_upper {
+                limits.push(LinearLimit {
+                    name: force_row_name(s, r),
+                    value: f,
+                    pay_out: out,
+                    reel_in: inn,
+                    lower: f64::NEG_INFINITY,
+                    upper,
+                    scale: FORCE_SCALE_N,
+                });
+            }
             continue;
         }
         limits.push(LinearLimit {
