@@ -191,9 +191,12 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
     let (structure, model, sensors) = bridge();
     let truth = default_truth(structure);
     let policy = Policy::default();
-    // A 10 cm fold: two full commands bring it back.
+    // A 15 cm fold: two learnt 5 cm commands, then the planner. (A
+    // learnt last approach from 10 cm, −4.8 cm, is refused on the model
+    // by the margin on the unmeasured axial cables' fall, and the planner
+    // makes it: a refusal, not what this test is about.)
     let problem = DeploymentProblem {
-        start_payout_m: PerMotor::All(0.10),
+        start_payout_m: PerMotor::All(0.15),
         ..DeploymentProblem::default()
     };
     let setup = ClosedLoopSetup {
@@ -205,7 +208,7 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
         temperature_c: None,
         seed: 3,
     };
-    let learnt = vec![vec![-0.05; 10], vec![-0.048; 10]];
+    let learnt = vec![vec![-0.05; 10], vec![-0.05; 10]];
     let guided = Guidance {
         feedforward_m: learnt.clone(),
         ..Guidance::default()
@@ -318,13 +321,20 @@ fn scenario_cycles(policy: &Policy, seed: u64, index: usize) -> Vec<CycleResult>
 /// above 29 N). With the motors of a half kept within 1 mm of each other
 /// (the default `ilc_max_spread_m`) every cycle connects with no limit
 /// broken; without the bound (1 m) the same runs break one, so the check
-/// can fail.
+/// can fail. The planner's margin on unmeasured tensions (on by default)
+/// is off for these two and on for the default policy's check.
 #[test]
 fn keeping_a_halfs_motors_together_keeps_the_unmeasured_axial_cables_taut() {
     let bounded = read_policy(Path::new("policies/memory.toml")).unwrap();
     let settings = bounded.memory.unwrap();
     assert_eq!(settings.ilc_max_spread_m, 0.001);
-    let mut unbounded = bounded.clone();
+    // The planner's margin on the unmeasured tensions' fall guards the
+    // same cables; off here, so that the spread bound is tested alone.
+    let alone = Policy {
+        unmeasured_force_fall_margin: 0.0,
+        ..bounded.clone()
+    };
+    let mut unbounded = alone.clone();
     unbounded.memory = Some(MemorySettings {
         ilc_max_spread_m: 1.0,
         ..settings
@@ -344,10 +354,12 @@ fn keeping_a_halfs_motors_together_keeps_the_unmeasured_axial_cables_taut() {
             free.iter().sum::<usize>() > 0,
             "seed {seed} scenario {index}: {free:?}"
         );
-        let kept = violations(&bounded);
-        assert!(
-            kept.iter().all(|v| *v == 0),
-            "seed {seed} scenario {index}: {kept:?}"
-        );
+        for policy in [&alone, &bounded] {
+            let kept = violations(policy);
+            assert!(
+                kept.iter().all(|v| *v == 0),
+                "seed {seed} scenario {index}: {kept:?}"
+            );
+        }
     }
 }
