@@ -52,6 +52,9 @@ pub struct NewtonCounters {
     pub slip_state_revisions: usize,
     /// Residual evaluations (each maps the friction of every cable).
     pub residual_evaluations: usize,
+    /// Tangent factorisations (predictors and Newton steps; a chord step
+    /// reuses one).
+    pub factorisations: usize,
 }
 
 impl NewtonCounters {

@@ -62,7 +62,7 @@ impl ForwardModel {
 
         let (mut max_t, mut friction_left) = self.residual(state, ws);
         let newton_iterations = if mode == SolveMode::NewtonThenDr {
-            self.newton(state, ws, &mut max_t, &mut friction_left)
+            self.newton(state, ws, s.tol_force_rel, &mut max_t, &mut friction_left)
                 .iterations
         } else {
             0

@@ -80,6 +80,16 @@ pub struct RelaxSettings {
     /// DR solves the increment from the farthest partial solution. Default
     /// 1/64.
     pub newton_min_continuation_step: f64,
+    /// Force tolerance of the intermediate continuation steps of a Newton
+    /// increment (λ < 1), relative to the largest member force; the last
+    /// step (λ = 1) is solved to `tol_force_rel`. Default 1e-4. Every
+    /// partial problem starts from the increment's start state, so its
+    /// answer is only the next step's initial guess and slip states, never
+    /// part of the result: a looser value saves Newton iterations on each
+    /// intermediate step; too loose a guess costs iterations (and slip
+    /// state revisions) at the last. Values below `tol_force_rel` act as
+    /// `tol_force_rel` (every step solved to full accuracy).
+    pub newton_tol_continuation_rel: f64,
     /// Tolerance of the friction return mapping relative to the force
     /// tolerance. Default 1e-2: the mapping need only be a little tighter
     /// than the force test, since DR and Newton call it at every iterate.
@@ -105,6 +115,7 @@ impl Default for RelaxSettings {
             newton_max_active_set_rounds: 4,
             newton_first_continuation_step: 1.0 / 16.0,
             newton_min_continuation_step: 1.0 / 64.0,
+            newton_tol_continuation_rel: 1e-4,
             tol_mapping_rel: 1e-2,
         }
     }
@@ -203,6 +214,12 @@ impl RelaxSettings {
             self.newton_min_continuation_step > 0.0
                 && self.newton_min_continuation_step <= self.newton_first_continuation_step,
             "in (0, newton_first_continuation_step]",
+        )?;
+        check(
+            "newton_tol_continuation_rel",
+            self.newton_tol_continuation_rel,
+            self.newton_tol_continuation_rel > 0.0 && self.newton_tol_continuation_rel <= 1e-2,
+            "in (0, 1e-2]: looser partial answers are poor initial guesses",
         )?;
         check(
             "tol_mapping_rel",
