@@ -26,6 +26,8 @@ fn num(v: Option<f64>, digits: usize) -> String {
 /// Prints the summary of `runs` and writes every file of the set into
 /// `folder` (which must exist). Returns how many runs broke a truth limit.
 pub fn report(record: &EvaluationRecord, runs: &EvaluationRuns, folder: &Path) -> Result<usize> {
+    // One decimal on the rates: 1000 of 1000 has a Wilson interval of
+    // 99.6–100 %, which whole percent would print as "100–100".
     say!(
         "{:<14} {:>9} {:>15} {:>9} {:>9} {:>11} {:>10} {:>10} {:>10} {:>9} {:>9} {:>6} {:>9}",
         "policy",
@@ -66,7 +68,7 @@ pub fn report(record: &EvaluationRecord, runs: &EvaluationRuns, folder: &Path) -
         violations += s.violations;
         let rate = s.successes as f64 / s.runs.max(1) as f64;
         say!(
-            "{:<14} {:>8.0}% {:>7.0}–{:>3.0} % {:>9} {:>9} {:>11} {:>7} mm {:>7} mm {:>7} mm {:>7} m {:>9.2} {:>6} {:>9}",
+            "{:<14} {:>8.1}% {:>7.1}–{:>5.1} % {:>9} {:>9} {:>11} {:>7} mm {:>7} mm {:>7} mm {:>7} m {:>9.2} {:>6} {:>9}",
             name,
             100.0 * rate,
             100.0 * s.success_interval.0,
