@@ -188,6 +188,16 @@ pub trait MatrixAssembly {
             }
         }
     }
+
+    /// Adds a two-node element's `block` (the stiffness on `x_b − x_a`):
+    /// `+block` on the (a, a) and (b, b) entries, `−block` on (a, b) and
+    /// (b, a), where `a` and `b` are the nodes' rows.
+    fn add_pair(&mut self, a: &[Option<usize>; 3], b: &[Option<usize>; 3], block: &Matrix3<f64>) {
+        self.add_3x3(a, a, block);
+        self.add_3x3(b, b, block);
+        self.add_3x3(a, b, &-block);
+        self.add_3x3(b, a, &-block);
+    }
 }
 
 impl MatrixAssembly for DMatrix<f64> {
@@ -404,20 +414,63 @@ impl MatrixAssembly for BlockMatrix {
         cols: &[Option<usize>; 3],
         block: &Matrix3<f64>,
     ) {
-        let cols = cols.map(|c| c.and_then(|c| self.place.get(c).copied()));
-        for (a, r) in rows.iter().enumerate() {
-            let Some(&(br, i)) = r.and_then(|r| self.place.get(r)) else {
-                continue;
-            };
-            let Some(target) = self.blocks.get_mut(br) else {
-                continue;
-            };
-            for (c, col) in cols.iter().enumerate() {
-                if let Some((bc, j)) = col {
-                    if *bc == br {
-                        target.add(i, *j, block[(a, c)]);
+        let (rows, cols) = (self.placed(rows), self.placed(cols));
+        self.add_placed(&rows, &cols, block, 1.0);
+    }
+
+    fn add_pair(&mut self, a: &[Option<usize>; 3], b: &[Option<usize>; 3], block: &Matrix3<f64>) {
+        let (a, b) = (self.placed(a), self.placed(b));
+        self.add_placed(&a, &a, block, 1.0);
+        self.add_placed(&b, &b, block, 1.0);
+        self.add_placed(&a, &b, block, -1.0);
+        self.add_placed(&b, &a, block, -1.0);
+    }
+}
+
+/// Where three global rows lie: (block, index in it), `None` for a row
+/// not given or in no block.
+type PlacedRows = [Option<(usize, usize)>; 3];
+
+impl BlockMatrix {
+    fn placed(&self, rows: &[Option<usize>; 3]) -> PlacedRows {
+        rows.map(|r| {
+            r.and_then(|r| self.place.get(r).copied())
+                .filter(|(b, _)| *b != usize::MAX)
+        })
+    }
+
+    /// Adds `sign·block` at placed rows and columns, within one block
+    /// (entries between blocks are dropped).
+    fn add_placed(
+        &mut self,
+        rows: &PlacedRows,
+        cols: &PlacedRows,
+        block: &Matrix3<f64>,
+        sign: f64,
+    ) {
+        for (a, row) in rows.iter().enumerate() {
+            let Some((br, i)) = *row else { continue };
+            match self.blocks.get_mut(br) {
+                Some(Block::Dense(target)) => {
+                    for (c, col) in cols.iter().enumerate() {
+                        if let Some((bc, j)) = *col {
+                            if bc == br {
+                                let at = target.at(i, j);
+                                target.values[at] += sign * block[(a, c)];
+                            }
+                        }
                     }
                 }
+                Some(Block::Sparse(target)) => {
+                    for (c, col) in cols.iter().enumerate() {
+                        if let Some((bc, j)) = *col {
+                            if bc == br {
+                                target.add(i, j, sign * block[(a, c)]);
+                            }
+                        }
+                    }
+                }
+                None => {}
             }
         }
     }
