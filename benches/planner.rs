@@ -35,8 +35,10 @@ fn bench(c: &mut Criterion) {
     )
     .expect("default settings");
     let problem = DeploymentProblem::default();
-    let mut policy = Policy::default();
-    policy.max_commands = 2;
+    let policy = Policy {
+        max_commands: 2,
+        ..Policy::default()
+    };
     let start = folded_start(&model, &problem, policy.increment_m).expect("fold");
     let plan =
         tensegrity_deploy::plan::plan_open_loop(&model, &problem, &policy, &start).expect("plan");

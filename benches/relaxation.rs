@@ -11,6 +11,7 @@
 //! - cost per DR iteration on bridges of 2, 4, 8 and 16 modules per half
 //!   (a fixed 256 iterations from a perturbed state), to show it grows
 //!   linearly with the number of members.
+//!
 //! Iterations per solve are printed once before timing.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};

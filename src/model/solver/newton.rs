@@ -65,6 +65,10 @@ const DR_NS_PER_ELEMENT: f64 = 10.0;
 /// (1/16 of 1 cm) and far more than Newton's last steps.
 const KEPT_TANGENT_REL: f64 = 1e-4;
 
+/// Where a tangent was assembled: joint slip states, node positions (m)
+/// and segment rest lengths (m), kept with its factorisation.
+type AssembledAt = (Vec<JointSlip>, Vec<nalgebra::Vector3<f64>>, Vec<f64>);
+
 /// How a Newton solve ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub(super) struct NewtonOutcome {
@@ -309,7 +313,7 @@ impl ForwardModel {
         let mut best = (norm, state.positions_m.clone());
         let mut factor: Option<BlockLu> = None;
         // Where the factorisation in use was assembled (kept with it).
-        let mut factor_at: Option<(Vec<JointSlip>, Vec<nalgebra::Vector3<f64>>, Vec<f64>)> = None;
+        let mut factor_at: Option<AssembledAt> = None;
         let dofs = self.free_dofs();
         let mut fresh = false;
         let mut revisions = 0;
