@@ -293,24 +293,15 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
 /// `tdeploy evaluate --cycles 5` sets it up (the scenario's truth,
 /// sensors, fold, temperature and noise seed).
 fn scenario_cycles(policy: &Policy, seed: u64, index: usize) -> Vec<CycleResult> {
-    let (structure, model, _) = bridge();
-    let scenario = ScenarioDistribution::default().draw(seed, index);
-    let truth = scenario.truth(&structure);
-    let sensors = scenario.sensors(&structure);
-    let problem = scenario.problem(&DeploymentProblem::default());
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: scenario.temperature_c,
-        seed: scenario.seed,
-    };
-    let end = run_cycles(&setup, 5, &mut CaseMemory::default(), &mut ()).unwrap();
-    assert_eq!(end.stopped, None);
-    end.results
+    common_scenario::with_evaluation_setup(policy, seed, index, |setup| {
+        let end = run_cycles(setup, 5, &mut CaseMemory::default(), &mut ()).unwrap();
+        assert_eq!(end.stopped, None);
+        end.results
+    })
 }
+
+#[path = "common/scenario.rs"]
+mod common_scenario;
 
 /// The two drawn truths on which the memory policy broke a limit that the
 /// memoryless one kept (seed 2 scenario 15: μ = 0.30; seed 3 scenario

@@ -559,29 +559,13 @@ fn the_evaluation_is_the_same_at_any_thread_count_and_sharding() {
 /// Seed 1 scenario 904 of `tdeploy evaluate`, deployed as the evaluation
 /// deploys it, with `policy`.
 fn scenario_904(policy: &Policy) -> Deployment {
-    use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
-    let structure = reference_bridge(&BridgeParameters::default()).expect("reference bridge");
-    let model = ForwardModel::new(
-        structure.clone(),
-        JointFriction::constant(0.0).expect("μ = 0"),
-        RelaxSettings::default(),
-    )
-    .expect("model");
-    let scenario = ScenarioDistribution::default().draw(1, 904);
-    let truth = scenario.truth(&structure);
-    let sensors = scenario.sensors(&structure);
-    let problem = scenario.problem(&DeploymentProblem::default());
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: scenario.temperature_c,
-        seed: scenario.seed,
-    };
-    deploy_closed_loop(&setup, &mut ()).expect("deployment starts")
+    common_scenario::with_evaluation_setup(policy, 1, 904, |setup| {
+        deploy_closed_loop(setup, &mut ()).expect("deployment starts")
+    })
 }
+
+#[path = "common/scenario.rs"]
+mod common_scenario;
 
 /// Issue 10: on seed 1 scenario 904 (drums 4 % short, cables 19 % stiffer,
 /// springs 19 % softer) the unmeasured axial cables start the last

@@ -395,15 +395,19 @@ mod tests {
     use crate::model::RelaxSettings;
     use crate::numerics::BlockMatrix;
 
-    /// A V-shaped continuous cable from two supports over one free joint.
-    fn v_cable(rest_scale: f64) -> ForwardModel {
-        let node = |id: &str, p: [f64; 3], fixed: bool| Node {
+    /// A massless, unloaded node at `p`, fixed in all three axes or free.
+    fn node(id: &str, p: [f64; 3], fixed: bool) -> Node {
+        Node {
             id: id.into(),
             position_m: Vector3::from(p),
             mass_kg: 0.0,
             fixed: [fixed; 3],
             load_n: Vector3::zeros(),
-        };
+        }
+    }
+
+    /// A V-shaped continuous cable from two supports over one free joint.
+    fn v_cable(rest_scale: f64) -> ForwardModel {
         let nodes = vec![
             node("a", [0.0, 0.0, 0.0], true),
             node("j", [1.0, 0.0, -0.5], false),
@@ -426,13 +430,6 @@ mod tests {
     /// all its joints puts between the free nodes on either side.
     #[test]
     fn a_cable_sliding_over_a_support_keeps_both_sides_in_one_block() {
-        let node = |id: &str, p: [f64; 3], fixed: bool| Node {
-            id: id.into(),
-            position_m: Vector3::from(p),
-            mass_kg: 0.0,
-            fixed: [fixed; 3],
-            load_n: Vector3::zeros(),
-        };
         // W shape: motor, joint, support seat, joint, end.
         let nodes = vec![
             node("motor", [0.0, 0.0, 0.0], true),
