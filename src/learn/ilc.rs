@@ -46,7 +46,13 @@
 //! gaps, and the truth's axial cable, which no sensor sees and whose
 //! response to that spread the frictionless model gets wrong, went slack.
 //! So the updated totals of one group's motors are also kept within d of
-//! each other (`max_group_spread_m`).
+//! each other (`max_group_spread_m`), or, where the case's own totals are
+//! already further apart, not moved further apart.
+//!
+//! The member rows are the planner's ([`crate::plan::search::step_data`])
+//! with its margins; the end of a case carries no load-cell reading, so
+//! every tension's predicted fall counts (1 + β) times there
+//! (`Policy::unmeasured_force_fall_margin`).
 //!
 //! [`formulate`] builds the QP (pure, inspected by tests); [`learn_commands`]
 //! solves it through the one Clarabel adapter.

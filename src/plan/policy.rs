@@ -248,16 +248,24 @@ pub struct Policy {
     /// linearisation error of a 5 cm step in the folded bridge's softest
     /// cables.
     pub force_margin_n: f64,
-    /// Extra margin on the predicted fall of a tension the sensors do not
-    /// read (a cable, spring or segment without a load cell), as a
-    /// fraction of that fall, 1: the QP keeps `F + (1 + β)·ΔF` above the
-    /// lower limit (with `force_margin_n`), where `ΔF` is the linearised
-    /// change. Default 0.4. The axial cables are not measured, and in
-    /// the last approach command of a deployment they lose 300–400 N
-    /// within 25 mm of reel-in on the model; drawn truths start that
-    /// command 25–30 % below the model (heavier joints, stiffer or softer
-    /// members), so a command the model ends at 70 N left them at 0 N
-    /// (seed 4 scenario 10, seed 1 scenario 904).
+    /// Extra margin on the predicted fall of a tension no load cell read
+    /// at the last measurement, as a fraction β of that fall
+    /// (dimensionless). Such a tension must end every increment of a trial
+    /// on the model at least β times its fall since the command's start
+    /// above its lower limit (else the trial is refused), and the QP
+    /// counts its linearised fall (1 + β) times against that limit (with
+    /// `force_margin_n`; a tension already below the limit keeps the plain
+    /// row). "Read at the last measurement": in closed loop, a row with a
+    /// load-cell reading is exempt; open-loop plans and the ILC's terminal
+    /// limits have no reading, so every tension gets the margin there.
+    /// Default 0.4; 0 switches it off; at most 10. Why: the axial cables
+    /// are not measured, and in the last approach command of a deployment
+    /// they lose 300–400 N within 25 mm of reel-in on the model; drawn
+    /// truths start that command 25–30 % below the model (heavier joints,
+    /// stiffer or softer members), so a command the model ends at 70 N
+    /// left them at 0 N (seed 4 scenario 10, seed 1 scenario 904). The
+    /// QP rows alone did not prevent it (β up to 1); the trial check did
+    /// at every β tried, 0.4 the smallest (README, "Deployment").
     pub unmeasured_force_fall_margin: f64,
     /// Margin on the strut clearance in the QP, m. Default 0.002.
     pub clearance_margin_m: f64,
@@ -573,6 +581,16 @@ mod tests {
         let mut p = Policy::default();
         p.weights.gap = vec![1.0, 2.0];
         assert_eq!(p.gap_weights(5), None);
+        for beta in [-0.1, 10.5, f64::NAN] {
+            let p = Policy {
+                unmeasured_force_fall_margin: beta,
+                ..Policy::default()
+            };
+            assert_eq!(
+                p.validate().unwrap_err().field,
+                "unmeasured_force_fall_margin"
+            );
+        }
         let memory = |edit: fn(&mut MemorySettings)| {
             let mut settings = MemorySettings::default();
             edit(&mut settings);

@@ -100,11 +100,14 @@ pub fn step_data(
         let upper = b.upper_n - p.force_margin_n.min(0.5 * (b.upper_n - f).max(0.0));
         // A tension no sensor reads has no offset to correct its level,
         // and the model's slope may be off too: its predicted fall counts
-        // (1 + β) times against the lower limit. With F above that limit,
-        // F + (1 + β)·ΔF ≥ lower implies F + ΔF ≥ lower, so the one row
-        // bounds both (a rise passes either way).
+        // (1 + β) times against the lower limit. With F at or above that
+        // limit, F + (1 + β)·ΔF ≥ lower implies F + ΔF ≥ lower, so the one
+        // row bounds both (a rise passes either way); below it the
+        // inflated row would ask for less recovery than the plain one, so
+        // the plain row stands.
         let inflate = 1.0 + p.unmeasured_force_fall_margin;
         let unmeasured_tension = inflate > 1.0
+            && f >= lower
             && context.limits.euler_n[r].is_none()
             && !context.correction.force_row_measured(r);
         let fall_swing = if unmeasured_tension {
