@@ -183,18 +183,16 @@ fn the_memory_policy_is_never_worse_than_the_memoryless_one_on_paired_scenarios(
 }
 
 /// The feedforward of a guidance is sent exactly as learnt; a command the
-/// drum cannot make (beyond its 5 cm step) is refused before it is sent,
-/// and the planner takes over from where the bridge is.
+/// drum cannot make (beyond its 5 cm step), or one the model says would
+/// take an unmeasured tension too near its limit, is refused before it is
+/// sent, and the planner takes over from where the bridge is.
 #[test]
 fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner() {
     use tensegrity_deploy::plan::{deploy_guided, Guidance, PerMotor};
     let (structure, model, sensors) = bridge();
     let truth = default_truth(structure);
     let policy = Policy::default();
-    // A 15 cm fold: two learnt 5 cm commands, then the planner. (A
-    // learnt last approach from 10 cm, −4.8 cm, is refused on the model
-    // by the margin on the unmeasured axial cables' fall, and the planner
-    // makes it: a refusal, not what this test is about.)
+    // A 15 cm fold: two learnt 5 cm commands, then the planner.
     let problem = DeploymentProblem {
         start_payout_m: PerMotor::All(0.15),
         ..DeploymentProblem::default()
@@ -228,6 +226,42 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
         .flatten()
         .all(|u| u.abs() <= 0.05 + 1e-12));
     assert_eq!(d.status.label(), "connected");
+    // From a 10 cm fold a learnt last approach of 4.8 cm leaves an
+    // unmeasured tension on the model less than 0.4 of its fall in the
+    // command above its limit: the model refuses it
+    // (`unmeasured_force_fall_margin`), the first learnt command is sent
+    // as learnt, and the planner connects within every truth limit.
+    let short_fold = DeploymentProblem {
+        start_payout_m: PerMotor::All(0.10),
+        ..DeploymentProblem::default()
+    };
+    let setup = ClosedLoopSetup {
+        problem: &short_fold,
+        ..setup
+    };
+    let learnt = vec![vec![-0.05; 10], vec![-0.048; 10]];
+    let guided = Guidance {
+        feedforward_m: learnt.clone(),
+        ..Guidance::default()
+    };
+    let d = deploy_guided(&setup, &guided, None, &mut ()).unwrap();
+    assert_eq!(d.approach_commands, Some(1));
+    assert_eq!(d.commands()[0], learnt[0]);
+    assert_ne!(d.commands()[1], learnt[1]);
+    assert_eq!(d.status.label(), "connected");
+    assert_eq!(d.truth_limit_violations, 0);
+    // Without the margin the same learnt command is sent whole.
+    let no_margin = Policy {
+        unmeasured_force_fall_margin: 0.0,
+        ..policy.clone()
+    };
+    let setup = ClosedLoopSetup {
+        policy: &no_margin,
+        ..setup
+    };
+    let d = deploy_guided(&setup, &guided, None, &mut ()).unwrap();
+    assert_eq!(d.approach_commands, Some(2));
+    assert_eq!(d.commands()[..2], learnt[..]);
 }
 
 /// `evaluate` with several cycles per scenario reports, for each run, the
