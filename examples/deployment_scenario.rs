@@ -14,7 +14,7 @@ use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::DeploymentProblem;
-use tensegrity_deploy::plan::{deploy_closed_loop, ClosedLoopSetup, Deployment};
+use tensegrity_deploy::plan::{deploy_closed_loop, Deployment};
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult};
 use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
 
@@ -44,10 +44,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|a| a.parse())
         .collect::<Result<_, _>>()?;
-    let structure = reference_bridge(&BridgeParameters::default())?;
     let model = ForwardModel::new(
-        structure.clone(),
-        JointFriction::constant(0.0)?,
+        reference_bridge(&BridgeParameters::default())?,
+        JointFriction::frictionless(),
         RelaxSettings::default(),
     )?;
     let distribution = ScenarioDistribution::default();
@@ -55,33 +54,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for s in wanted.iter().map(|&i| distribution.draw(seed, i)) {
         println!("== scenario {} effects {:?}", s.index, s.effects);
         // As `tdeploy evaluate` sets a scenario up.
-        let truth = s.truth(&structure);
-        let sensors = s.sensors(&structure);
-        let problem = s.problem(&base_problem);
-        let setup = ClosedLoopSetup {
-            model: &model,
-            problem: &problem,
-            policy: &policy,
-            truth: &truth,
-            sensors: &sensors,
-            temperature_c: s.temperature_c,
-            seed: s.seed,
-        };
-        if cycles > 1 {
-            match run_cycles(&setup, cycles, &mut CaseMemory::default(), &mut PrintCycles) {
-                Err(e) => println!("error: {e}"),
-                Ok(end) => {
-                    if let Some(why) = end.stopped {
-                        println!("stopped: {why}");
+        s.with_setup(&model, &base_problem, &policy, |setup| {
+            if cycles > 1 {
+                match run_cycles(setup, cycles, &mut CaseMemory::default(), &mut PrintCycles) {
+                    Err(e) => println!("error: {e}"),
+                    Ok(end) => {
+                        if let Some(why) = end.stopped {
+                            println!("stopped: {why}");
+                        }
                     }
                 }
+                return;
             }
-            continue;
-        }
-        match deploy_closed_loop(&setup, &mut ()) {
-            Err(e) => println!("error: {e}"),
-            Ok(d) => print_deployment(&d),
-        }
+            match deploy_closed_loop(setup, &mut ()) {
+                Err(e) => println!("error: {e}"),
+                Ok(d) => print_deployment(&d),
+            }
+        });
     }
     Ok(())
 }

@@ -271,7 +271,7 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
 #[test]
 fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
     use tensegrity_deploy::studies::evaluation::{evaluate, EvaluationSetup};
-    let (structure, model, _) = bridge();
+    let (_, model, _) = bridge();
     let policies = [
         read_policy(Path::new("policies/qp.toml")).unwrap(),
         read_policy(Path::new("policies/memory.toml")).unwrap(),
@@ -290,19 +290,9 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
     assert_eq!(results.len(), 4);
     for r in &results {
         let scenario = scenarios.iter().find(|s| s.index == r.scenario).unwrap();
-        let truth = scenario.truth(&structure);
-        let sensors = scenario.sensors(&structure);
-        let problem = scenario.problem(&problem);
-        let run = ClosedLoopSetup {
-            model: &model,
-            problem: &problem,
-            policy: &policies[r.policy],
-            truth: &truth,
-            sensors: &sensors,
-            temperature_c: scenario.temperature_c,
-            seed: scenario.seed,
-        };
-        let end = run_cycles(&run, 2, &mut CaseMemory::default(), &mut ()).unwrap();
+        let end = scenario.with_setup(&model, &problem, &policies[r.policy], |run| {
+            run_cycles(run, 2, &mut CaseMemory::default(), &mut ()).unwrap()
+        });
         assert_eq!(end.stopped, None);
         let last = end.results.last().unwrap();
         assert_eq!(r.status, last.status);
@@ -327,15 +317,14 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
 /// `tdeploy evaluate --cycles 5` sets it up (the scenario's truth,
 /// sensors, fold, temperature and noise seed).
 fn scenario_cycles(policy: &Policy, seed: u64, index: usize) -> Vec<CycleResult> {
-    common_scenario::with_evaluation_setup(policy, seed, index, |setup| {
+    let (_, model, _) = bridge();
+    let scenario = ScenarioDistribution::default().draw(seed, index);
+    scenario.with_setup(&model, &DeploymentProblem::default(), policy, |setup| {
         let end = run_cycles(setup, 5, &mut CaseMemory::default(), &mut ()).unwrap();
         assert_eq!(end.stopped, None);
         end.results
     })
 }
-
-#[path = "common/scenario.rs"]
-mod common_scenario;
 
 /// The two drawn truths on which the memory policy broke a limit that the
 /// memoryless one kept (seed 2 scenario 15: μ = 0.30; seed 3 scenario

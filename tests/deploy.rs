@@ -559,13 +559,18 @@ fn the_evaluation_is_the_same_at_any_thread_count_and_sharding() {
 /// Seed 1 scenario 904 of `tdeploy evaluate`, deployed as the evaluation
 /// deploys it, with `policy`.
 fn scenario_904(policy: &Policy) -> Deployment {
-    common_scenario::with_evaluation_setup(policy, 1, 904, |setup| {
+    use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
+    let model = ForwardModel::new(
+        reference_bridge(&BridgeParameters::default()).expect("reference bridge"),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .expect("model");
+    let scenario = ScenarioDistribution::default().draw(1, 904);
+    scenario.with_setup(&model, &DeploymentProblem::default(), policy, |setup| {
         deploy_closed_loop(setup, &mut ()).expect("deployment starts")
     })
 }
-
-#[path = "common/scenario.rs"]
-mod common_scenario;
 
 /// Issue 10: on seed 1 scenario 904 (drums 4 % short, cables 19 % stiffer,
 /// springs 19 % softer) the unmeasured axial cables start the last

@@ -139,6 +139,20 @@ pub fn force_rows(model: &ForwardModel, state: &DeploymentState) -> Vec<f64> {
     rows
 }
 
+/// [`force_rows`] plus `offsets_n` (one per row, measured minus
+/// predicted; missing ones count as 0), N.
+pub fn corrected_force_rows(
+    model: &ForwardModel,
+    state: &DeploymentState,
+    offsets_n: &[f64],
+) -> Vec<f64> {
+    let mut rows = force_rows(model, state);
+    for (f, o) in rows.iter_mut().zip(offsets_n) {
+        *f += o;
+    }
+    rows
+}
+
 /// The clearance of strut pair `[a, b]` in `positions`, m, with the
 /// closest-point parameters.
 pub fn strut_clearance(
@@ -234,11 +248,20 @@ impl Limits {
         tolerance_n: f64,
         force_offsets_n: &[f64],
     ) -> LimitCheck {
+        let rows = corrected_force_rows(model, state, force_offsets_n);
+        self.check_rows(model, state, &rows, tolerance_n)
+    }
+
+    /// [`Self::check`] on force rows already computed for `state` (with
+    /// their offsets, N), for a caller that needs the rows too.
+    pub fn check_rows(
+        &self,
+        model: &ForwardModel,
+        state: &DeploymentState,
+        rows: &[f64],
+        tolerance_n: f64,
+    ) -> LimitCheck {
         let s = model.structure();
-        let mut rows = force_rows(model, state);
-        for (f, o) in rows.iter_mut().zip(force_offsets_n) {
-            *f += o;
-        }
         let mut out = LimitCheck {
             worst_utilisation: 0.0,
             min_tension_n: f64::INFINITY,

@@ -9,7 +9,7 @@
 use std::time::Instant;
 
 use super::correction::ModelCorrection;
-use super::limits::{force_row_name, force_rows, LimitCheck, Limits};
+use super::limits::{corrected_force_rows, force_row_name, LimitCheck, Limits};
 use super::outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 use super::policy::{PlannerKind, Policy, PolicyError};
 use super::problem::{DeploymentProblem, MotorLimits};
@@ -171,11 +171,7 @@ impl<'a> PlanContext<'a> {
 impl PlanContext<'_> {
     /// The model's force rows at `state` plus the measured offsets, N.
     fn corrected_force_rows(&self, state: &DeploymentState) -> Vec<f64> {
-        let mut rows = force_rows(self.model, state);
-        for (f, o) in rows.iter_mut().zip(&self.correction.force_offsets_n) {
-            *f += o;
-        }
-        rows
+        corrected_force_rows(self.model, state, &self.correction.force_offsets_n)
     }
 
     /// The tensions no sensor reads (cables, springs and segments without
@@ -258,13 +254,11 @@ impl IncrementObserver for LimitWatch<'_, '_> {
         if !r.status.is_converged() {
             return;
         }
-        let mut c = self.context.limits.check(
-            self.context.model,
-            state,
-            r.tolerance_n,
-            &self.context.correction.force_offsets_n,
-        );
         let rows = self.context.corrected_force_rows(state);
+        let mut c = self
+            .context
+            .limits
+            .check_rows(self.context.model, state, &rows, r.tolerance_n);
         c.violations.extend(self.context.unmeasured_fall_violations(
             &self.start_rows_n,
             &rows,

@@ -295,6 +295,32 @@ impl Scenario {
         }
     }
 
+    /// Runs `run` on this scenario's closed-loop setup, as [`evaluate`]
+    /// deploys it: the controller's `model` and `policy`, `base` with this
+    /// scenario's fold, and on the model's structure this scenario's truth,
+    /// sensors (with its noise), temperature and noise seed.
+    pub fn with_setup<R>(
+        &self,
+        model: &ForwardModel,
+        base: &DeploymentProblem,
+        policy: &Policy,
+        run: impl FnOnce(&ClosedLoopSetup) -> R,
+    ) -> R {
+        let structure = model.structure();
+        let truth = self.truth(structure);
+        let sensors = self.sensors(structure);
+        let problem = self.problem(base);
+        run(&ClosedLoopSetup {
+            model,
+            problem: &problem,
+            policy,
+            truth: &truth,
+            sensors: &sensors,
+            temperature_c: self.temperature_c,
+            seed: self.seed,
+        })
+    }
+
     /// The drawn values in the order of
     /// [`ScenarioDistribution::drawn_names`].
     pub fn drawn_values(&self, distribution: &ScenarioDistribution) -> Vec<f64> {
@@ -611,7 +637,6 @@ pub fn evaluate(
         .iter()
         .map(|&i| setup.distribution.draw(setup.seed, i))
         .collect();
-    let structure = setup.model.structure();
     let jobs: Vec<(usize, usize)> = (0..scenarios.len())
         .flat_map(|s| (0..setup.policies.len()).map(move |p| (s, p)))
         .collect();
@@ -620,31 +645,22 @@ pub fn evaluate(
         .par_iter()
         .map(|&(s, p)| {
             let scenario = &scenarios[s];
-            let truth = scenario.truth(structure);
-            let sensors = scenario.sensors(structure);
-            let problem = scenario.problem(setup.problem);
-            let run = ClosedLoopSetup {
-                model: setup.model,
-                problem: &problem,
-                policy: &setup.policies[p],
-                truth: &truth,
-                sensors: &sensors,
-                temperature_c: scenario.temperature_c,
-                seed: scenario.seed,
-            };
-            let result = if setup.cycles <= 1 {
-                let outcome = deploy_closed_loop(&run, &mut ()).map_err(|e| e.to_string());
-                RunResult::of(scenario.index, p, &outcome, tolerance)
-            } else {
-                let mut each = CycleRuns {
-                    scenario: scenario.index,
-                    policy: p,
-                    tolerance_m: tolerance,
-                    results: Vec::new(),
-                };
-                let end = run_cycles(&run, setup.cycles, &mut CaseMemory::default(), &mut each);
-                RunResult::of_cycles(scenario.index, p, each.results, setup.cycles, end.err())
-            };
+            let policy = &setup.policies[p];
+            let result = scenario.with_setup(setup.model, setup.problem, policy, |run| {
+                if setup.cycles <= 1 {
+                    let outcome = deploy_closed_loop(run, &mut ()).map_err(|e| e.to_string());
+                    RunResult::of(scenario.index, p, &outcome, tolerance)
+                } else {
+                    let mut each = CycleRuns {
+                        scenario: scenario.index,
+                        policy: p,
+                        tolerance_m: tolerance,
+                        results: Vec::new(),
+                    };
+                    let end = run_cycles(run, setup.cycles, &mut CaseMemory::default(), &mut each);
+                    RunResult::of_cycles(scenario.index, p, each.results, setup.cycles, end.err())
+                }
+            });
             run_done();
             result
         })
