@@ -206,18 +206,15 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
         temperature_c: None,
         seed: 3,
     };
-    let learnt = vec![vec![-0.05; 10], vec![-0.05; 10]];
-    let guided = Guidance {
-        feedforward_m: learnt.clone(),
+    let guided_by = |learnt: &[Vec<f64>]| Guidance {
+        feedforward_m: learnt.to_vec(),
         ..Guidance::default()
     };
-    let d = deploy_guided(&setup, &guided, None, &mut ()).unwrap();
+    let learnt = vec![vec![-0.05; 10], vec![-0.05; 10]];
+    let d = deploy_guided(&setup, &guided_by(&learnt), None, &mut ()).unwrap();
     assert_eq!(d.approach_commands, Some(2));
     assert_eq!(d.commands()[..2], learnt[..]);
-    let beyond_step = Guidance {
-        feedforward_m: vec![vec![-0.06; 10]; 2],
-        ..Guidance::default()
-    };
+    let beyond_step = guided_by(&[vec![-0.06; 10], vec![-0.06; 10]]);
     let d = deploy_guided(&setup, &beyond_step, None, &mut ()).unwrap();
     assert_eq!(d.approach_commands, Some(0));
     assert!(d
@@ -240,10 +237,7 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
         ..setup
     };
     let learnt = vec![vec![-0.05; 10], vec![-0.048; 10]];
-    let guided = Guidance {
-        feedforward_m: learnt.clone(),
-        ..Guidance::default()
-    };
+    let guided = guided_by(&learnt);
     let d = deploy_guided(&setup, &guided, None, &mut ()).unwrap();
     assert_eq!(d.approach_commands, Some(1));
     assert_eq!(d.commands()[0], learnt[0]);
