@@ -230,11 +230,11 @@ mod tests {
                 .unwrap();
             assert!(r.status.is_converged());
             let before = state.clone();
-            let factorised = ws.factorisations;
+            let factorised = ws.newton_counters().factorisations;
             let r = model
                 .apply_payout(&mut state, &mut ws, &vec![0.0; n], 0.01, &mut ())
                 .unwrap();
-            assert_eq!(ws.factorisations, factorised, "μ = {mu}");
+            assert_eq!(ws.newton_counters().factorisations, factorised, "μ = {mu}");
             assert_eq!(r.status, RelaxStatus::Converged, "μ = {mu}");
             assert_eq!((r.iterations, r.newton_iterations), (0, 0), "μ = {mu}");
             assert_eq!(r.increments, 1);

@@ -302,7 +302,6 @@ impl ForwardModel {
         if !self.newton_enabled() {
             return outcome;
         }
-        let tolerance = |max_t: f64| self.settings.tol_force_abs.max(tol_rel * max_t);
         let entry = state.clone();
         let max_step = self.settings.newton_max_step_rel * self.size_m();
         let fixed = SlipMapping::Fixed;
@@ -318,12 +317,12 @@ impl ForwardModel {
         let mut fresh = false;
         let mut revisions = 0;
         let failed = loop {
-            let tol = tolerance(*max_t);
+            let tol = self.tolerance_rel(*max_t, tol_rel);
             if self.max_free_residual(ws) <= tol {
                 // The return mapping at this geometry says which joints
                 // slide; if it agrees, this is the answer.
                 (*max_t, *friction_left) = self.residual(state, ws);
-                let tol = tolerance(*max_t);
+                let tol = self.tolerance_rel(*max_t, tol_rel);
                 if self.max_free_residual(ws) <= tol && *friction_left <= tol {
                     outcome.converged = true;
                     ws.counters.slip_state_revisions += revisions;
@@ -443,7 +442,6 @@ impl ForwardModel {
     /// workspace's per-block storage and factorised there; `None` if
     /// singular.
     fn factorise_tangent(&self, state: &DeploymentState, ws: &mut Workspace) -> Option<BlockLu> {
-        ws.factorisations += 1;
         ws.counters.factorisations += 1;
         let mut k = ws.tangent_storage(self.tangent_layout());
         assemble_tangent_stiffness(self, state, JointMode::AsMapped, &mut k);

@@ -32,9 +32,13 @@ impl ForwardModel {
 
     /// The force tolerance for the largest member force `max_t`, N.
     pub(super) fn tolerance(&self, max_t: f64) -> f64 {
-        self.settings
-            .tol_force_abs
-            .max(self.settings.tol_force_rel * max_t)
+        self.tolerance_rel(max_t, self.settings.tol_force_rel)
+    }
+
+    /// The force tolerance `tol_rel · max_t` with the floor
+    /// `tol_force_abs`, N.
+    pub(super) fn tolerance_rel(&self, max_t: f64, tol_rel: f64) -> f64 {
+        self.settings.tol_force_abs.max(tol_rel * max_t)
     }
 
     pub(super) fn ran_away(&self, state: &DeploymentState, ws: &Workspace, max_disp: f64) -> bool {

@@ -21,8 +21,6 @@ pub struct Workspace {
     pub(super) last_max_t: f64,
     /// Continuation step (fraction of an increment) that last succeeded.
     pub(super) continuation_step: f64,
-    /// Tangent factorisations so far (for tests of the work a solve does).
-    pub(super) factorisations: usize,
     /// Zeroed storage of the last tangent factorised, to assemble the
     /// next one into without allocating.
     tangent_storage: Option<BlockMatrix>,
