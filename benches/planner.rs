@@ -15,6 +15,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 
+use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::model::{
     DeploymentState, ForwardModel, JointFriction, RelaxSettings, Workspace,
@@ -22,8 +23,7 @@ use tensegrity_deploy::model::{
 use tensegrity_deploy::plan::qp_step::step_solver_settings;
 use tensegrity_deploy::plan::search::{step_data, step_weights};
 use tensegrity_deploy::plan::{
-    deploy_closed_loop, folded_start, planner_for, solve_step, ClosedLoopSetup, DeploymentProblem,
-    PayoutResponse, PlanContext, Policy,
+    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PlanContext, Policy,
 };
 use tensegrity_deploy::sim::{default_truth, standard_sensors};
 

@@ -9,12 +9,12 @@
 //! deployment-fold cycles as `tdeploy evaluate --cycles N` does, and each
 //! cycle's commands are printed.
 
+use tensegrity_deploy::control::{deploy_closed_loop, Deployment};
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::DeploymentProblem;
-use tensegrity_deploy::plan::{deploy_closed_loop, Deployment};
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult};
 use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
 

@@ -17,7 +17,7 @@
 //!                                 │
 //!  plan: responses d(gap, force)/d(payout) ─► QP step ─► confirming trial
 //!                                 │                  (trust region)
-//!  closed loop: send u/(1+ŝ) to the truth (sim::Plant) ─► measure ─►
+//!  control: send u/(1+ŝ) to the truth (sim::Plant) ─► measure ─►
 //!      payout scale ŝ (Kalman) · gap offsets · filtered force offsets
 //!                                 │
 //!  studies::evaluation: policies × seeded scenarios (shards, McNemar)
@@ -39,7 +39,7 @@
 //!   `u± ≥ 0` within the trust region, stroke and step limits and the
 //!   linearised force limits `F + A⁺u⁺ − A⁻u⁻ ∈ [F_min + m, F_max − m]`.
 //! - Payout scale per bridge half: `Δy − g = ε·g + noise`, `ε̂ = (Σ g r/R) /
-//!   (1/P + Σ g²/R)` (see [`plan::estimation`]).
+//!   (1/P + Σ g²/R)` (see [`control::estimation`]).
 //!
 //! ## Layout
 //! Layers, each depending only on those above it in this list (a test,
@@ -49,16 +49,21 @@
 //! - [`model`]: structure, state, joint friction, effects, the equilibrium
 //!   solver. Pure.
 //! - [`design`]: the reference bridge, form finding, the friction rig.
-//! - [`sim`]: sensors, schedules, a model with effects replayed through
-//!   commands.
+//! - [`sim`]: a model with effects ([`sim::EffectModel`], the one way it
+//!   becomes a forward model), the plant stepped one command at a time,
+//!   sensors, schedule runs.
 //! - [`measure`]: logs in memory, the synthetic lab, compare, diagnose.
-//! - [`plan`]: the deployment planner: problem, limits, QP step, sequence
-//!   search, baselines, policies, and the closed loop with its estimation.
+//! - [`plan`]: the deployment planner on a model alone: problem, limits,
+//!   responses, QP step, sequence search, baselines, policies, open-loop
+//!   plans.
+//! - [`control`]: what runs against a plant: the controller, the closed
+//!   loop, the estimation and the measurement corrections.
 //! - [`learn`]: the case memory of past deployment cycles.
 //! - [`studies`]: what the experiments and `evaluate` compute.
 //! - [`io`]: file formats; with the CLI, the only code that touches files.
 //! - [`report`]: SVG drawings and figures.
 
+pub mod control;
 pub mod design;
 pub mod io;
 pub mod learn;

@@ -4,12 +4,13 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+use tensegrity_deploy::control::ClosedLoopSetup;
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::memory_file::read_memory;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::CaseMemory;
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Structure};
-use tensegrity_deploy::plan::{ClosedLoopSetup, DeploymentProblem, MemorySettings, Policy};
+use tensegrity_deploy::plan::{DeploymentProblem, MemorySettings, Policy};
 use tensegrity_deploy::sim::{default_truth, standard_sensors, EffectModel, Sensor};
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleResult};
 use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
@@ -188,7 +189,8 @@ fn the_memory_policy_is_never_worse_than_the_memoryless_one_on_paired_scenarios(
 /// sent, and the planner takes over from where the bridge is.
 #[test]
 fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner() {
-    use tensegrity_deploy::plan::{deploy_guided, Guidance, PerMotor};
+    use tensegrity_deploy::control::{deploy_guided, Guidance};
+    use tensegrity_deploy::plan::PerMotor;
     let (structure, model, sensors) = bridge();
     let truth = default_truth(structure);
     let policy = Policy::default();

@@ -9,14 +9,14 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+use tensegrity_deploy::control::CORRECTIVE_PHASE_GAP_M;
+use tensegrity_deploy::control::{
+    deploy_closed_loop, ClosedLoopSetup, DeployObserver, DeployRecord, DeployStart, Deployment,
+};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::model::{EffectKind, Effects, ForwardModel, JointFriction, RelaxSettings};
-use tensegrity_deploy::plan::closed_loop::CORRECTIVE_PHASE_GAP_M;
-use tensegrity_deploy::plan::{
-    deploy_closed_loop, ClosedLoopSetup, DeployObserver, DeployRecord, DeployStart, Deployment,
-    DeploymentProblem, PlanStatus, Policy,
-};
+use tensegrity_deploy::plan::{DeploymentProblem, PlanStatus, Policy};
 use tensegrity_deploy::sim::{default_truth, standard_sensors, CycleSchedule, EffectModel, Sensor};
 
 /// Counts what the observer is shown.

@@ -17,7 +17,8 @@
 use std::sync::OnceLock;
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::measure::compare::{compare, where_it_fails};
+use tensegrity_deploy::measure::compare::compare;
+use tensegrity_deploy::measure::comparison_verdict::where_it_fails;
 use tensegrity_deploy::measure::diagnose::{
     diagnose, Candidate, DiagnoseSettings, Diagnosis, Verdict,
 };

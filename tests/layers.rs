@@ -17,13 +17,13 @@ fn allowed() -> BTreeMap<&'static str, Vec<&'static str>> {
     m.insert("sim", below(&["numerics", "model"]));
     m.insert("measure", below(&["numerics", "model", "sim"]));
     m.insert("plan", below(&["numerics", "model", "sim"]));
-    m.insert("learn", below(&["numerics", "model", "sim", "plan"]));
+    m.insert("control", below(&["numerics", "model", "sim", "plan"]));
     m.insert(
-        "evaluate",
-        below(&["numerics", "model", "sim", "plan", "learn"]),
+        "learn",
+        below(&["numerics", "model", "sim", "plan", "control"]),
     );
     let lower = [
-        "numerics", "model", "design", "sim", "measure", "plan", "learn", "evaluate",
+        "numerics", "model", "design", "sim", "measure", "plan", "control", "learn",
     ];
     m.insert("studies", below(&lower));
     let mut with_studies = lower.to_vec();

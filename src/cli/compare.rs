@@ -20,9 +20,8 @@ use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::{write_atomically, write_new_json, CsvTable};
-use tensegrity_deploy::measure::compare::{
-    compare as compare_runs, verdict, Comparison, ComparisonVerdict, WhereItFails,
-};
+use tensegrity_deploy::measure::compare::{compare as compare_runs, Comparison};
+use tensegrity_deploy::measure::comparison_verdict::{verdict, ComparisonVerdict, WhereItFails};
 use tensegrity_deploy::measure::evidence::{evidence, Evidence, NoiseTest, Statistic, Subject};
 use tensegrity_deploy::measure::log::MeasurementLog;
 use tensegrity_deploy::measure::outliers::{drop_outliers, find_outliers, Outlier, OUTLIER_LIMIT};

@@ -26,6 +26,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
+use tensegrity_deploy::control::{ClosedLoopSetup, Deployment};
 use tensegrity_deploy::io::csv_table::CsvTable;
 use tensegrity_deploy::io::memory_file::{append_case, read_memory};
 use tensegrity_deploy::io::model_file::read_model;
@@ -33,7 +34,7 @@ use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::io::FileError;
 use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::JointFriction;
-use tensegrity_deploy::plan::{ClosedLoopSetup, Deployment, Policy};
+use tensegrity_deploy::plan::Policy;
 use tensegrity_deploy::report::figures::grouped_bars_svg;
 use tensegrity_deploy::sim::default_truth::default_truth;
 use tensegrity_deploy::sim::standard_sensors;

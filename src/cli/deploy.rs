@@ -49,21 +49,22 @@ use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
+use tensegrity_deploy::control::{
+    deploy_closed_loop, ClosedLoopSetup, DeployError, DeployObserver, DeployRecord, DeployStart,
+    Deployment,
+};
 use tensegrity_deploy::io::log::write_log;
 use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::problem_file::problem_to_toml;
 use tensegrity_deploy::io::{write_atomically, write_json, CsvTable};
 use tensegrity_deploy::measure::log::{Cycle, MeasurementLog};
-use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction};
-use tensegrity_deploy::plan::{
-    deploy_closed_loop, ClosedLoopSetup, DeployError, DeployObserver, DeployRecord, DeployStart,
-    Deployment, PlanStatus,
-};
+use tensegrity_deploy::model::{Effects, JointFriction};
+use tensegrity_deploy::plan::PlanStatus;
 use tensegrity_deploy::report::deployment_figure::deployment_svg;
 use tensegrity_deploy::report::drawing::DrawnState;
 use tensegrity_deploy::sim::default_truth::{default_truth, default_truth_effects};
-use tensegrity_deploy::sim::{standard_sensors, EffectModel, ReplayError};
+use tensegrity_deploy::sim::{standard_sensors, EffectModel, PlantError};
 
 use super::plan::{
     mm_list, planning_model, policy_or_default, problem_or_default, write_fold_and_commands,
@@ -147,16 +148,6 @@ fn absolute(file: ModelFile) -> Result<ModelFile> {
         },
         _ => file,
     })
-}
-
-/// The truth's forward model as the plant builds it at its reference
-/// temperature (effects on the structure, its friction): for drawing.
-fn truth_forward_model(truth: &EffectModel) -> Result<ForwardModel> {
-    Ok(ForwardModel::new(
-        truth.effects.apply_to_structure(&truth.structure)?,
-        truth.effects.joint_friction(),
-        truth.settings.clone(),
-    )?)
 }
 
 /// Command per motor in mm, runs of equal values folded: `-50.0×10`.
@@ -473,7 +464,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         // The truth failing to fold is a solve that did not converge
         // (exit 1); everything else is input the deployment cannot use.
         Err(DeployError::TruthStart(
-            e @ (ReplayError::Solver { .. } | ReplayError::SeatsUnsettled { .. }),
+            e @ (PlantError::Solver { .. } | PlantError::SeatsUnsettled { .. }),
         )) => {
             return Ok(Outcome::GoalMissed(format!(
                 "the truth plant could not reach the folded start: {e}"
@@ -510,7 +501,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     )?;
     deployment_table(&d).write(&out.join("deployment.csv"))?;
     timing_table(&d).write(&out.join("timing.csv"))?;
-    let truth_model = truth_forward_model(&truth)?;
+    let truth_model = truth.forward_model()?;
     let (start_forces, end_forces) = (
         truth_model.member_forces(&d.start_true_state),
         truth_model.member_forces(&d.final_true_state),

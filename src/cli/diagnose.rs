@@ -17,7 +17,7 @@ use serde::Serialize;
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::write_new_json;
-use tensegrity_deploy::measure::compare::{where_it_fails, WhereItFails};
+use tensegrity_deploy::measure::comparison_verdict::{where_it_fails, WhereItFails};
 use tensegrity_deploy::measure::diagnose::{
     diagnose, Candidate, DiagnoseError, DiagnoseSettings, Diagnosis, Screened, Verdict,
 };

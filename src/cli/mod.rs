@@ -60,7 +60,7 @@ use clap::{ArgMatches, Command};
 
 use tensegrity_deploy::io::NumberRange;
 use tensegrity_deploy::model::effects::ParameterSpec;
-use tensegrity_deploy::sim::ReplayError;
+use tensegrity_deploy::sim::PlantError;
 
 /// How a command that ran to its end came out. Errors (bad input, I/O)
 /// are the `Err` of [`run`] instead.
@@ -215,9 +215,9 @@ fn number_in(m: &ArgMatches, id: &str, range: NumberRange) -> Result<f64> {
 /// seat arcs that did not settle, is a run that missed its goal (exit 1);
 /// any other failure (effects the structure cannot take, a command the
 /// model cannot apply) is bad input (exit 2).
-fn replay_stopped(e: ReplayError, context: String) -> Result<Outcome> {
+fn replay_stopped(e: PlantError, context: String) -> Result<Outcome> {
     match e {
-        ReplayError::Solver { .. } | ReplayError::SeatsUnsettled { .. } => {
+        PlantError::Solver { .. } | PlantError::SeatsUnsettled { .. } => {
             Ok(Outcome::GoalMissed(format!("{context}: {e}")))
         }
         other => Err(anyhow::Error::new(other).context(context)),

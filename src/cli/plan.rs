@@ -15,6 +15,7 @@ use tensegrity_deploy::io::problem_file::read_problem;
 use tensegrity_deploy::io::CsvTable;
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Structure};
 use tensegrity_deploy::plan::{folded_start, plan_open_loop, DeploymentProblem, Plan, Policy};
+use tensegrity_deploy::sim::EffectModel;
 
 use super::{value, Outcome};
 
@@ -68,15 +69,9 @@ pub(super) fn planning_model(
     Ok(match path {
         Some(p) => {
             let file = read_model(p)?;
-            let structure = file
-                .effects
-                .apply_to_structure(&file.load_structure()?)
-                .with_context(|| format!("{}: applying its effects", p.display()))?;
-            ForwardModel::new(
-                structure,
-                file.effects.joint_friction(),
-                RelaxSettings::default(),
-            )?
+            EffectModel::for_measurement(file.load_structure()?, file.effects)
+                .forward_model()
+                .with_context(|| format!("{}: applying its effects", p.display()))?
         }
         None => ForwardModel::new(
             reference_bridge(&BridgeParameters::default())?,

@@ -1,6 +1,6 @@
 //! `tdeploy replay LOG [--policy P] [--model M] [--problem F] [--cycle C]
 //! [--fit EFFECTS] [--seed S] -o DIR [--force]`: closed-loop replay of a
-//! logged deployment (see [`tensegrity_deploy::studies::replay`]).
+//! logged deployment (see [`tensegrity_deploy::studies::log_replay`]).
 //!
 //! 1. **Replay**: at every logged command after the logged start, the drum
 //!    command the policy would have sent given the logged measurements so
@@ -33,15 +33,16 @@ use anyhow::{anyhow, bail, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 use serde::Serialize;
 
+use tensegrity_deploy::control::{DeployError, Deployment};
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::{write_atomically, write_json, CsvTable, FileError};
 use tensegrity_deploy::model::{EffectKind, Effects, JointFriction};
-use tensegrity_deploy::plan::{DeployError, Deployment, PlanStatus};
+use tensegrity_deploy::plan::PlanStatus;
 use tensegrity_deploy::report::replay_figure::replay_svg;
-use tensegrity_deploy::sim::{EffectModel, ReplayError};
-use tensegrity_deploy::studies::replay::{
+use tensegrity_deploy::sim::{EffectModel, PlantError};
+use tensegrity_deploy::studies::log_replay::{
     calibrate_on_log, counterfactual, default_cycle, deployment_start, replay_log, Calibration,
     CalibrationError, CalibrationMethod, Margins, Replay, ReplayInputError, ReplayStart,
 };
@@ -346,7 +347,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let calibration = match calibrate_on_log(&base, &log, &o.calibration) {
         Ok(c) => Ok(c),
         Err(CalibrationError::Replay(
-            e @ (ReplayError::Solver { .. } | ReplayError::SeatsUnsettled { .. }),
+            e @ (PlantError::Solver { .. } | PlantError::SeatsUnsettled { .. }),
         )) => Err(format!("{context}: {e}")),
         Err(e) => return Err(anyhow::Error::new(e).context(context)),
     };

@@ -15,7 +15,7 @@
 //! 3. **The ILC update** ([`super::ilc`]) of the case's commands against
 //!    its final measured gap vectors, within the motor and member limits.
 //!
-//! The result is a [`Guidance`] for [`crate::plan::deploy_guided`]: the
+//! The result is a [`Guidance`] for [`crate::control::deploy_guided`]: the
 //! updated commands as feedforward and the case's payout scale as the
 //! estimator's prior.
 
@@ -25,11 +25,12 @@ use thiserror::Error;
 use super::case::CaseConditions;
 use super::ilc::{learn_commands, IlcData, IlcUpdate};
 use super::memory::{CaseMemory, FeatureScales};
+use crate::control::Guidance;
+use crate::control::PayoutScaleEstimator;
 use crate::model::{DeploymentState, RelaxStatus, Workspace};
-use crate::plan::closed_loop::Guidance;
 use crate::plan::response::{IndependentParts, PayoutResponse};
 use crate::plan::search::step_data;
-use crate::plan::{MemorySettings, PayoutScaleEstimator, PlanContext};
+use crate::plan::{MemorySettings, PlanContext};
 
 /// The model's state at the end of the last case adapted, kept between
 /// adaptations. On a frictionless model the state is a function of the

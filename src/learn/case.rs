@@ -2,8 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::control::{measured_gap_vectors, Deployment};
 use crate::model::Structure;
-use crate::plan::closed_loop::{measured_gap_vectors, Deployment};
 use crate::sim::Sensor;
 
 /// What a cycle started from, as the controller knew it: the features

@@ -99,7 +99,7 @@ use super::local::{
     Term,
 };
 use super::outliers::{drop_outliers, find_outliers, without_outliers, Outlier};
-use crate::sim::{EffectModel, ReplayError};
+use crate::sim::{EffectModel, PlantError};
 
 /// Why a diagnosis could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -109,7 +109,7 @@ pub enum DiagnoseError {
     Log(#[from] LogProblem),
     /// A replay of the log through the model stopped.
     #[error("{0}")]
-    Replay(#[from] ReplayError),
+    Replay(#[from] PlantError),
 }
 
 /// Held-out RMS `z` a found effect must reach, in noise SDs.
@@ -397,7 +397,7 @@ fn compare_with(
     term: Term,
     x: &[f64],
     log: &MeasurementLog,
-) -> Result<Comparison, ReplayError> {
+) -> Result<Comparison, PlantError> {
     match term {
         Term::Local(l) if l.on_readings() => {
             Ok(with_reading_terms(current, &[(l, x.to_vec())], log))
@@ -442,7 +442,7 @@ impl Base<'_> {
         }
     }
 
-    fn fit(&self, term: Term, tier: usize) -> Result<Candidate, ReplayError> {
+    fn fit(&self, term: Term, tier: usize) -> Result<Candidate, PlantError> {
         let specs = term.parameters();
         let cycles = self.log.cycles.len();
         let bounds = SearchBox::of(specs);
@@ -515,7 +515,7 @@ pub fn screen_candidate(
     base: Effects,
     kind: EffectKind,
     log: &MeasurementLog,
-) -> Result<Screened, ReplayError> {
+) -> Result<Screened, PlantError> {
     let h = Hypothesis::of(base);
     let current = compare_hypothesis(model, &h, log)?;
     let b = Base {
@@ -535,7 +535,7 @@ pub fn fit_candidate(
     base: Effects,
     kind: EffectKind,
     log: &MeasurementLog,
-) -> Result<Candidate, ReplayError> {
+) -> Result<Candidate, PlantError> {
     let h = Hypothesis::of(base);
     let current = compare_hypothesis(model, &h, log)?;
     let b = Base {

@@ -16,7 +16,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
 use super::log::{Cycle, MeasurementLog};
-use crate::sim::{CycleSchedule, EffectModel, ReplayError, Sensor};
+use crate::sim::{CycleSchedule, EffectModel, PlantError, Sensor};
 
 /// Temperature swing of the standard cycles, K: a day's swing outdoors.
 pub const DAILY_SWING_K: f64 = 12.0;
@@ -65,7 +65,7 @@ pub fn run_lab(
     sensors: &[Sensor],
     cycles: &[CycleSchedule],
     seed: u64,
-) -> Result<MeasurementLog, ReplayError> {
+) -> Result<MeasurementLog, PlantError> {
     let clean = truth.run(cycles, sensors)?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let noises: Vec<Normal<f64>> = sensors

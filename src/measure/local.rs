@@ -24,7 +24,7 @@ use super::compare::{residuals_of, schedule_of, Comparison};
 use super::log::MeasurementLog;
 use crate::model::effects::ParameterSpec;
 use crate::model::{EffectKind, Effects, MemberKind, Structure};
-use crate::sim::{EffectModel, ReplayError, Sensor, SensorTarget};
+use crate::sim::{EffectModel, PlantError, Sensor, SensorTarget};
 
 /// A candidate local to one member, member group, motor or sensor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -371,7 +371,7 @@ pub fn compare_hypothesis(
     model: &EffectModel,
     h: &Hypothesis,
     log: &MeasurementLog,
-) -> Result<Comparison, ReplayError> {
+) -> Result<Comparison, PlantError> {
     let structure_terms = h.locals.iter().any(|(k, _)| {
         matches!(
             k,

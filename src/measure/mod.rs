@@ -4,6 +4,7 @@
 //! ([`diagnose`]). Pure: files are read and written in [`crate::io`].
 
 pub mod compare;
+pub mod comparison_verdict;
 pub mod diagnose;
 pub mod evidence;
 pub mod fit;

@@ -19,7 +19,7 @@
 //! angles move material: a replay subtracts the change of
 //! [`seat_material_m`] since the last solve from each segment and solves
 //! again until the arcs stop changing (see
-//! [`crate::sim::replay`]).
+//! [`crate::sim::schedule_run`]).
 
 use nalgebra::Vector3;
 

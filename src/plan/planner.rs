@@ -1,17 +1,14 @@
 //! What the planners share: the context they plan in, the one trait they
-//! implement, trial commands checked at every increment, and the open-loop
-//! driver.
+//! implement, and trial commands checked at every increment.
 //!
 //! A plan is a pure function of (model, problem, policy, start state):
 //! planners hold only what they derive from those (a trust-region radius,
 //! a step counter), and every probe runs on clones of the state.
 
-use std::time::Instant;
-
 use super::correction::ModelCorrection;
 use super::limits::{corrected_force_rows, force_row_name, LimitCheck, Limits};
-use super::outcome::{CommandRecord, Plan, PlanError, PlanStatus};
-use super::policy::{PlannerKind, Policy, PolicyError};
+use super::outcome::{PlanError, PlanStatus};
+use super::policy::{Policy, PolicyError};
 use super::problem::{DeploymentProblem, MotorLimits};
 use super::qp_step::QpStepStatus;
 use crate::model::{
@@ -319,89 +316,4 @@ pub enum Decision {
 pub trait CommandPlanner {
     /// Decides the next command from `state` (on `context.model`).
     fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision;
-}
-
-/// The planner a policy names, starting from `start`.
-pub fn planner_for(context: &PlanContext, start: &DeploymentState) -> Box<dyn CommandPlanner> {
-    match context.policy.planner {
-        PlannerKind::Nominal => Box::new(super::baselines::NominalPlanner::new(context, start)),
-        PlannerKind::GreedyTree => Box::new(super::baselines::GreedyTreePlanner::new(context)),
-        PlannerKind::Qp => Box::new(super::search::QpPlanner::new(context)),
-    }
-}
-
-/// The folded start: the designed state relaxed, then every motor paid
-/// out by the problem's start payout through the model.
-pub fn folded_start(
-    model: &ForwardModel,
-    problem: &DeploymentProblem,
-    increment_m: f64,
-) -> Result<DeploymentState, PlanError> {
-    let motors = problem.motor_limits(model.structure().continuous_cables.len())?;
-    let mut ws = Workspace::default();
-    let mut state = model.reference_state();
-    let r = model.relax(&mut state, &mut ws);
-    if !r.status.is_converged() {
-        return Err(PlanError::Start(r.status));
-    }
-    let r = model.apply_payout(
-        &mut state,
-        &mut ws,
-        &motors.start_payout_m,
-        increment_m,
-        &mut (),
-    )?;
-    if !r.status.is_converged() {
-        return Err(PlanError::Start(r.status));
-    }
-    Ok(state)
-}
-
-/// Plans an open-loop command sequence on `model` from `start` (the model
-/// is its own truth): each command is the planner's confirmed trial.
-pub fn plan_open_loop(
-    model: &ForwardModel,
-    problem: &DeploymentProblem,
-    policy: &Policy,
-    start: &DeploymentState,
-) -> Result<Plan, PlanError> {
-    let context = PlanContext::new(model, problem, policy, start)?;
-    let mut planner = planner_for(&context, start);
-    let mut state = start.clone();
-    let mut records = Vec::new();
-    let status = loop {
-        if context.connected(&state) {
-            break PlanStatus::Connected;
-        }
-        if records.len() >= policy.max_commands {
-            break PlanStatus::CommandLimit;
-        }
-        let clock = Instant::now();
-        match planner.next_command(&context, &state) {
-            Decision::Stop(status) => break status,
-            Decision::Command(c) => {
-                let gaps_m = c.trial.state.midspan_gaps_m(model.structure());
-                records.push(CommandRecord {
-                    command_m: c.command_m,
-                    predicted_gaps_m: c.predicted_gaps_m,
-                    gaps_m,
-                    worst_utilisation: c.trial.check.worst_utilisation,
-                    min_tension_n: c.trial.check.min_tension_n,
-                    min_clearance_m: c.trial.check.min_clearance_m,
-                    active_constraints: c.active_constraints,
-                    qp_status: c.qp_status,
-                    trust_region_m: c.trust_region_m,
-                    rejected_trials: c.rejected_trials,
-                    planning_time_s: clock.elapsed().as_secs_f64(),
-                });
-                state = c.trial.state;
-            }
-        }
-    };
-    Ok(Plan {
-        status,
-        start_gaps_m: start.midspan_gaps_m(model.structure()),
-        records,
-        final_state: state,
-    })
 }

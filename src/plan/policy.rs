@@ -305,7 +305,7 @@ pub struct Policy {
     /// Prior standard deviation of each bridge half's payout scale (how
     /// much more or less the cables move than commanded), 1; the closed
     /// loop estimates it from the measured midspan motion and compensates
-    /// the commands (see [`super::estimation`]). Default 0.05: drum slip
+    /// the commands (see [`crate::control::estimation`]). Default 0.05: drum slip
     /// of up to ±5 % plus the payout a softer or heavier bridge needs for
     /// the same motion. 0 switches the estimate off (the model state then
     /// moves exactly as commanded). Needs `midspan_positions` measured.
@@ -317,7 +317,7 @@ pub struct Policy {
     /// How far the model's member forces may be from the bridge's, as a
     /// fraction of the predicted force (plus 1 N), per measurement: the
     /// closed loop filters the load-cell offsets with it (see
-    /// [`super::correction::ForceOffsetFilter`]). Default 0.2: stiffness
+    /// [`crate::control::ForceOffsetFilter`]). Default 0.2: stiffness
     /// and mass errors of the plausible ranges move forces by up to about
     /// a fifth. Larger trusts each reading more.
     pub force_model_error_fraction: f64,

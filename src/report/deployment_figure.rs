@@ -8,8 +8,8 @@
 use plotters::prelude::*;
 
 use super::drawing::{draw_state_views, DrawingError, DrawnState};
+use crate::control::Deployment;
 use crate::model::Structure;
-use crate::plan::Deployment;
 
 fn err<E: std::fmt::Debug>(e: E) -> DrawingError {
     DrawingError::new(format!("{e:?}"))

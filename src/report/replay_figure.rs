@@ -8,8 +8,8 @@ use plotters::prelude::*;
 
 use super::drawing::DrawingError;
 use super::figures::range;
-use crate::plan::Deployment;
-use crate::studies::replay::Replay;
+use crate::control::Deployment;
+use crate::studies::log_replay::Replay;
 
 fn err<E: std::fmt::Debug>(e: E) -> DrawingError {
     DrawingError::new(format!("{e:?}"))

@@ -24,9 +24,9 @@
 //! would no longer replay to the truth. A slipping truth is one model file
 //! away (`tdeploy deploy --truth`).
 
+use super::effect_model::EffectModel;
 use crate::model::effects::{JointFrictionEffect, MotorEffect};
 use crate::model::{AngleConvention, Effects, Structure};
-use crate::sim::EffectModel;
 
 /// Joint friction coefficient of the default truth (wrap-angle capstan law).
 pub const DEFAULT_TRUTH_MU: f64 = 0.2;

@@ -22,12 +22,12 @@
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 
+use super::effect_model::{EffectModel, PlantError};
+use super::sensors::{Sensor, SensorTarget};
 use crate::model::{
     CommandError, CommandReport, DeploymentState, Effects, ForwardModel, IncrementObserver,
     JointFriction, MotorModel, RelaxSettings, RelaxStatus, Structure, Workspace,
 };
-use crate::sim::replay::{EffectModel, ReplayError};
-use crate::sim::{Sensor, SensorTarget};
 
 /// The seat arcs are followed until they change by less than this between
 /// two solves, m: a thousandth of the 1 mm position noise.
@@ -41,7 +41,7 @@ const MAX_SEAT_SOLVES: usize = 20;
 ///
 /// Errors come placed at cycle 0 and the step of the command that failed
 /// (1 for the first command sent, 0 for [`Plant::new`]); a caller that
-/// knows better places them with [`ReplayError::at`]. After an error the
+/// knows better places them with [`PlantError::at`]. After an error the
 /// state is where the solve stopped and the plant should not be stepped
 /// further.
 #[derive(Debug, Clone)]
@@ -85,8 +85,8 @@ impl Plant {
         model: &EffectModel,
         start_payout_m: Option<&[f64]>,
         temperature_c: Option<f64>,
-    ) -> Result<Plant, ReplayError> {
-        let at_start = |source| ReplayError::Command {
+    ) -> Result<Plant, PlantError> {
+        let at_start = |source| PlantError::Command {
             cycle: 0,
             step: 0,
             source,
@@ -94,9 +94,9 @@ impl Plant {
         if !(model.increment_m > 0.0 && model.increment_m.is_finite()) {
             return Err(at_start(CommandError::BadIncrement(model.increment_m)));
         }
-        let base = model.effects.apply_to_structure(&model.structure)?;
-        let friction = model.effects.joint_friction();
-        let forward = ForwardModel::new(base.clone(), friction.clone(), model.settings.clone())?;
+        let forward = model.forward_model()?;
+        let base = forward.structure().clone();
+        let friction = forward.friction().clone();
         let state = forward.reference_state();
         // The as-built state has its arcs wrapped already.
         let seats_m = model.effects.seat_material_m(&base, &state.positions_m);
@@ -142,7 +142,7 @@ impl Plant {
         command_m: &[f64],
         temperature_c: Option<f64>,
         observer: &mut dyn IncrementObserver,
-    ) -> Result<CommandReport, ReplayError> {
+    ) -> Result<CommandReport, PlantError> {
         self.commands += 1;
         let expected = self.base.continuous_cables.len();
         // Checked before the motors remember anything of it.
@@ -166,7 +166,7 @@ impl Plant {
     /// rest lengths follow the thermal strain, the state is relaxed if the
     /// strain changed, and the seat arcs are followed. What a step without
     /// a command (a log's step 0) does.
-    pub fn hold(&mut self, temperature_c: Option<f64>) -> Result<(), ReplayError> {
+    pub fn hold(&mut self, temperature_c: Option<f64>) -> Result<(), PlantError> {
         if self.set_temperature(temperature_c)? {
             self.relax()?;
         }
@@ -236,7 +236,7 @@ impl Plant {
     /// Sets the thermal strain for `temperature_c`: rebuilds the model at
     /// it and scales the material in the segments with it. Returns whether
     /// the strain changed.
-    fn set_temperature(&mut self, temperature_c: Option<f64>) -> Result<bool, ReplayError> {
+    fn set_temperature(&mut self, temperature_c: Option<f64>) -> Result<bool, PlantError> {
         self.temperature_c = temperature_c;
         let strain = self.effects.thermal_strain(temperature_c);
         if strain == self.strain {
@@ -259,7 +259,7 @@ impl Plant {
     }
 
     /// Relaxes the state with every joint stuck.
-    fn relax(&mut self) -> Result<(), ReplayError> {
+    fn relax(&mut self) -> Result<(), PlantError> {
         self.state.stick_all_joints();
         let r = self.model.relax(&mut self.state, &mut self.ws);
         if r.status.is_converged() {
@@ -274,7 +274,7 @@ impl Plant {
         &mut self,
         payout_m: &[f64],
         observer: &mut dyn IncrementObserver,
-    ) -> Result<CommandReport, ReplayError> {
+    ) -> Result<CommandReport, PlantError> {
         let r = self
             .model
             .apply_payout(
@@ -295,7 +295,7 @@ impl Plant {
     /// Moves the material the seats took up since they were last followed
     /// out of the segments and re-solves, until the arcs settle; the seats
     /// end as the arcs of the final state. Nothing with the effect off.
-    fn follow_seats(&mut self) -> Result<(), ReplayError> {
+    fn follow_seats(&mut self) -> Result<(), PlantError> {
         let Some(mut seats) = self.seats_m.take() else {
             return Ok(());
         };
@@ -305,7 +305,7 @@ impl Plant {
     }
 
     /// [`Self::follow_seats`], from the arcs `seats_m`.
-    fn follow_seats_from(&mut self, seats_m: &mut [f64]) -> Result<(), ReplayError> {
+    fn follow_seats_from(&mut self, seats_m: &mut [f64]) -> Result<(), PlantError> {
         let no_payout = vec![0.0; self.base.continuous_cables.len()];
         let mut change_m = f64::INFINITY;
         for _ in 0..MAX_SEAT_SOLVES {
@@ -333,23 +333,23 @@ impl Plant {
             // A zero payout is one friction-aware increment from here.
             self.apply_payout(&no_payout, &mut ())?;
         }
-        Err(ReplayError::SeatsUnsettled {
+        Err(PlantError::SeatsUnsettled {
             cycle: 0,
             step: self.commands,
             change_m,
         })
     }
 
-    fn command_error(&self, source: CommandError) -> ReplayError {
-        ReplayError::Command {
+    fn command_error(&self, source: CommandError) -> PlantError {
+        PlantError::Command {
             cycle: 0,
             step: self.commands,
             source,
         }
     }
 
-    fn solver_error(&self, status: RelaxStatus) -> ReplayError {
-        ReplayError::Solver {
+    fn solver_error(&self, status: RelaxStatus) -> PlantError {
+        PlantError::Solver {
             cycle: 0,
             step: self.commands,
             status,
@@ -594,7 +594,7 @@ mod tests {
         let err = plant.apply(&[0.01], None, &mut ()).unwrap_err();
         assert_eq!(
             err,
-            ReplayError::Command {
+            PlantError::Command {
                 cycle: 0,
                 step: 1,
                 source: CommandError::WrongLength {
@@ -608,7 +608,7 @@ mod tests {
         let err = plant.apply(&bad, None, &mut ()).unwrap_err();
         assert_eq!(
             err,
-            ReplayError::Command {
+            PlantError::Command {
                 cycle: 0,
                 step: 2,
                 source: CommandError::NotFinite { cable: 2 }

@@ -18,11 +18,9 @@
 use serde::Serialize;
 
 use super::statistics::scenario_seed;
+use crate::control::{deploy_guided, ClosedLoopSetup, DeployError, Deployment, Guidance};
 use crate::learn::{adapt, Case, CaseConditions, CaseMemory, EndStateCache, FeatureScales};
-use crate::plan::{
-    deploy_guided, folded_start, ClosedLoopSetup, DeployError, Deployment, Guidance, PlanContext,
-    PlanError,
-};
+use crate::plan::{folded_start, PlanContext, PlanError};
 use crate::sim::Plant;
 
 /// One cycle's figures: a row of the learning curve.

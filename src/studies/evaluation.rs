@@ -29,9 +29,9 @@ use thiserror::Error;
 
 use super::cycles::{run_cycles, CycleObserver, CycleResult};
 use super::statistics::{median, percentile, scenario_seed, wilson_interval};
+use crate::control::{deploy_closed_loop, ClosedLoopSetup, DeployError, Deployment};
 use crate::learn::{Case, CaseMemory};
 use crate::model::{EffectKind, Effects, ForwardModel, Structure};
-use crate::plan::closed_loop::{deploy_closed_loop, ClosedLoopSetup, DeployError, Deployment};
 use crate::plan::{DeploymentProblem, PerMotor, PlanStatus, Policy};
 use crate::sim::{standard_sensors, EffectModel, Sensor, SensorTarget};
 

@@ -16,7 +16,7 @@ use crate::measure::lab::run_lab;
 use crate::model::{Effects, RelaxSettings, Structure};
 use crate::sim::standard_sensors;
 use crate::sim::SensorTarget;
-use crate::sim::{CycleSchedule, EffectModel, ReplayError};
+use crate::sim::{CycleSchedule, EffectModel, PlantError};
 
 /// What to run.
 #[derive(Debug, Clone, PartialEq)]
@@ -119,7 +119,7 @@ impl FrictionStudy {
 pub fn friction_study(
     structure: &Structure,
     settings: &FrictionStudySettings,
-) -> Result<FrictionStudy, ReplayError> {
+) -> Result<FrictionStudy, PlantError> {
     let model = |effects: Effects| EffectModel {
         structure: structure.clone(),
         effects,

@@ -6,7 +6,7 @@ pub mod cycles;
 pub mod evaluation;
 pub mod friction_effect;
 pub mod friction_study;
-pub mod replay;
+pub mod log_replay;
 pub mod statistics;
 
 pub use friction_effect::{friction_effect, FrictionEffect, FrictionEffectSettings, StudyError};

@@ -2,7 +2,7 @@
 //! payout scale, the ratio of the payout the cables made to the payout the
 //! model predicted, learnt from the measured midspan motion.
 //!
-//! The output-bias correction ([`super::correction`]) makes the planner
+//! The output-bias correction ([`crate::plan::correction`]) makes the planner
 //! close the *measured* gaps, but it leaves the model state where the
 //! model's own commands put it. When the cables do not move as commanded
 //! (drum slip, or a structure softer or heavier than the model, which
@@ -39,8 +39,8 @@
 //! previous state. A small motion (a corrective millimetre) carries little
 //! information and leaves `ŝ` near where it was, as it should.
 
-use super::response::IndependentParts;
 use crate::model::{DeploymentState, ForwardModel};
+use crate::plan::response::IndependentParts;
 use crate::sim::{Sensor, SensorTarget};
 
 /// The payout-scale estimate of each independent part.

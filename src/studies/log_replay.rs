@@ -43,6 +43,10 @@
 use serde::Serialize;
 use thiserror::Error;
 
+use crate::control::measured_gap_vectors;
+use crate::control::{
+    deploy_closed_loop, ClosedLoopSetup, Controller, ControllerDecision, DeployError, Deployment,
+};
 use crate::measure::compare::compare;
 use crate::measure::diagnose::{
     diagnose, effects_found, fit_candidate, part, DiagnoseError, DiagnoseSettings, Verdict,
@@ -50,12 +54,8 @@ use crate::measure::diagnose::{
 use crate::measure::local::Term;
 use crate::measure::log::MeasurementLog;
 use crate::model::{EffectKind, Effects, ForwardModel};
-use crate::plan::closed_loop::measured_gap_vectors;
-use crate::plan::{
-    deploy_closed_loop, ClosedLoopSetup, Controller, ControllerDecision, DeployError, Deployment,
-    DeploymentProblem, PerMotor, PlanError, PlanStatus, Policy,
-};
-use crate::sim::{EffectModel, ReplayError, SensorTarget};
+use crate::plan::{DeploymentProblem, PerMotor, PlanError, PlanStatus, Policy};
+use crate::sim::{EffectModel, PlantError, SensorTarget};
 
 /// How a logged cycle is laid out (see the module notes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -284,7 +284,7 @@ pub struct ReplayStep {
     /// Largest difference per motor between the two commands, m.
     pub largest_difference_m: Option<f64>,
     /// Whether the logged command was the policy's own (within
-    /// [`crate::plan::OWN_COMMAND_TOLERANCE_M`]).
+    /// [`crate::control::OWN_COMMAND_TOLERANCE_M`]).
     pub same_as_policy: bool,
     /// Gap per pair the policy predicted for its own command, m.
     pub policy_predicted_gaps_m: Option<Vec<f64>>,
@@ -485,11 +485,11 @@ pub enum CalibrationError {
     Diagnose(#[from] DiagnoseError),
     /// A replay of the log through the model stopped.
     #[error(transparent)]
-    Replay(#[from] ReplayError),
+    Replay(#[from] PlantError),
 }
 
 /// Held-out RMS residual of `model` on `log`, noise SDs.
-fn held_out_rms(model: &EffectModel, log: &MeasurementLog) -> Result<f64, ReplayError> {
+fn held_out_rms(model: &EffectModel, log: &MeasurementLog) -> Result<f64, PlantError> {
     Ok(part(&compare(model, log)?, log.cycles.len(), true)
         .overall
         .rms)

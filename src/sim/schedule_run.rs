@@ -1,5 +1,6 @@
-//! Running a model with effects through a logged or planned schedule of
-//! deployment-fold cycles, and reading its sensors.
+//! A schedule run: a model with effects run through a logged or planned
+//! schedule of deployment-fold cycles, its sensors read after every step
+//! (what `lab`, `compare` and `diagnose` replay).
 //!
 //! The structure carries its history from cycle to cycle: the first cycle
 //! starts at the as-built payout (where logs start), settled into the
@@ -12,43 +13,11 @@
 //! applied in increments; the cable-seat arcs are followed (see
 //! [`crate::sim::plant`]).
 
-use thiserror::Error;
-
+use super::effect_model::{EffectModel, PlantError};
+use super::plant::Plant;
+use super::sensors::Sensor;
 use crate::model::sliding::interior_angle;
-use crate::model::{
-    CommandError, DeploymentState, Effects, RelaxSettings, RelaxStatus, SettingsError, Structure,
-    StructureError,
-};
-use crate::sim::plant::Plant;
-use crate::sim::Sensor;
-
-/// A model with effects: what `compare`, `diagnose` and `lab` run.
-#[derive(Debug, Clone)]
-pub struct EffectModel {
-    /// The structure without effects.
-    pub structure: Structure,
-    /// The effects switched on.
-    pub effects: Effects,
-    /// Solver settings.
-    pub settings: RelaxSettings,
-    /// Largest command increment, m.
-    pub increment_m: f64,
-}
-
-impl EffectModel {
-    /// The model as every measurement command (lab, compare, diagnose,
-    /// calibrate) runs it: default solver settings, and commands applied in
-    /// increments of at most 1 cm, the seed's actuation step (a larger step
-    /// is applied in several increments).
-    pub fn for_measurement(structure: Structure, effects: Effects) -> EffectModel {
-        EffectModel {
-            structure,
-            effects,
-            settings: RelaxSettings::default(),
-            increment_m: 0.01,
-        }
-    }
-}
+use crate::model::{DeploymentState, Structure};
 
 /// One cycle to run: commands per step, and the temperature at each step
 /// (step 0 first), °C, where known.
@@ -89,47 +58,6 @@ pub struct Run {
     pub features: Vec<Vec<StepFeatures>>,
 }
 
-/// Why a run stopped.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum ReplayError {
-    /// The effects cannot be applied to the structure.
-    #[error("applying the effects: {0}")]
-    Structure(#[from] StructureError),
-    /// The solver settings are invalid.
-    #[error("{0}")]
-    Settings(#[from] SettingsError),
-    /// The cable-seat arcs did not settle within the re-solves allowed.
-    #[error("cycle {cycle}, step {step}: the cable-seat arcs did not settle ({change_m:.2e} m still changing)")]
-    SeatsUnsettled {
-        /// Cycle index.
-        cycle: usize,
-        /// Step index.
-        step: usize,
-        /// Largest arc change at the last re-solve, m.
-        change_m: f64,
-    },
-    /// A command the model cannot apply.
-    #[error("cycle {cycle}, step {step}: {source}")]
-    Command {
-        /// Cycle index.
-        cycle: usize,
-        /// Step index (1-based, as commands start at step 1).
-        step: usize,
-        /// Cause.
-        source: CommandError,
-    },
-    /// A solve did not converge.
-    #[error("cycle {cycle}, step {step}: {}", .status.describe())]
-    Solver {
-        /// Cycle index.
-        cycle: usize,
-        /// Step index.
-        step: usize,
-        /// Its status.
-        status: RelaxStatus,
-    },
-}
-
 impl EffectModel {
     /// Runs every cycle and returns what the sensors would read (noise-free;
     /// load-cell bias included).
@@ -137,7 +65,7 @@ impl EffectModel {
         &self,
         cycles: &[CycleSchedule],
         sensors: &[Sensor],
-    ) -> Result<Readings, ReplayError> {
+    ) -> Result<Readings, PlantError> {
         Ok(self.run_with_features(cycles, sensors)?.readings)
     }
 
@@ -150,7 +78,7 @@ impl EffectModel {
         &self,
         cycles: &[CycleSchedule],
         sensors: &[Sensor],
-    ) -> Result<Run, ReplayError> {
+    ) -> Result<Run, PlantError> {
         let temperature =
             |cycle: &CycleSchedule, step: usize| cycle.temperature_c.get(step).copied().flatten();
         let start_c = cycles.first().and_then(|c| temperature(c, 0));
@@ -195,31 +123,6 @@ impl EffectModel {
     }
 }
 
-impl ReplayError {
-    /// The same error, placed at `cycle` and `step` (errors of a
-    /// [`Plant`] come at cycle 0 and the plant's own command count).
-    pub fn at(self, cycle: usize, step: usize) -> ReplayError {
-        match self {
-            ReplayError::Command { source, .. } => ReplayError::Command {
-                cycle,
-                step,
-                source,
-            },
-            ReplayError::Solver { status, .. } => ReplayError::Solver {
-                cycle,
-                step,
-                status,
-            },
-            ReplayError::SeatsUnsettled { change_m, .. } => ReplayError::SeatsUnsettled {
-                cycle,
-                step,
-                change_m,
-            },
-            e @ (ReplayError::Structure(_) | ReplayError::Settings(_)) => e,
-        }
-    }
-}
-
 /// Mean interior angle over all joints of all continuous cables, rad.
 fn mean_joint_angle(structure: &Structure, state: &DeploymentState) -> f64 {
     let x = &state.positions_m;
@@ -243,7 +146,7 @@ fn mean_joint_angle(structure: &Structure, state: &DeploymentState) -> f64 {
 mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
-    use crate::model::EffectKind;
+    use crate::model::{EffectKind, Effects, RelaxSettings};
     use crate::sim::SensorTarget;
 
     fn schedule(n: usize) -> Vec<CycleSchedule> {

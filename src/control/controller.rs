@@ -9,7 +9,7 @@
 //!   measured.
 //!
 //! [`super::closed_loop::deploy_closed_loop`] drives it against a truth
-//! plant; a replay ([`crate::studies::replay`]) drives it with a logged
+//! plant; a replay ([`crate::studies::log_replay`]) drives it with a logged
 //! deployment, so the same code decides in both.
 //!
 //! A sent command that is not the controller's own decision (a logged
@@ -28,16 +28,15 @@ use thiserror::Error;
 
 use std::collections::VecDeque;
 
-use super::closed_loop::{filter_force_offsets, model_correction, Guidance};
-use super::correction::ForceOffsetFilter;
 use super::estimation::PayoutScaleEstimator;
-use super::outcome::{PlanError, PlanStatus};
-use super::planner::{folded_start, planner_for, CommandPlanner, Decision, PlanContext};
-use super::planner::{PlannedCommand, Trial};
-use super::policy::{Measurement, Policy};
-use super::problem::DeploymentProblem;
-use super::qp_step::QpStepStatus;
+use super::force_offset_filter::ForceOffsetFilter;
+use super::guidance::Guidance;
+use super::measured_offsets::{filter_force_offsets, model_correction};
 use crate::model::{DeploymentState, ForwardModel};
+use crate::plan::{
+    folded_start, planner_for, CommandPlanner, Decision, DeploymentProblem, Measurement,
+    PlanContext, PlanError, PlanStatus, PlannedCommand, Policy, QpStepStatus, Trial,
+};
 use crate::sim::Sensor;
 
 /// Largest difference per motor between a sent command and the

@@ -1,0 +1,312 @@
+//! The closed-loop deployment: a planner on the controller's model, a
+//! truth plant that stands in for the real bridge, and the sensors
+//! between them.
+//!
+//! The controller never reads the truth's state. It holds its own model
+//! state (the folded start on its model, then each command's confirmed
+//! trial, see [`crate::plan::Trial`]) and, after the start and after
+//! every command, one noisy measurement of the plant. Model and
+//! measurement are reconciled in three ways:
+//! - the payout scale of each bridge half is estimated from the measured
+//!   midspan motion ([`super::estimation`]); commands are sent scaled by
+//!   it, and after each command the model state is re-solved to where the
+//!   command really took the bridge;
+//! - for every quantity the policy [`Policy::measures`], the offset
+//!   measured − predicted is added to every later prediction of it, until
+//!   the next measurement ([`super::measured_offsets::model_correction`], [`crate::plan::correction`]);
+//!   with midspan positions measured, the connection test therefore reads
+//!   the *measured* gaps;
+//! - the load-cell offsets are filtered across measurements
+//!   ([`super::force_offset_filter::ForceOffsetFilter`]), so that one noisy reading
+//!   does not move a force limit.
+//!
+//! The truth is checked too, as a supervisor would on the real bridge:
+//! every increment of every command is checked against the problem's
+//! limits built on the truth's own structure and start ([`super::truth_watch::TruthWatch`]).
+//! A violation does not stop the run (the controller cannot see it); it
+//! is recorded and counted.
+//!
+//! Randomness: the sensor noise only, from one `StdRng` seeded with the
+//! setup's seed and drawn in a fixed order (one measurement of every
+//! sensor per step), so a seed gives the same deployment at any thread
+//! count. Planning times are the only values that are not a function of
+//! the inputs.
+
+use rand::rngs::StdRng;
+use rand::SeedableRng;
+use thiserror::Error;
+
+use super::controller::{Controller, ControllerDecision};
+use super::deployment::{
+    largest, DeployObserver, DeployRecord, DeployStart, Deployment, CORRECTIVE_PHASE_GAP_M,
+};
+use super::guidance::Guidance;
+use super::measured_offsets::measured_gap_vectors;
+use super::truth_watch::TruthWatch;
+use crate::model::{ForwardModel, Structure};
+use crate::plan::limits::{LimitCheck, Limits};
+use crate::plan::{DeploymentProblem, PlanError, PlanStatus, Policy};
+use crate::sim::{EffectModel, Plant, PlantError, Sensor};
+
+/// Everything a closed-loop deployment runs with.
+#[derive(Debug, Clone, Copy)]
+pub struct ClosedLoopSetup<'a> {
+    /// The controller's model: what it plans on.
+    pub model: &'a ForwardModel,
+    /// The problem (start, connection, limits), for controller and truth.
+    pub problem: &'a DeploymentProblem,
+    /// The policy: planner, margins, command budget, what is measured.
+    pub policy: &'a Policy,
+    /// The truth: the structure with the effects the real bridge has.
+    pub truth: &'a EffectModel,
+    /// The sensors read on the truth after the start and every command.
+    pub sensors: &'a [Sensor],
+    /// Air temperature during the deployment, °C (`None`: unknown, the
+    /// truth's reference temperature).
+    pub temperature_c: Option<f64>,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+}
+
+/// Why a deployment could not start.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum DeployError {
+    /// The problem, policy or controller model is unusable (or the model
+    /// cannot reach the folded start).
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+    /// The truth cannot be built or cannot reach the folded start.
+    #[error("the truth plant, reaching the folded start: {0}")]
+    TruthStart(PlantError),
+    /// The controller's model and the truth are not the same bridge.
+    #[error("the controller's model and the truth differ: {0}")]
+    Mismatch(String),
+}
+
+/// Refuses a truth that is not the controller's bridge: the same nodes,
+/// continuous cables (segment for segment) and midspan pairs, so that
+/// commands, sensors and gaps mean the same on both.
+fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployError> {
+    let mismatch = |what: String| Err(DeployError::Mismatch(what));
+    if model.nodes.len() != truth.nodes.len() {
+        return mismatch(format!(
+            "{} nodes in the model, {} in the truth",
+            model.nodes.len(),
+            truth.nodes.len()
+        ));
+    }
+    let cables = |s: &Structure| -> Vec<(String, usize)> {
+        s.continuous_cables
+            .iter()
+            .map(|c| (c.id.clone(), c.segment_count()))
+            .collect()
+    };
+    if cables(model) != cables(truth) {
+        return mismatch("the continuous cables (ids or segment counts) differ".into());
+    }
+    if model.midspan_pairs != truth.midspan_pairs {
+        return mismatch("the midspan pairs differ".into());
+    }
+    Ok(())
+}
+
+/// Deploys the truth from the folded start in closed loop: plan on the
+/// model, send to the truth, measure, correct the model's predictions,
+/// until the measured gaps are within the connection tolerance less the
+/// policy's margin, the command budget is spent or the planner stops.
+///
+/// Errors only when the run cannot start; a failure during the run (a
+/// solver, the truth plant) ends it with a status saying so.
+pub fn deploy_closed_loop(
+    setup: &ClosedLoopSetup,
+    observer: &mut dyn DeployObserver,
+) -> Result<Deployment, DeployError> {
+    deploy_guided(setup, &Guidance::default(), None, observer)
+}
+
+/// [`deploy_closed_loop`] with `guidance` from past cycles, on `plant`
+/// where given (a truth as a previous cycle's fold left it; it is left
+/// where this deployment ends) or else on a fresh fold of the setup's
+/// truth.
+pub fn deploy_guided(
+    setup: &ClosedLoopSetup,
+    guidance: &Guidance,
+    plant: Option<&mut Plant>,
+    observer: &mut dyn DeployObserver,
+) -> Result<Deployment, DeployError> {
+    let (model, policy) = (setup.model, setup.policy);
+    let s = model.structure();
+    check_same_bridge(s, &setup.truth.structure)?;
+    let motors = setup
+        .problem
+        .motor_limits(s.continuous_cables.len())
+        .map_err(PlanError::from)?;
+    let mut fresh_plant;
+    let plant = match plant {
+        Some(p) => p,
+        None => {
+            fresh_plant = Plant::new(
+                setup.truth,
+                Some(&motors.start_payout_m),
+                setup.temperature_c,
+            )
+            .map_err(DeployError::TruthStart)?;
+            &mut fresh_plant
+        }
+    };
+    // The temperature holds for the whole deployment, so the truth's
+    // model is the same after every command: one copy serves the watch.
+    let truth_model = plant.model().clone();
+    let truth_limits = Limits::new(&truth_model, setup.problem, plant.state());
+    let truth_structure = truth_model.structure();
+
+    let mut rng = StdRng::seed_from_u64(setup.seed);
+    let first = plant.measure(setup.sensors, &mut rng);
+    let mut controller = Controller::guided(
+        model,
+        setup.problem,
+        policy,
+        setup.sensors,
+        &first,
+        guidance,
+    )?;
+    let gaps = |readings: &[Option<f64>]| -> Vec<Option<f64>> {
+        measured_gap_vectors(truth_structure, setup.sensors, readings)
+            .iter()
+            .map(|g| g.map(|g| g.norm()))
+            .collect()
+    };
+    let start = DeployStart {
+        start_payout_m: motors.start_payout_m.clone(),
+        model_gaps_m: controller.state().midspan_gaps_m(s),
+        measured_gaps_m: gaps(&first),
+        true_gaps_m: plant.state().midspan_gaps_m(truth_structure),
+        max_commands: policy.max_commands,
+    };
+    observer.on_start(&start);
+    let mut readings = vec![first];
+    let start_true_state = plant.state().clone();
+
+    let mut records: Vec<DeployRecord> = Vec::new();
+    let status = loop {
+        let p = match controller.decide() {
+            ControllerDecision::Stop(status) => break status,
+            ControllerDecision::Send(p) => p,
+        };
+        let index = records.len() + 1;
+        let mut watch = TruthWatch::new(&truth_model, &truth_limits);
+        let report = plant.apply(&p.sent_m, setup.temperature_c, &mut watch);
+        if let Err(e) = report {
+            break PlanStatus::SolverFailure {
+                reason: format!("the truth plant failed on command {index}: {e}"),
+            };
+        }
+        let truth_increments = watch.increments;
+        let check = watch.worst.unwrap_or_else(|| LimitCheck {
+            worst_utilisation: 0.0,
+            min_tension_n: f64::INFINITY,
+            min_clearance_m: f64::INFINITY,
+            violations: Vec::new(),
+        });
+        let reading = plant.measure(setup.sensors, &mut rng);
+        // The controller's own decision: its trial is the prediction, so
+        // this cannot fail to follow; a failure would be a bug, reported
+        // as the run's end rather than a panic.
+        if let Err(e) = controller.observe(&p.sent_m, &reading) {
+            break PlanStatus::SolverFailure {
+                reason: format!("command {index}: {e}"),
+            };
+        }
+        let record = DeployRecord {
+            index,
+            command_m: p.sent_m,
+            predicted_gaps_m: p.predicted_gaps_m,
+            measured_gaps_m: gaps(&reading),
+            true_gaps_m: plant.state().midspan_gaps_m(truth_structure),
+            truth_worst_utilisation: check.worst_utilisation,
+            truth_min_tension_n: check.min_tension_n,
+            truth_violations: check.violations,
+            truth_increments,
+            truth_increments_checked: watch.checked,
+            model_worst_utilisation: p.model_worst_utilisation,
+            qp_status: p.qp_status,
+            trust_region_m: p.trust_region_m,
+            rejected_trials: p.rejected_trials,
+            active_constraints: p.active_constraints,
+            planning_time_s: p.planning_time_s,
+        };
+        observer.on_command(&record);
+        records.push(record);
+        readings.push(reading);
+    };
+
+    let first_below_corrective_gap =
+        if largest(&start.measured_gaps_m).is_some_and(|g| g < CORRECTIVE_PHASE_GAP_M) {
+            Some(0)
+        } else {
+            records
+                .iter()
+                .find(|r| {
+                    r.largest_measured_gap_m()
+                        .is_some_and(|g| g < CORRECTIVE_PHASE_GAP_M)
+                })
+                .map(|r| r.index)
+        };
+    Ok(Deployment {
+        approach_commands: controller.approach_commands(),
+        final_payout_scale: controller.part_payout_scale(),
+        status,
+        truth_limit_violations: records.iter().map(|r| r.truth_violations.len()).sum(),
+        corrective_commands: first_below_corrective_gap.map(|k| records.len() - k),
+        first_below_corrective_gap,
+        start,
+        records,
+        readings,
+        start_true_state,
+        final_true_state: plant.state().clone(),
+        final_model_state: controller.into_state(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::fixtures::{frictionless_model, short_fold};
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::sim::{default_truth, standard_sensors};
+
+    #[test]
+    fn a_truth_that_cannot_fold_or_is_another_bridge_is_an_error_not_a_panic() {
+        let model = frictionless_model();
+        let problem = short_fold();
+        let policy = Policy::default();
+        let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+        let sensors = standard_sensors(&structure);
+        let setup = |truth| ClosedLoopSetup {
+            model: &model,
+            problem: &problem,
+            policy: &policy,
+            truth,
+            sensors: &sensors,
+            temperature_c: None,
+            seed: 1,
+        };
+        // One DR iteration per solve: the as-built state is an
+        // equilibrium, the fold is not reached.
+        let mut stiff = default_truth(structure.clone());
+        stiff.settings.max_iter = 1;
+        let e = deploy_closed_loop(&setup(&stiff), &mut ()).unwrap_err();
+        assert!(
+            matches!(e, DeployError::TruthStart(PlantError::Solver { .. })),
+            "{e:?}"
+        );
+        let mut other = default_truth(structure);
+        other.structure.midspan_pairs.swap(0, 1);
+        let e = deploy_closed_loop(&setup(&other), &mut ()).unwrap_err();
+        assert_eq!(
+            e,
+            DeployError::Mismatch("the midspan pairs differ".into()),
+            "{e}"
+        );
+    }
+}

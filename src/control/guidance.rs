@@ -1,0 +1,22 @@
+//! What past cycles tell a deployment: the learnt approach to send first
+//! and the payout-scale prior (from the case memory, `crate::learn`).
+
+/// What past cycles tell a deployment (from the case memory, see
+/// `crate::learn`). The default is no guidance: the memoryless controller.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Guidance {
+    /// Drum commands to send first, in order, m per motor: the learnt
+    /// approach. Each is tried on the controller's model before it is sent
+    /// (as cable motion `sent·(1 + ŝ)`); the first the model finds beyond
+    /// a limit or a motor's stroke ends the feedforward, and the planner
+    /// takes over. The connection test waits until the feedforward is sent
+    /// unless the next feedforward command is predicted not to reduce the
+    /// largest gap.
+    pub feedforward_m: Vec<Vec<f64>>,
+    /// Payout scale per independent part to start the estimator from
+    /// (index = part id), 1; `None`: start at 0.
+    pub payout_scale_prior: Option<Vec<f64>>,
+    /// Standard deviation of that prior, 1 (used with `payout_scale_prior`;
+    /// 0 or less: the policy's own prior).
+    pub payout_scale_prior_sd: f64,
+}

@@ -1,0 +1,67 @@
+//! Control: what runs against a plant, simulated or real. The controller
+//! plans each command with a planner of `crate::plan` on its model, sends
+//! it, reads the sensors and reconciles its model with what they say.
+//!
+//! - [`controller`]: the controller alone (decide, observe), separable
+//!   from the plant;
+//! - [`estimation`]: how far the cables really moved (payout scale per
+//!   bridge half, from the measured motion);
+//! - [`measured_offsets`]: a measurement turned into the correction of
+//!   the model's predictions; [`force_offset_filter`]: the load-cell
+//!   offsets smoothed across measurements;
+//! - [`guidance`]: what past cycles tell a deployment;
+//! - [`closed_loop`]: a deployment of a truth plant, planned on the model
+//!   and corrected by measurements after every command;
+//!   [`truth_watch`]: the truth's supervisor; [`deployment`]: the records
+//!   a deployment produces and its observer.
+//!
+//! Pure numerics: a closed-loop deployment is a function of the model,
+//! problem, policy, truth and noise seed (planning times aside).
+
+pub mod closed_loop;
+pub mod controller;
+pub mod deployment;
+pub mod estimation;
+pub mod force_offset_filter;
+pub mod guidance;
+pub mod measured_offsets;
+pub mod truth_watch;
+
+pub use closed_loop::{deploy_closed_loop, deploy_guided, ClosedLoopSetup, DeployError};
+pub use controller::{
+    Controller, ControllerDecision, ControllerError, Observation, Proposal, OWN_COMMAND_TOLERANCE_M,
+};
+pub use deployment::{
+    DeployObserver, DeployRecord, DeployStart, Deployment, CORRECTIVE_PHASE_GAP_M,
+};
+pub use estimation::PayoutScaleEstimator;
+pub use force_offset_filter::ForceOffsetFilter;
+pub use guidance::Guidance;
+pub use measured_offsets::{measured_gap_vectors, model_correction};
+pub use truth_watch::TruthWatch;
+
+/// Fixtures shared by the control layer's unit tests.
+#[cfg(test)]
+mod fixtures {
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::{ForwardModel, JointFriction, RelaxSettings};
+    use crate::plan::{DeploymentProblem, PerMotor};
+
+    /// The reference bridge without friction, default solver settings.
+    pub fn frictionless_model() -> ForwardModel {
+        ForwardModel::new(
+            reference_bridge(&BridgeParameters::default()).unwrap(),
+            JointFriction::frictionless(),
+            RelaxSettings::default(),
+        )
+        .unwrap()
+    }
+
+    /// A 10 cm fold: a few increments, so tests on it take a second.
+    pub fn short_fold() -> DeploymentProblem {
+        DeploymentProblem {
+            start_payout_m: PerMotor::All(0.10),
+            ..DeploymentProblem::default()
+        }
+    }
+}
