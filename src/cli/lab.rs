@@ -9,8 +9,9 @@ use tensegrity_deploy::io::experiment_file::PAYOUT_RANGE_M;
 use tensegrity_deploy::io::log::write_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::output::{check_absent, ResultsFolder, RESULTS_MARKER};
-use tensegrity_deploy::io::{write_atomically, NumberRange};
+use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles};
+use tensegrity_deploy::numerics::NumberRange;
 use tensegrity_deploy::sim::standard_sensors;
 
 use super::{number_in, replay_stopped, value, Outcome};

@@ -58,8 +58,8 @@ use std::process::ExitCode;
 use anyhow::{anyhow, bail, Result};
 use clap::{ArgMatches, Command};
 
-use tensegrity_deploy::io::NumberRange;
 use tensegrity_deploy::model::effects::ParameterSpec;
+use tensegrity_deploy::numerics::NumberRange;
 use tensegrity_deploy::sim::PlantError;
 
 /// How a command that ran to its end came out. Errors (bad input, I/O)

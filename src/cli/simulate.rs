@@ -14,12 +14,13 @@ use tensegrity_deploy::io::friction_table::read_friction_table;
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::results::{write_simulation, StepRecord};
 use tensegrity_deploy::io::structure_file::read_structure;
-use tensegrity_deploy::io::{write_atomically, NumberRange};
+use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::model::{
     AngleConvention, CommandError, CommandReport, DeploymentState, ForwardModel,
     FrictionCoefficient, IncrementObserver, JointFriction, RelaxReport, RelaxSettings, RelaxStatus,
     Structure, Workspace,
 };
+use tensegrity_deploy::numerics::NumberRange;
 use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
 
 use super::{number_in, value, Outcome};

@@ -25,8 +25,9 @@
 use std::path::Path;
 
 use super::toml_text::{field_error, parse_toml};
-use super::{FileError, NumberRange};
+use super::FileError;
 use crate::design::{BridgeParameters, MAX_MODULES_PER_HALF};
+use crate::numerics::NumberRange;
 
 /// The admissible range of every real-valued parameter, by key.
 pub const RANGES: [(&str, NumberRange); 21] = [

@@ -22,9 +22,10 @@
 
 use std::path::Path;
 
-use super::{CsvTable, FileError, NumberRange};
+use super::{CsvTable, FileError};
 use crate::model::solver::command::{increments_needed, MAX_INCREMENTS_PER_COMMAND};
 use crate::model::Structure;
+use crate::numerics::NumberRange;
 
 /// The header a command file must have.
 pub const COMMAND_HEADER: [&str; 3] = ["step", "cable", "payout_change_m"];
@@ -154,9 +155,9 @@ pub fn check_increments(
                 format!("step {label}"),
                 format!(
                     "a payout change of {} m in increments of at most {} m needs {} increments, over the limit of {MAX_INCREMENTS_PER_COMMAND} per step (use a larger increment or split the step)",
-                    super::number_range::compact(largest),
-                    super::number_range::compact(max_increment_m),
-                    super::number_range::compact(needed)
+                    crate::numerics::range::compact(largest),
+                    crate::numerics::range::compact(max_increment_m),
+                    crate::numerics::range::compact(needed)
                 ),
             ));
         }

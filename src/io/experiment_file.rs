@@ -63,8 +63,9 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::toml_text::{field_error, parse_toml};
-use super::{FileError, NumberRange};
+use super::FileError;
 use crate::model::{AngleConvention, EffectKind, Effects};
+use crate::numerics::NumberRange;
 
 /// Range of a friction coefficient μ: beyond 2 no cable seat is plausible.
 pub const MU_RANGE: NumberRange = NumberRange::non_negative_up_to(2.0);

@@ -33,9 +33,10 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use super::toml_text::parse_toml;
-use super::{csv_records, csv_with_header, write_atomically, CsvTable, FileError, NumberRange};
+use super::{csv_records, csv_with_header, write_atomically, CsvTable, FileError};
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::Structure;
+use crate::numerics::NumberRange;
 use crate::sim::{Sensor, SensorTarget};
 
 /// The `format` a log must declare.

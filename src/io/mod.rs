@@ -14,7 +14,6 @@ pub mod friction_table;
 pub mod log;
 pub mod memory_file;
 pub mod model_file;
-pub mod number_range;
 pub mod output;
 pub mod policy_file;
 pub mod problem_file;
@@ -23,7 +22,6 @@ pub mod structure_file;
 mod toml_text;
 
 pub use csv_table::CsvTable;
-pub use number_range::NumberRange;
 
 use std::path::{Path, PathBuf};
 

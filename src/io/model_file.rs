@@ -46,9 +46,10 @@ use serde::{Deserialize, Serialize};
 
 use super::structure_file::read_structure;
 use super::toml_text::{field_error, parse_toml};
-use super::{write_atomically, FileError, NumberRange};
+use super::{write_atomically, FileError};
 use crate::design::{reference_bridge, BridgeParameters};
 use crate::model::{Effects, Structure};
+use crate::numerics::NumberRange;
 use crate::sim::EffectModel;
 
 /// The `format` a model file must declare.

@@ -30,8 +30,9 @@ use std::path::Path;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::{write_atomically, FileError, NumberRange};
+use super::{write_atomically, FileError};
 use crate::model::{ContinuousCable, Member, MemberKind, Node, Structure};
+use crate::numerics::NumberRange;
 
 /// The format tag this version writes and reads.
 pub const STRUCTURE_FORMAT: &str = "tensegrity-deploy/structure/1";

@@ -7,9 +7,11 @@ pub mod block_lu;
 pub mod block_matrix;
 pub mod dofs;
 pub mod qp;
+pub mod range;
 pub mod sparse_block;
 
 pub use block_lu::BlockLu;
 pub use block_matrix::{BlockLayout, BlockMatrix, MatrixAssembly};
 pub use dofs::FreeDofs;
+pub use range::NumberRange;
 pub use sparse_block::BlockPattern;

@@ -1,5 +1,7 @@
-//! The range a number in a file (or on the command line) must lie in,
-//! stated once so that the check and its message agree.
+//! The range a number must lie in (a settings field, a value in a file or
+//! on the command line), stated once beside what it bounds so that the
+//! check and its message agree. Every settings struct declares its
+//! fields' ranges with this type and checks them in its `validate()`.
 
 use std::fmt;
 
@@ -49,6 +51,11 @@ impl NumberRange {
         value.is_finite() && above && value <= self.max
     }
 
+    /// `[min, max]` for a count (`check_count` reads it as whole numbers).
+    pub const fn count(min: usize, max: usize) -> Self {
+        NumberRange::closed(min as f64, max as f64)
+    }
+
     /// `Ok` if `value` lies in the range, else the sentence saying so, e.g.
     /// `must be a finite number in (0, 0.1], got -1`.
     pub fn check(&self, value: f64) -> Result<(), String> {
@@ -59,6 +66,18 @@ impl NumberRange {
                 "must be a finite number in {self}, got {}",
                 compact(value)
             ))
+        }
+    }
+}
+
+impl NumberRange {
+    /// `Ok` if the count `value` lies in the range, else the sentence
+    /// saying so, e.g. `must be a whole number in [1, 10000], got 0`.
+    pub fn check_count(&self, value: usize) -> Result<(), String> {
+        if self.contains(value as f64) {
+            Ok(())
+        } else {
+            Err(format!("must be a whole number in {self}, got {value}"))
         }
     }
 }
@@ -103,5 +122,11 @@ mod tests {
         );
         assert_eq!(compact(-0.0), "-0");
         assert_eq!(compact(1.5e-7), "1.5e-7");
+        let n = NumberRange::count(1, 10_000);
+        assert!(n.check_count(1).is_ok() && n.check_count(10_000).is_ok());
+        assert_eq!(
+            n.check_count(0).unwrap_err(),
+            "must be a whole number in [1, 10000], got 0"
+        );
     }
 }
