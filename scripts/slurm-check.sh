@@ -18,8 +18,8 @@
 #   scripts/slurm-check.sh            # 6 scenarios, 3 shards (~1 minute)
 #   SLURM_CHECK_SCENARIOS=30 SLURM_CHECK_SHARDS=5 scripts/slurm-check.sh
 #
-# On a real cluster the job array is the same (see README.md "Policy
-# evaluation"): one `tdeploy evaluate --shard $SLURM_ARRAY_TASK_ID/n` per
+# On a real cluster the job array is the same (see docs/user-guide.md
+# "Policy evaluation"): one `tdeploy evaluate --shard $SLURM_ARRAY_TASK_ID/n` per
 # task into its own folder, then `tdeploy merge` of the folders.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -15,8 +15,7 @@
 //! `cargo test --release --test fuzz_parsers` runs a smoke run of
 //! [`SMOKE_CASES`] inputs per target from a fixed seed (a few seconds in
 //! all). A longer run: `FUZZ_CASES=100000 cargo test --release --test
-//! fuzz_parsers` (and `FUZZ_SEED=N` for other inputs); see README.md,
-//! "Hardening".
+//! fuzz_parsers` (and `FUZZ_SEED=N` for other inputs); see docs/hardening.md.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};

@@ -189,7 +189,8 @@ pub struct MemorySettings {
     /// unbounded, 1 with 5 mm, 0 with 4 mm and 3 mm; below 4 mm the
     /// default truth learns more slowly (true gap 4.4 mm at cycle 5 with
     /// 3 mm, 3.4 mm with 4 mm). Seeds 2 and 3, not used to choose it:
-    /// 3 of 40 runs each still break a limit at 4 mm (README).
+    /// 3 of 40 runs each still break a limit at 4 mm (docs/controller.md,
+    /// "The trust region and the spread bound").
     pub ilc_max_change_m: f64,
     /// Largest difference between the updated total payout changes of two
     /// motors of one bridge half (one independent part), m: the ILC update
@@ -205,7 +206,7 @@ pub struct MemorySettings {
     /// violations on seeds 1–4 with 1 mm (seed 4 held out), 3–4 on
     /// seeds 2 and 3 without the bound; 2 mm still slackens the cable on
     /// seed 2 scenario 15. The default truth learns as without it
-    /// (README, "Case memory").
+    /// (docs/controller.md, "The case memory").
     pub ilc_max_spread_m: f64,
     /// Standard deviation of the payout-scale prior taken from the case
     /// (dimensionless). Default 0.01: the spread of the estimate between
@@ -265,7 +266,7 @@ pub struct Policy {
     /// stiffer or softer members), so a command the model ends at 70 N
     /// left them at 0 N (seed 4 scenario 10, seed 1 scenario 904). The
     /// QP rows alone did not prevent it (β up to 1); the trial check did
-    /// at every β tried, 0.4 the smallest (README, "Deployment").
+    /// at every β tried, 0.4 the smallest (docs/controller.md, "Margins").
     pub unmeasured_force_fall_margin: f64,
     /// Margin on the strut clearance in the QP, m. Default 0.002.
     pub clearance_margin_m: f64,
