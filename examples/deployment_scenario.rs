@@ -2,8 +2,8 @@
 //! what happened at every command: the tool for finding out why a
 //! scenario failed.
 //!
-//! `cargo run --release --example deployment_scenario -- POLICY SEED [--cycles N] SCENARIO...`
-//! (the scenarios of `tdeploy evaluate`: the default distribution, each
+//! `cargo run --release --example deployment_scenario -- POLICY SEED [--cycles N] [--distribution D.toml] SCENARIO...`
+//! (the scenarios of `tdeploy evaluate`: the default distribution or D, each
 //! scenario's fold, sensors and temperature; the controller plans on the
 //! frictionless model). With `--cycles N` every scenario runs N
 //! deployment-fold cycles as `tdeploy evaluate --cycles N` does, and each
@@ -11,6 +11,7 @@
 
 use tensegrity_deploy::control::{deploy_closed_loop, Deployment};
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::io::evaluation_files::read_distribution;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
@@ -35,8 +36,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         cycles = args.get(k + 1).ok_or("--cycles needs a number")?.parse()?;
         args.drain(k..k + 2);
     }
+    let mut distribution = ScenarioDistribution::default();
+    if let Some(k) = args.iter().position(|a| a == "--distribution") {
+        let path = args.get(k + 1).ok_or("--distribution needs a file")?;
+        distribution = read_distribution(std::path::Path::new(path))?;
+        args.drain(k..k + 2);
+    }
     if args.len() < 3 {
-        return Err("usage: POLICY SEED [--cycles N] SCENARIO...".into());
+        return Err(
+            "usage: POLICY SEED [--cycles N] [--distribution D.toml] SCENARIO...".into(),
+        );
     }
     let policy = read_policy(std::path::Path::new(&args[0]))?;
     let seed: u64 = args[1].parse()?;
@@ -49,7 +58,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         JointFriction::frictionless(),
         RelaxSettings::default(),
     )?;
-    let distribution = ScenarioDistribution::default();
     let base_problem = DeploymentProblem::default();
     for s in wanted.iter().map(|&i| distribution.draw(seed, i)) {
         println!("== scenario {} effects {:?}", s.index, s.effects);
