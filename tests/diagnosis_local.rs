@@ -250,7 +250,8 @@ fn rare_spikes_are_named_as_outliers_not_structure() {
     // Taken as they are, they fail the per-sensor tests (the control: the
     // rule, not the seed, makes the verdict below).
     let raw = compare(&baseline(), &spiky).unwrap();
-    assert!(evidence(&raw, &spiky.sensors).any_significant());
+    let noise = DiagnoseSettings::default().noise;
+    assert!(evidence(&raw, &spiky.sensors, &noise).any_significant());
     let d = diagnose(&baseline(), &spiky, &DiagnoseSettings::default()).unwrap();
     let mut named: Vec<(usize, usize, usize)> = d
         .outliers

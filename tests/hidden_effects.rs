@@ -12,9 +12,7 @@ use rand::{Rng, SeedableRng};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::measure::compare::noise_rms_limit;
-use tensegrity_deploy::measure::diagnose::{
-    diagnose, part, DiagnoseSettings, Verdict, EXPLAINED_RMS,
-};
+use tensegrity_deploy::measure::diagnose::{diagnose, part, DiagnoseSettings, Verdict};
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
 use tensegrity_deploy::measure::local::Term;
 use tensegrity_deploy::measure::log::MeasurementLog;
@@ -80,7 +78,11 @@ fn hidden_effect_is_found(kind: EffectKind, seed: u64) {
     );
     let log = lab_log(&truth, seed);
     let baseline = model(bridge(), Effects::default());
-    let d = diagnose(&baseline, &log, &DiagnoseSettings { max_rounds: 1 }).unwrap();
+    let settings = DiagnoseSettings {
+        max_rounds: 1,
+        ..DiagnoseSettings::default()
+    };
+    let d = diagnose(&baseline, &log, &settings).unwrap();
     let round = &d.rounds[0];
     let best = &round.ranking[0];
     assert_eq!(
@@ -94,7 +96,7 @@ fn hidden_effect_is_found(kind: EffectKind, seed: u64) {
             .collect::<Vec<_>>()
     );
     assert!(
-        best.held_out_rms <= EXPLAINED_RMS,
+        best.held_out_rms <= settings.explained_rms,
         "held-out RMS {} σ (model without it: {} σ)",
         best.held_out_rms,
         round.base_held_out_rms
@@ -231,9 +233,10 @@ fn a_strut_too_long_is_a_structured_residual_no_candidate_explains() {
     match &d.verdict {
         // What is left is structure, not noise.
         Verdict::Unexplained { held_out_rms, .. } => {
-            let held = part(&d.final_comparison, log.cycles.len(), true);
+            let settings = DiagnoseSettings::default();
+            let held = part(&d.final_comparison, log.cycles.len(), true, &settings);
             assert!(
-                *held_out_rms > noise_rms_limit(held.overall.count),
+                *held_out_rms > noise_rms_limit(held.overall.count, &settings.noise),
                 "{held_out_rms}"
             )
         }

@@ -9,7 +9,7 @@ use clap::{value_parser, Arg, ArgMatches, Command};
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::{read_model, write_new_model, ModelFile};
 use tensegrity_deploy::measure::compare::compare;
-use tensegrity_deploy::measure::diagnose::{fit_candidate, part};
+use tensegrity_deploy::measure::diagnose::{fit_candidate, part, DiagnoseSettings};
 use tensegrity_deploy::model::EffectKind;
 
 use super::{fitted_parameter, replay_stopped, value, Outcome};
@@ -68,9 +68,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let log = read_log(&o.log, &model.structure)?;
     let name = o.add.name();
     let context = || format!("fitting {name} to {}", o.log.display());
+    let settings = DiagnoseSettings::default();
     let fitted = compare(&model, &log).and_then(|all| {
-        let before = part(&all, log.cycles.len(), true);
-        fit_candidate(&model, model.effects, o.add, &log).map(|c| (before, c))
+        let before = part(&all, log.cycles.len(), true, &settings);
+        fit_candidate(&model, model.effects, o.add, &log, &settings).map(|c| (before, c))
     });
     let (before, c) = match fitted {
         Ok(fitted) => fitted,

@@ -24,7 +24,8 @@ use tensegrity_deploy::measure::compare::{compare as compare_runs, Comparison};
 use tensegrity_deploy::measure::comparison_verdict::{verdict, ComparisonVerdict, WhereItFails};
 use tensegrity_deploy::measure::evidence::{evidence, Evidence, NoiseTest, Statistic, Subject};
 use tensegrity_deploy::measure::log::MeasurementLog;
-use tensegrity_deploy::measure::outliers::{drop_outliers, find_outliers, Outlier, OUTLIER_LIMIT};
+use tensegrity_deploy::measure::outliers::{drop_outliers, find_outliers, Outlier};
+use tensegrity_deploy::measure::settings::{DiagnoseSettings, OutlierSettings};
 use tensegrity_deploy::report::figures::{
     measured_vs_predicted_svg, residuals_over_steps_svg, residuals_vs_features_svg,
 };
@@ -97,12 +98,14 @@ pub fn run(o: &Options) -> Result<Outcome> {
             return replay_stopped(e, context);
         }
     };
-    // Outliers are named and left out of the tests, not taken as structure.
-    let outliers = find_outliers(&c, log.sensors.len());
+    // Outliers are named and left out of the tests, not taken as structure;
+    // noise and outliers are what diagnose takes them to be by default.
+    let settings = DiagnoseSettings::default();
+    let outliers = find_outliers(&c, log.sensors.len(), &settings.outliers);
     let tested = drop_outliers(&c, &outliers, log.sensors.len());
-    let e = evidence(&tested, &log.sensors);
-    let v = verdict(&tested, &e);
-    if let Some(words) = outliers_in_words(&log, &outliers) {
+    let e = evidence(&tested, &log.sensors, &settings.noise);
+    let v = verdict(&tested, &e, &settings.noise);
+    if let Some(words) = outliers_in_words(&log, &outliers, &settings.outliers) {
         say!("{words}");
     }
     print_tables(&log, &c, &e, &v);
@@ -140,8 +143,13 @@ pub fn run(o: &Options) -> Result<Outcome> {
     Ok(Outcome::GoalReached)
 }
 
-/// A sentence naming the `outliers` of `log` (`None` if there are none).
-pub fn outliers_in_words(log: &MeasurementLog, outliers: &[Outlier]) -> Option<String> {
+/// A sentence naming the `outliers` of `log`, found with `settings`
+/// (`None` if there are none).
+pub fn outliers_in_words(
+    log: &MeasurementLog,
+    outliers: &[Outlier],
+    settings: &OutlierSettings,
+) -> Option<String> {
     if outliers.is_empty() {
         return None;
     }
@@ -162,8 +170,9 @@ pub fn outliers_in_words(log: &MeasurementLog, outliers: &[Outlier]) -> Option<S
         })
         .collect();
     Some(format!(
-        "outliers: {} reading(s) beyond {OUTLIER_LIMIT} robust SDs of their sensor's median, left out of the tests: {}",
+        "outliers: {} reading(s) beyond {} robust SDs of their sensor's median, left out of the tests: {}",
         outliers.len(),
+        settings.limit_robust_sds,
         named.join(", ")
     ))
 }

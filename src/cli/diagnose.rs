@@ -65,7 +65,10 @@ impl Options {
         Ok(Options {
             model: value(m, "model")?,
             log: value(m, "log")?,
-            settings: DiagnoseSettings { max_rounds },
+            settings: DiagnoseSettings {
+                max_rounds,
+                ..DiagnoseSettings::default()
+            },
             json: m.get_one::<PathBuf>("json").cloned(),
             force: m.get_flag("force"),
         })
@@ -103,8 +106,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
             return replay_stopped(e, format!("diagnosing {}", o.log.display()))
         }
         Err(DiagnoseError::Log(e)) => anyhow::bail!("{}: {e}", o.log.display()),
+        Err(DiagnoseError::Settings(e)) => anyhow::bail!("{e}"),
     };
-    if let Some(words) = outliers_in_words(&log, &d.outliers) {
+    if let Some(words) = outliers_in_words(&log, &d.outliers, &o.settings.outliers) {
         say!("{words}; removed before the search");
     }
     for (i, round) in d.rounds.iter().enumerate() {

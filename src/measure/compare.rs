@@ -8,6 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::measure::log::MeasurementLog;
+use crate::measure::settings::NoiseSettings;
 use crate::sim::SensorTarget;
 
 use crate::sim::{CycleSchedule, EffectModel, PlantError, Run, StepFeatures};
@@ -137,7 +138,9 @@ pub struct Comparison {
 
 /// The candidate explanatory features, by name, of a residual: the model
 /// state, the prediction, and the log's clock (step index since the log
-/// started, and cycle), so that a trend over the log is seen as one.
+/// started, and cycle), so that a trend over the log is seen as one. What
+/// a residual is correlated with, fixed by what a log holds: not a
+/// setting.
 pub const FEATURES: [&str; 7] = [
     "payout_m",
     "command_m",
@@ -217,10 +220,11 @@ impl Comparison {
 }
 
 /// The largest RMS of `z` that `n` readings of pure sensor noise reach
-/// but for a one-in-30 000 chance: four sampling SDs above 1 (the RMS of
-/// `n` standard normal draws has SD ≈ 1/√(2n)).
-pub fn noise_rms_limit(n: usize) -> f64 {
-    1.0 + 4.0 / (2.0 * n.max(1) as f64).sqrt()
+/// but for a small chance: [`NoiseSettings::rms_limit_sds`] sampling SDs
+/// above 1 (the RMS of `n` standard normal draws has SD ≈ 1/√(2n)); at
+/// the default four, a one-in-30 000 chance.
+pub fn noise_rms_limit(n: usize, settings: &NoiseSettings) -> f64 {
+    1.0 + settings.rms_limit_sds / (2.0 * n.max(1) as f64).sqrt()
 }
 
 /// The log's cycles as a schedule for the model: its commands, and the
@@ -455,7 +459,7 @@ mod tests {
         assert_eq!(w.feature.as_deref(), Some("payout_m"));
         assert!((w.correlation - 1.0).abs() < 1e-12);
         assert!(matches!(
-            verdict(&c, &Evidence::default()),
+            verdict(&c, &Evidence::default(), &NoiseSettings::default()),
             ComparisonVerdict::Fails(_)
         ));
         let empty = Comparison {
@@ -465,7 +469,7 @@ mod tests {
             overall: Stats::default(),
         };
         assert_eq!(
-            verdict(&empty, &Evidence::default()),
+            verdict(&empty, &Evidence::default(), &NoiseSettings::default()),
             ComparisonVerdict::NoReadings
         );
     }
@@ -478,10 +482,10 @@ mod tests {
         c.overall = Stats::of(c.residuals.iter().map(|r| r.z));
         // z = ±0.5: RMS 0.5, below the limit 1 + 4/√(2·20).
         assert_eq!(
-            verdict(&c, &Evidence::default()),
+            verdict(&c, &Evidence::default(), &NoiseSettings::default()),
             ComparisonVerdict::Noise {
                 rms_z: 0.5,
-                limit: noise_rms_limit(20)
+                limit: noise_rms_limit(20, &NoiseSettings::default())
             }
         );
         // The same RMS with one sensor test rejecting noise is a failure.
@@ -495,7 +499,7 @@ mod tests {
             significant: true,
         });
         assert!(
-            matches!(verdict(&c, &e), ComparisonVerdict::Fails(w) if w.sensor == 0 && w.significant_tests == 1)
+            matches!(verdict(&c, &e, &NoiseSettings::default()), ComparisonVerdict::Fails(w) if w.sensor == 0 && w.significant_tests == 1)
         );
     }
 

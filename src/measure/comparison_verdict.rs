@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::compare::{noise_rms_limit, Comparison, Direction, FEATURES};
 use super::evidence::{Evidence, Subject};
+use super::settings::NoiseSettings;
 
 /// What a comparison says in the end: the residuals are sensor noise, or
 /// where the model fails.
@@ -55,11 +56,11 @@ pub struct WhereItFails {
 }
 
 /// The comparison's verdict: noise when the overall RMS of `z` is within
-/// [`noise_rms_limit`] and no test of `evidence` (the comparison's
-/// [`evidence`](super::evidence::evidence)) rejects noise, else
-/// [`where_it_fails`].
-pub fn verdict(c: &Comparison, evidence: &Evidence) -> ComparisonVerdict {
-    let limit = noise_rms_limit(c.overall.count);
+/// [`noise_rms_limit`] (of `settings`) and no test of `evidence` (the
+/// comparison's [`evidence`](super::evidence::evidence)) rejects noise,
+/// else [`where_it_fails`].
+pub fn verdict(c: &Comparison, evidence: &Evidence, settings: &NoiseSettings) -> ComparisonVerdict {
+    let limit = noise_rms_limit(c.overall.count, settings);
     match where_it_fails(c, evidence) {
         None => ComparisonVerdict::NoReadings,
         Some(_) if c.overall.rms <= limit && !evidence.any_significant() => {

@@ -5,9 +5,15 @@
 //! again together.
 //!
 //! # Outliers
-//! Readings of the model's comparison beyond [`super::outliers::OUTLIER_LIMIT`]
+//! Readings of the model's comparison beyond
+//! [`OutlierSettings::limit_robust_sds`](super::settings::OutlierSettings::limit_robust_sds)
 //! robust SDs from their sensor's median are removed (made missing) before
 //! anything is fitted, and listed in [`Diagnosis::outliers`].
+//!
+//! # Settings
+//! Every number that tunes the search is a field of [`DiagnoseSettings`]
+//! (its defaults in parentheses below), checked by
+//! [`DiagnoseSettings::validate`] before the search starts.
 //!
 //! # Fitting
 //! Levenberg–Marquardt ([`super::fit`]) on the parameters of one candidate
@@ -24,28 +30,37 @@
 //! (the model as it is): one Gauss–Newton step from there predicts how much
 //! `χ²` on the fit cycles it could remove. The library effects are the
 //! first tier. The local candidates are the second, screened in a round
-//! where no library effect removes at least [`EXPLAINED_SHARE`] of the
+//! where no library effect removes at least
+//! [`explained_share`](DiagnoseSettings::explained_share) (½) of the
 //! held-out excess and the model is not yet clean (a local failure is what
 //! is left to explain); then, of the accepted candidates of either tier,
 //! the one that leaves the model clean is taken, else the one with the
 //! larger held-out gain beyond its penalty. Member groups,
 //! motors and sensors first, then the single members of the
-//! [`MEMBER_GROUPS_OPENED`] groups whose screen predicted most. At most
-//! [`MAX_LOCAL_FITS`] local candidates, those predicted to gain most, are
-//! fitted.
+//! [`member_groups_opened`](DiagnoseSettings::member_groups_opened) (2)
+//! groups whose screen predicted most. At most
+//! [`max_local_fits`](DiagnoseSettings::max_local_fits) (4) local
+//! candidates, those predicted to gain most, are fitted.
 //!
 //! The penalty a candidate of `k` parameters must beat counts the `M`
-//! candidates of its tier (all of them, screened or not): `k·ln n + 2·ln M`.
-//! The largest of `M` useless candidates' gains exceeds `k·ln n` about `M`
-//! times as often as one does; the `2·ln M` takes that factor back (a χ²
-//! tail falls as `e^(−x/2)`), so trying 180 local candidates raises no
-//! more false alarms than trying one.
+//! candidates of its tier (all of them, screened or not):
+//! `w_k·k·ln n + w_M·ln M`, with `w_k`
+//! [`penalty_per_parameter`](DiagnoseSettings::penalty_per_parameter) (1)
+//! and `w_M`
+//! [`penalty_per_ln_candidates`](DiagnoseSettings::penalty_per_ln_candidates)
+//! (2). The largest of `M` useless candidates' gains exceeds `k·ln n` about
+//! `M` times as often as one does; the `2·ln M` takes that factor back (a
+//! χ² tail falls as `e^(−x/2)`), so trying 180 local candidates raises no
+//! more false alarms than trying one. Below, `k·ln n + 2·ln M` stands for
+//! the penalty with the default weights.
 //!
 //! # Scoring
 //! Cycles alternate between fitting and held out (the first, third, … are
-//! fitted; the second, fourth, … held out). The whole log is replayed every
-//! time, because friction carries each cycle's history into the next; the
-//! split decides which readings each score counts. A candidate is ranked by
+//! fitted; the second, fourth, … held out; with
+//! [`held_out_period`](DiagnoseSettings::held_out_period) `p`, the last
+//! of every `p`). The whole log is replayed every time, because friction
+//! carries each cycle's history into the next; the split decides which
+//! readings each score counts. A candidate is ranked by
 //! the held-out RMS of `z` it leaves; it is accepted only if it improves
 //! the information criterion `χ² + k·ln n + 2·ln M` on the fit cycles *and*
 //! lowers the held-out `χ²` by more than `k·ln n_held + 2·ln M` (the same
@@ -69,16 +84,22 @@
 //!   or sensor): the candidates accepted leave the model clean *and* either
 //!   the model without them was not clean (they explain a failure the
 //!   tests saw, however diluted in the overall RMS) or they remove at least
-//!   [`EXPLAINED_SHARE`] of the held-out mean square `z` above noise (a
-//!   weak fit that only nudges a near-noise residual is not a finding). It is *confident* only if every fitted parameter is off its
-//!   search bounds (by [`NEAR_BOUND`] of the range), inside its plausible
-//!   range and identified ([`ParameterFlag`]); the flags are reported in
-//!   words;
+//!   [`explained_share`](DiagnoseSettings::explained_share) of the
+//!   held-out mean square `z` above noise (a weak fit that only nudges a
+//!   near-noise residual is not a finding), and leave a held-out RMS `z`
+//!   within [`explained_rms`](DiagnoseSettings::explained_rms) (1.5). It
+//!   is *confident* only if every fitted parameter is off its search
+//!   bounds (by [`near_bound`](DiagnoseSettings::near_bound) (0.02) of the
+//!   range), inside its plausible range (by more than
+//!   [`outside_plausible_std_errors`](DiagnoseSettings::outside_plausible_std_errors)
+//!   (2) standard errors) and identified ([`ParameterFlag`]); the flags
+//!   are reported in words;
 //! - **structured residual**: otherwise, with where it is.
 //!
-//! Search ranges are the plausible range widened by half its width on
-//! each side, within the admissible range, and always include the neutral
-//! value (the effect absent).
+//! Search ranges are the plausible range widened by
+//! [`FitSettings::search_widening`](super::settings::FitSettings::search_widening)
+//! (half) its width on each side, within the admissible range, and always
+//! include the neutral value (the effect absent).
 //!
 //! # Reports
 //! The results serialise (serde) for JSON reports. They do not
@@ -86,7 +107,7 @@
 //! estimated is NaN, which JSON writes as `null`.
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use crate::measure::log::{LogProblem, MeasurementLog};
 use crate::model::{EffectKind, Effects};
@@ -99,6 +120,8 @@ use super::local::{
     Term,
 };
 use super::outliers::{drop_outliers, find_outliers, without_outliers, Outlier};
+pub use super::settings::DiagnoseSettings;
+use super::settings::DiagnoseSettingsError;
 use crate::sim::{EffectModel, PlantError};
 
 /// Why a diagnosis could not be made.
@@ -110,24 +133,10 @@ pub enum DiagnoseError {
     /// A replay of the log through the model stopped.
     #[error("{0}")]
     Replay(#[from] PlantError),
+    /// A setting is out of its range.
+    #[error("{0}")]
+    Settings(#[from] DiagnoseSettingsError),
 }
-
-/// Held-out RMS `z` a found effect must reach, in noise SDs.
-pub const EXPLAINED_RMS: f64 = 1.5;
-/// Share of the held-out mean square `z` above noise that the effects found
-/// must remove to be called missing: most of it.
-pub const EXPLAINED_SHARE: f64 = 0.5;
-/// How near a search bound, as a share of the search range's width, a
-/// fitted parameter counts as sitting on it.
-pub const NEAR_BOUND: f64 = 0.02;
-/// Member groups whose single members are screened: the two whose group
-/// screen predicted most (a single member's error shows, weaker, in its
-/// group's).
-pub const MEMBER_GROUPS_OPENED: usize = 2;
-/// Local candidates fitted per round at most, those the screen predicts to
-/// gain most (the screen is exact for the linear sensor terms and close
-/// for the others, while each fit costs tens of replays).
-pub const MAX_LOCAL_FITS: usize = 4;
 
 /// One candidate fitted to the log.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -148,10 +157,10 @@ pub struct Candidate {
     pub held_out_gain: f64,
     /// Information criterion on the fit cycles with the candidate:
     /// `χ² + k·ln n + 2·ln M` (`k` all parameters, `M` the candidates of
-    /// its tier).
+    /// its tier; weights of [`DiagnoseSettings`]).
     pub bic: f64,
     /// The penalty this candidate's own parameters pay: `k·ln n + 2·ln M`
-    /// on the fit cycles.
+    /// on the fit cycles (weights of [`DiagnoseSettings`]).
     pub penalty: f64,
     /// Share of the held-out mean square `z` above noise that the candidate
     /// removes, 0–1.
@@ -170,8 +179,9 @@ pub struct Candidate {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "flag")]
 pub enum ParameterFlag {
-    /// Within [`NEAR_BOUND`] of the search range's width from one of its
-    /// ends: the fit was stopped by the range, not by the data.
+    /// Within [`DiagnoseSettings::near_bound`] of the search range's width
+    /// from one of its ends: the fit was stopped by the range, not by the
+    /// data.
     AtSearchBound {
         /// Parameter name.
         parameter: String,
@@ -180,8 +190,10 @@ pub enum ParameterFlag {
         /// The bound it sits at.
         bound: f64,
     },
-    /// Outside the effect's plausible range: physically unlikely, so the
-    /// effect probably stands in for something else.
+    /// Outside the effect's plausible range, by more than
+    /// [`DiagnoseSettings::outside_plausible_std_errors`] standard errors:
+    /// physically unlikely, so the effect probably stands in for something
+    /// else.
     OutsidePlausible {
         /// Parameter name.
         parameter: String,
@@ -190,9 +202,10 @@ pub enum ParameterFlag {
         /// The plausible range.
         plausible: (f64, f64),
     },
-    /// Its standard error is not finite or exceeds its plausible range's
-    /// width: the log does not identify it, so its value (at a bound or
-    /// not) means nothing. Does not by itself make the fit untrusted
+    /// Its standard error is not finite or exceeds
+    /// [`DiagnoseSettings::max_identified_std_error`] times its plausible
+    /// range's width: the log does not identify it, so its value (at a
+    /// bound or not) means nothing. Does not by itself make the fit untrusted
     /// unless no parameter of the effect is identified.
     NotIdentified {
         /// Parameter name.
@@ -272,7 +285,8 @@ pub struct Screened {
     /// `χ²` on the fit cycles that one Gauss–Newton step predicts the
     /// candidate removes (NaN where the model could not be run).
     pub predicted_gain: f64,
-    /// The gain it needs to be fitted: `k·ln n + 2·ln M`.
+    /// The gain it needs to be fitted: `k·ln n + 2·ln M` (weights of
+    /// [`DiagnoseSettings`]).
     pub threshold: f64,
 }
 
@@ -325,35 +339,32 @@ pub struct Diagnosis {
     pub evidence: Evidence,
 }
 
-/// Settings of the search.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DiagnoseSettings {
-    /// Greedy rounds (effects to find at most). Default 2.
-    pub max_rounds: usize,
+/// Whether the log's cycles are split at all: a log of fewer cycles than
+/// [`DiagnoseSettings::held_out_period`] (a one-cycle log, by default) is
+/// fitted and scored on every cycle.
+fn is_split(cycles: usize, settings: &DiagnoseSettings) -> bool {
+    cycles >= settings.held_out_period
 }
 
-impl Default for DiagnoseSettings {
-    fn default() -> Self {
-        DiagnoseSettings { max_rounds: 2 }
-    }
-}
-
-/// Which cycles are held out: the second, fourth, …; a one-cycle log is
-/// fitted and scored on the same cycle. The whole log is always replayed
-/// (friction makes every cycle depend on the ones before); the split only
-/// decides which readings each score counts.
-pub fn is_held_out(cycle: usize, cycles: usize) -> bool {
-    cycles > 1 && cycle % 2 == 1
+/// Which cycles are held out: the last of every
+/// [`DiagnoseSettings::held_out_period`] (the second, fourth, … by
+/// default); none where the log is not split (see [`part`]). The whole log
+/// is always replayed (friction makes every cycle depend on the ones
+/// before); the split only decides which readings each score counts.
+pub fn is_held_out(cycle: usize, cycles: usize, settings: &DiagnoseSettings) -> bool {
+    let period = settings.held_out_period;
+    is_split(cycles, settings) && cycle % period == period - 1
 }
 
 /// The readings of one part of the log: fitted (`held = false`) or held
-/// out, as a comparison of its own.
-pub fn part(c: &Comparison, cycles: usize, held: bool) -> Comparison {
+/// out, as a comparison of its own; the whole log for either where it has
+/// too few cycles to split.
+pub fn part(c: &Comparison, cycles: usize, held: bool, settings: &DiagnoseSettings) -> Comparison {
     let keep = |cycle: usize| {
-        if cycles <= 1 {
+        if !is_split(cycles, settings) {
             true
         } else {
-            is_held_out(cycle, cycles) == held
+            is_held_out(cycle, cycles, settings) == held
         }
     };
     let residuals: Vec<_> = c
@@ -383,9 +394,15 @@ fn ln_count(n: usize) -> f64 {
     (n.max(1) as f64).ln()
 }
 
+/// The information criterion's penalty of `k` parameters on `n`
+/// readings, without the look-elsewhere term.
+fn parameter_penalty(k: usize, n: usize, settings: &DiagnoseSettings) -> f64 {
+    k as f64 * settings.penalty_per_parameter * ln_count(n)
+}
+
 /// The penalty of `k` parameters among `tier` candidates on `n` readings.
-fn penalty(k: usize, n: usize, tier: usize) -> f64 {
-    k as f64 * ln_count(n) + 2.0 * ln_count(tier)
+fn penalty(k: usize, n: usize, tier: usize, settings: &DiagnoseSettings) -> f64 {
+    parameter_penalty(k, n, settings) + settings.penalty_per_ln_candidates * ln_count(tier)
 }
 
 /// Replays (or, for a reading term, re-reads) the log with `term` at `x`
@@ -406,8 +423,8 @@ fn compare_with(
     }
 }
 
-fn fit_z(c: &Comparison, cycles: usize) -> Vec<f64> {
-    part(c, cycles, false)
+fn fit_z(c: &Comparison, cycles: usize, settings: &DiagnoseSettings) -> Vec<f64> {
+    part(c, cycles, false, settings)
         .residuals
         .iter()
         .map(|r| r.z)
@@ -420,39 +437,43 @@ struct Base<'a> {
     log: &'a MeasurementLog,
     h: &'a Hypothesis,
     current: &'a Comparison,
+    settings: &'a DiagnoseSettings,
 }
 
 impl Base<'_> {
     fn screen(&self, term: Term, tier: usize) -> Screened {
         let specs = term.parameters();
         let cycles = self.log.cycles.len();
-        let base_z = fit_z(self.current, cycles);
+        let s = self.settings;
+        let base_z = fit_z(self.current, cycles, s);
         let neutral: Vec<f64> = specs.iter().map(|p| p.neutral).collect();
         let eval = |x: &[f64]| {
             compare_with(self.model, self.h, self.current, term, x, self.log)
                 .ok()
-                .map(|c| fit_z(&c, cycles))
+                .map(|c| fit_z(&c, cycles, s))
         };
-        let gain = predicted_gain(&eval, &neutral, &SearchBox::of(specs), base_z.len());
+        let bounds = SearchBox::of(specs, &s.fit);
+        let gain = predicted_gain(&eval, &neutral, &bounds, base_z.len(), &s.fit);
         Screened {
             term,
             name: term.label(&self.model.structure, &self.log.sensors),
             predicted_gain: gain.unwrap_or(f64::NAN),
-            threshold: penalty(specs.len(), base_z.len(), tier),
+            threshold: penalty(specs.len(), base_z.len(), tier, s),
         }
     }
 
     fn fit(&self, term: Term, tier: usize) -> Result<Candidate, PlantError> {
         let specs = term.parameters();
         let cycles = self.log.cycles.len();
-        let bounds = SearchBox::of(specs);
+        let s = self.settings;
+        let bounds = SearchBox::of(specs, &s.fit);
         // Start in the middle of the plausible range, but near the neutral
         // value where it lies inside (a small effect is the likelier one).
         let x0: Vec<f64> = specs
             .iter()
             .map(|p| {
                 if p.neutral >= p.plausible.0 && p.neutral <= p.plausible.1 {
-                    p.neutral + 0.1 * (p.plausible.1 - p.plausible.0)
+                    p.neutral + s.fit.start_offset * (p.plausible.1 - p.plausible.0)
                 } else {
                     0.5 * (p.plausible.0 + p.plausible.1)
                 }
@@ -461,13 +482,13 @@ impl Base<'_> {
         let eval = |x: &[f64]| {
             compare_with(self.model, self.h, self.current, term, x, self.log)
                 .ok()
-                .map(|c| fit_z(&c, cycles))
+                .map(|c| fit_z(&c, cycles, s))
         };
         let mut start = x0;
         bounds.clamp(&mut start);
         // The start runs, or its error is the answer.
         compare_with(self.model, self.h, self.current, term, &start, self.log)?;
-        let fit = levenberg_marquardt(&eval, &start, &bounds).unwrap_or(Fit {
+        let fit = levenberg_marquardt(&eval, &start, &bounds, &s.fit).unwrap_or(Fit {
             std_errors: vec![f64::NAN; start.len()],
             values: start,
             condition: f64::INFINITY,
@@ -481,27 +502,27 @@ impl Base<'_> {
             &fit.values,
             self.log,
         )?;
-        let fitted = part(&all, cycles, false);
-        let held = part(&all, cycles, true);
-        let base_held = part(self.current, cycles, true);
+        let fitted = part(&all, cycles, false, s);
+        let held = part(&all, cycles, true, s);
+        let base_held = part(self.current, cycles, true, s);
         let k = specs.len();
-        let own = penalty(k, fitted.overall.count, tier);
+        let own = penalty(k, fitted.overall.count, tier, s);
         Ok(Candidate {
             term,
             name: term.label(&self.model.structure, &self.log.sensors),
-            flags: parameter_flags(term, &bounds, &fit.values, &fit.std_errors),
+            flags: parameter_flags(term, &bounds, &fit.values, &fit.std_errors, s),
             values: fit.values,
             std_errors: fit.std_errors,
             condition: fit.condition,
             held_out_rms: held.overall.rms,
             held_out_gain: chi2(&base_held).0 - chi2(&held).0,
             bic: chi2(&fitted).0
-                + self.h.parameter_count() as f64 * ln_count(fitted.overall.count)
+                + parameter_penalty(self.h.parameter_count(), fitted.overall.count, s)
                 + own,
             penalty: own,
             explained: explained_share(base_held.overall.rms, held.overall.rms),
             converged: fit.converged,
-            leaves_clean: is_clean(&all, self.log),
+            leaves_clean: is_clean(&all, self.log, s),
         })
     }
 }
@@ -509,12 +530,14 @@ impl Base<'_> {
 /// Screens effect `kind` on top of the model's effects `base`: the `χ²` on
 /// the fit cycles that one Gauss–Newton step from the neutral parameters
 /// predicts it removes, with the step kept admissible. The penalty counts
-/// the library's effects as the tier.
+/// the library's effects as the tier. `settings` are taken as valid
+/// ([`DiagnoseSettings::validate`]).
 pub fn screen_candidate(
     model: &EffectModel,
     base: Effects,
     kind: EffectKind,
     log: &MeasurementLog,
+    settings: &DiagnoseSettings,
 ) -> Result<Screened, PlantError> {
     let h = Hypothesis::of(base);
     let current = compare_hypothesis(model, &h, log)?;
@@ -523,18 +546,21 @@ pub fn screen_candidate(
         log,
         h: &h,
         current: &current,
+        settings,
     };
     Ok(b.screen(Term::Global(kind), EffectKind::ALL.len()))
 }
 
 /// Fits effect `kind` on top of the model's effects `base` to the fitted
 /// cycles of `log`, then scores it on the held-out ones (the penalty
-/// counts the library's effects as the tier).
+/// counts the library's effects as the tier). `settings` are taken as
+/// valid ([`DiagnoseSettings::validate`]).
 pub fn fit_candidate(
     model: &EffectModel,
     base: Effects,
     kind: EffectKind,
     log: &MeasurementLog,
+    settings: &DiagnoseSettings,
 ) -> Result<Candidate, PlantError> {
     let h = Hypothesis::of(base);
     let current = compare_hypothesis(model, &h, log)?;
@@ -543,6 +569,7 @@ pub fn fit_candidate(
         log,
         h: &h,
         current: &current,
+        settings,
     };
     b.fit(Term::Global(kind), EffectKind::ALL.len())
 }
@@ -553,6 +580,7 @@ fn parameter_flags(
     bounds: &SearchBox,
     x: &[f64],
     std_errors: &[f64],
+    settings: &DiagnoseSettings,
 ) -> Vec<ParameterFlag> {
     let mut flags = Vec::new();
     let prefix = match term {
@@ -568,11 +596,11 @@ fn parameter_flags(
         let se = std_errors[i];
         // A parameter the log cannot pin down to within its plausible
         // range says nothing by its value, at a bound or not.
-        if !(se.is_finite() && se <= bounds.scale[i]) {
+        if !(se.is_finite() && se <= settings.max_identified_std_error * bounds.scale[i]) {
             flags.push(ParameterFlag::NotIdentified { parameter });
             continue;
         }
-        let near = NEAR_BOUND * (bounds.upper[i] - bounds.lower[i]);
+        let near = settings.near_bound * (bounds.upper[i] - bounds.lower[i]);
         let (lo, hi) = (bounds.lower[i], bounds.upper[i]);
         if x[i] - lo <= near || hi - x[i] <= near {
             let bound = if x[i] - lo <= hi - x[i] { lo } else { hi };
@@ -582,10 +610,10 @@ fn parameter_flags(
                 bound,
             });
         }
-        // Outside by more than two standard errors: the data, not the
+        // Outside by more than a few standard errors: the data, not the
         // sampling, put it there.
         let outside = (spec.plausible.0 - x[i]).max(x[i] - spec.plausible.1);
-        if outside > 2.0 * se {
+        if outside > settings.outside_plausible_std_errors * se {
             flags.push(ParameterFlag::OutsidePlausible {
                 parameter,
                 value: x[i],
@@ -596,8 +624,9 @@ fn parameter_flags(
     flags
 }
 
-/// Share of the mean square `z` above noise (`rms² − 1`) at `before` that
-/// is gone at `after`, 0–1.
+/// Share of the mean square `z` above noise (`rms² − 1`: pure noise has
+/// RMS 1 by the definition of `z`, so the 1 is no setting) at `before`
+/// that is gone at `after`, 0–1.
 fn explained_share(before: f64, after: f64) -> f64 {
     let excess = |rms: f64| (rms * rms - 1.0).max(0.0);
     if excess(before) > 0.0 {
@@ -609,10 +638,10 @@ fn explained_share(before: f64, after: f64) -> f64 {
 
 /// Whether `c` is clean: held-out RMS within the noise limit and no
 /// per-sensor test significant.
-fn is_clean(c: &Comparison, log: &MeasurementLog) -> bool {
-    let held = part(c, log.cycles.len(), true);
-    held.overall.rms <= noise_rms_limit(held.overall.count)
-        && !evidence(c, &log.sensors).any_significant()
+fn is_clean(c: &Comparison, log: &MeasurementLog, settings: &DiagnoseSettings) -> bool {
+    let held = part(c, log.cycles.len(), true, settings);
+    held.overall.rms <= noise_rms_limit(held.overall.count, &settings.noise)
+        && !evidence(c, &log.sensors, &settings.noise).any_significant()
 }
 
 /// The best of `ranking` (held-out RMS order) among `tier`, if it is
@@ -624,11 +653,15 @@ fn accepted(
     base_bic: f64,
     held_count: usize,
     tier: usize,
+    settings: &DiagnoseSettings,
 ) -> Option<Candidate> {
     ranking
         .iter()
         .find(|c| matches!(c.term, Term::Local(_)) == local)
-        .filter(|b| b.bic < base_bic && b.held_out_gain > penalty(b.values.len(), held_count, tier))
+        .filter(|b| {
+            b.bic < base_bic
+                && b.held_out_gain > penalty(b.values.len(), held_count, tier, settings)
+        })
         .cloned()
 }
 
@@ -638,13 +671,14 @@ pub fn diagnose(
     log: &MeasurementLog,
     settings: &DiagnoseSettings,
 ) -> Result<Diagnosis, DiagnoseError> {
+    settings.validate()?;
     log.check_comparable()?;
     let cycles = log.cycles.len();
     let mut h = Hypothesis::of(model.effects);
     // Outliers of the model as it is are set aside (as missing readings)
     // before anything is fitted to them.
     let raw = compare_hypothesis(model, &h, log)?;
-    let outliers = find_outliers(&raw, log.sensors.len());
+    let outliers = find_outliers(&raw, log.sensors.len(), &settings.outliers);
     let cleaned;
     let log = if outliers.is_empty() {
         log
@@ -659,18 +693,19 @@ pub fn diagnose(
     let groups = member_groups(&model.structure);
     // The model with the candidates found so far, compared once per change.
     let mut current = drop_outliers(&raw, &outliers, log.sensors.len());
-    let first_held = part(&current, cycles, true);
-    let first_clean = is_clean(&current, log);
+    let first_held = part(&current, cycles, true, settings);
+    let first_clean = is_clean(&current, log, settings);
     while rounds.len() < settings.max_rounds {
-        let held = part(&current, cycles, true);
-        let base_fit = part(&current, cycles, false);
-        let base_bic =
-            chi2(&base_fit).0 + h.parameter_count() as f64 * ln_count(base_fit.overall.count);
+        let held = part(&current, cycles, true, settings);
+        let base_fit = part(&current, cycles, false, settings);
+        let base_bic = chi2(&base_fit).0
+            + parameter_penalty(h.parameter_count(), base_fit.overall.count, settings);
         let base = Base {
             model,
             log,
             h: &h,
             current: &current,
+            settings,
         };
         let global_tier = EffectKind::ALL.len();
         let missing: Vec<Term> = EffectKind::ALL
@@ -688,14 +723,21 @@ pub fn diagnose(
             .filter_map(|s| base.fit(s.term, global_tier).ok())
             .collect();
         ranking.sort_by(|a, b| a.held_out_rms.total_cmp(&b.held_out_rms));
-        let mut best = accepted(&ranking, false, base_bic, held.overall.count, global_tier);
+        let mut best = accepted(
+            &ranking,
+            false,
+            base_bic,
+            held.overall.count,
+            global_tier,
+            settings,
+        );
         let mut local_tier = 0;
         // A library effect that removes most of the excess is taken as it
         // is; one that removes less competes with the local tier.
         let strong = best
             .as_ref()
-            .is_some_and(|b| b.explained >= EXPLAINED_SHARE);
-        if !strong && !is_clean(&current, log) {
+            .is_some_and(|b| b.explained >= settings.explained_share);
+        if !strong && !is_clean(&current, log, settings) {
             local_tier = locals.len();
             let open: Vec<Term> = locals
                 .iter()
@@ -715,7 +757,7 @@ pub fn diagnose(
             by_group.sort_by(|a, b| b.predicted_gain.total_cmp(&a.predicted_gain));
             let members: Vec<Term> = by_group
                 .iter()
-                .take(MEMBER_GROUPS_OPENED)
+                .take(settings.member_groups_opened)
                 .filter_map(|s| match s.term {
                     Term::Local(LocalKind::MemberGroupStiffness { group }) => groups.get(group),
                     _ => None,
@@ -734,7 +776,7 @@ pub fn diagnose(
             passed.sort_by(|a, b| b.predicted_gain.total_cmp(&a.predicted_gain));
             let mut local_ranking: Vec<Candidate> = passed
                 .par_iter()
-                .take(MAX_LOCAL_FITS)
+                .take(settings.max_local_fits)
                 .filter_map(|s| base.fit(s.term, local_tier).ok())
                 .collect();
             local_ranking.sort_by(|a, b| a.held_out_rms.total_cmp(&b.held_out_rms));
@@ -744,11 +786,12 @@ pub fn diagnose(
                 base_bic,
                 held.overall.count,
                 local_tier,
+                settings,
             );
             // The one that leaves the model clean wins; else the larger
             // held-out gain beyond its own penalty.
             let margin = |c: &Candidate, tier: usize| {
-                c.held_out_gain - penalty(c.values.len(), held.overall.count, tier)
+                c.held_out_gain - penalty(c.values.len(), held.overall.count, tier, settings)
             };
             best = match (best, best_local) {
                 (Some(g), Some(l))
@@ -779,22 +822,22 @@ pub fn diagnose(
         found.push(b);
     }
     if !found.is_empty() {
-        if let Some((joint_h, joint)) = joint_refit(model, &h, &mut found, log) {
+        if let Some((joint_h, joint)) = joint_refit(model, &h, &mut found, log, settings) {
             h = joint_h;
             current = joint;
         }
     }
-    let held = part(&current, cycles, true);
-    let noise_like = held.overall.rms <= noise_rms_limit(held.overall.count);
-    let evidence = evidence(&current, &log.sensors);
+    let held = part(&current, cycles, true, settings);
+    let noise_like = held.overall.rms <= noise_rms_limit(held.overall.count, &settings.noise);
+    let evidence = evidence(&current, &log.sensors, &settings.noise);
     let clean = noise_like && !evidence.any_significant();
     let explained = explained_share(first_held.overall.rms, held.overall.rms);
     let verdict = if found.is_empty() && clean {
         Verdict::NothingMissing
     } else if !found.is_empty()
         && clean
-        && held.overall.rms <= EXPLAINED_RMS
-        && (explained >= EXPLAINED_SHARE || !first_clean)
+        && held.overall.rms <= settings.explained_rms
+        && (explained >= settings.explained_share || !first_clean)
     {
         let confident = found.iter().all(Candidate::trusted);
         Verdict::Missing { found, confident }
@@ -825,6 +868,7 @@ fn joint_refit(
     h: &Hypothesis,
     found: &mut [Candidate],
     log: &MeasurementLog,
+    settings: &DiagnoseSettings,
 ) -> Option<(Hypothesis, Comparison)> {
     if found.len() < 2 {
         return None;
@@ -834,7 +878,7 @@ fn joint_refit(
     let sizes: Vec<usize> = terms.iter().map(|t| t.parameters().len()).collect();
     let boxes: Vec<SearchBox> = terms
         .iter()
-        .map(|t| SearchBox::of(t.parameters()))
+        .map(|t| SearchBox::of(t.parameters(), &settings.fit))
         .collect();
     let bounds = SearchBox::concat(&boxes);
     let with = |x: &[f64]| {
@@ -849,11 +893,11 @@ fn joint_refit(
     let eval = |x: &[f64]| {
         compare_hypothesis(model, &with(x), log)
             .ok()
-            .map(|c| fit_z(&c, cycles))
+            .map(|c| fit_z(&c, cycles, settings))
     };
     let x0: Vec<f64> = found.iter().flat_map(|c| c.values.clone()).collect();
     let before: f64 = eval(&x0)?.iter().map(|v| v * v).sum();
-    let fit = levenberg_marquardt(&eval, &x0, &bounds)?;
+    let fit = levenberg_marquardt(&eval, &x0, &bounds, &settings.fit)?;
     let after: f64 = eval(&fit.values)?.iter().map(|v| v * v).sum();
     if after > before {
         return None;
@@ -865,7 +909,7 @@ fn joint_refit(
         c.values = fit.values[at..at + k].to_vec();
         c.std_errors = fit.std_errors[at..at + k].to_vec();
         c.condition = fit.condition;
-        c.flags = parameter_flags(c.term, b, &c.values, &c.std_errors);
+        c.flags = parameter_flags(c.term, b, &c.values, &c.std_errors, settings);
         at += k;
     }
     Some((joint_h, joint))
@@ -894,8 +938,9 @@ mod tests {
     fn every_search_range_holds_the_neutral_value() {
         // Thermal expansion's plausible range (1.0e-5 to 1.4e-5 /K) does
         // not reach 0: without the rule every thermal fit sat on a bound.
+        let settings = DiagnoseSettings::default();
         for kind in EffectKind::ALL {
-            let b = SearchBox::of(kind.parameters());
+            let b = SearchBox::of(kind.parameters(), &settings.fit);
             for (i, p) in kind.parameters().iter().enumerate() {
                 if p.neutral >= p.admissible.0 && p.neutral <= p.admissible.1 {
                     assert!(
@@ -913,11 +958,12 @@ mod tests {
     fn fits_at_a_bound_or_implausible_are_flagged_and_not_trusted() {
         let kind = EffectKind::Thermal;
         let term = Term::Global(kind);
-        let b = SearchBox::of(kind.parameters());
+        let s = DiagnoseSettings::default();
+        let b = SearchBox::of(kind.parameters(), &s.fit);
         let p = kind.parameters()[0];
         let se = 1e-7;
         // At the lower bound (the neutral 0).
-        let flags = parameter_flags(term, &b, &[b.lower[0]], &[se]);
+        let flags = parameter_flags(term, &b, &[b.lower[0]], &[se], &s);
         assert!(
             matches!(
                 flags[..],
@@ -930,13 +976,13 @@ mod tests {
         );
         // Inside the plausible range: no flag.
         let mid = 0.5 * (p.plausible.0 + p.plausible.1);
-        assert!(parameter_flags(term, &b, &[mid], &[se]).is_empty());
+        assert!(parameter_flags(term, &b, &[mid], &[se], &s).is_empty());
         // Just outside, by less than two standard errors: sampling, no flag.
         let near = p.plausible.1 + 1.5 * se;
-        assert!(parameter_flags(term, &b, &[near], &[se]).is_empty());
+        assert!(parameter_flags(term, &b, &[near], &[se], &s).is_empty());
         // A standard error wider than the plausible range: not identified,
         // and nothing else said about its value.
-        let wide = parameter_flags(term, &b, &[b.lower[0]], &[1.0]);
+        let wide = parameter_flags(term, &b, &[b.lower[0]], &[1.0], &s);
         assert!(matches!(wide[..], [ParameterFlag::NotIdentified { .. }]));
         let candidate = |flags: Vec<ParameterFlag>| Candidate {
             term,

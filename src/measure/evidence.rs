@@ -14,19 +14,17 @@
 //! within-sensor deviations (`n − sensors` degrees of freedom).
 //!
 //! All p-values are one family, controlled by Holm's step-down method at
-//! family-wise error [`FAMILY_ALPHA`]: under pure noise, the chance that
+//! family-wise error [`NoiseSettings::family_alpha`] (default 1e-3): under
+//! pure noise, the chance that
 //! *any* test is significant is at most that, whatever the dependence
 //! between the tests.
 
 use serde::{Deserialize, Serialize};
 
 use super::compare::Comparison;
+use super::settings::NoiseSettings;
 use super::tail_probability::{chi_squared_upper, normal_two_sided};
 use crate::sim::{Sensor, SensorTarget};
-
-/// Family-wise error rate of the per-sensor tests: one noise-only log in a
-/// thousand has a sensor called significant.
-pub const FAMILY_ALPHA: f64 = 1e-3;
 
 /// A group of sensors of one kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -188,8 +186,8 @@ pub fn holm(p_values: &[f64], alpha: f64) -> Vec<bool> {
 }
 
 /// The per-sensor and per-group tests of comparison `c` of a log with
-/// sensor layout `sensors`.
-pub fn evidence(c: &Comparison, sensors: &[Sensor]) -> Evidence {
+/// sensor layout `sensors`, at the family-wise error of `settings`.
+pub fn evidence(c: &Comparison, sensors: &[Sensor], settings: &NoiseSettings) -> Evidence {
     let mut z_of: Vec<Vec<f64>> = vec![Vec::new(); sensors.len()];
     for r in &c.residuals {
         if let Some(v) = z_of.get_mut(r.sensor) {
@@ -227,12 +225,12 @@ pub fn evidence(c: &Comparison, sensors: &[Sensor]) -> Evidence {
         tests.extend(tests_of(Subject::Group(group), &z, (ss, members.len())));
     }
     let p: Vec<f64> = tests.iter().map(|t| t.p_value).collect();
-    for (t, reject) in tests.iter_mut().zip(holm(&p, FAMILY_ALPHA)) {
+    for (t, reject) in tests.iter_mut().zip(holm(&p, settings.family_alpha)) {
         t.significant = reject;
     }
     Evidence {
         tests,
-        family_alpha: FAMILY_ALPHA,
+        family_alpha: settings.family_alpha,
     }
 }
 
@@ -243,6 +241,10 @@ mod tests {
     use crate::sim::StepFeatures;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
+
+    fn noise() -> NoiseSettings {
+        NoiseSettings::default()
+    }
 
     fn sensors() -> Vec<Sensor> {
         (0..6)
@@ -308,7 +310,9 @@ mod tests {
         // expected number with any rejection is 0.2; 3 or more has
         // probability ~1e-3.
         let alarms = (0..200)
-            .filter(|&seed| evidence(&comparison(seed, |_, _| 0.0), &sensors()).any_significant())
+            .filter(|&seed| {
+                evidence(&comparison(seed, |_, _| 0.0), &sensors(), &noise()).any_significant()
+            })
             .count();
         assert!(alarms <= 2, "{alarms} of 200");
     }
@@ -322,6 +326,7 @@ mod tests {
         let e = evidence(
             &comparison(5, |s, _| if s == 4 { shift } else { 0.0 }),
             &sensors(),
+            &noise(),
         );
         let worst = e.most_significant_sensor().unwrap();
         assert_eq!(worst.subject, Subject::Sensor(4));
@@ -344,6 +349,7 @@ mod tests {
                 }
             }),
             &sensors(),
+            &noise(),
         );
         assert!(e.tests.iter().any(|t| t.subject == Subject::Sensor(1)
             && t.statistic == Statistic::Spread

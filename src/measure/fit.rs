@@ -3,26 +3,36 @@
 //! forward-difference Jacobians, the one-step Gauss–Newton screen and
 //! Levenberg–Marquardt, with standard errors from `(JᵀJ)⁻¹` (σ = 1 in
 //! `z` units). Parameters are scaled by their plausible range throughout.
+//! Every choice that tunes them is a field of [`FitSettings`].
 
 use nalgebra::{DMatrix, DVector};
 
+use super::settings::FitSettings;
 use crate::model::effects::ParameterSpec;
 
-/// Levenberg–Marquardt iterations per fit.
-pub const MAX_LM_ITERATIONS: usize = 30;
-/// Forward-difference step, as a fraction of each parameter's plausible
-/// range: large against solver noise (residuals move by ~1e-2 noise SDs,
-/// the solver's error by ~1e-6), small against the curvature of every
-/// effect's response.
-pub const DIFFERENCE_STEP: f64 = 1e-3;
+// Guards against dividing by zero, not tunings: any tiny positive value
+// gives the same fit wherever the problem is regular, so they are not
+// settings.
+/// Smallest scale of a parameter (the width of its plausible range).
+const SCALE_FLOOR: f64 = 1e-12;
+/// Smallest diagonal entry of `JᵀJ` the damping is relative to, so that a
+/// parameter the readings do not feel is still damped.
+const DAMPING_DIAGONAL_FLOOR: f64 = 1e-12;
+/// Ridge on the diagonal of the screen's normal equations, relative to
+/// each entry: keeps the one-step solve regular where two parameters act
+/// alike.
+const SCREEN_RIDGE: f64 = 1e-12;
+/// Smallest diagonal entry the screen's ridge is relative to.
+const SCREEN_DIAGONAL_FLOOR: f64 = 1e-300;
 
 /// The `z` residuals at parameters `x`; `None` if the model could not be
 /// run there.
 pub type Residuals<'a> = dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync + 'a;
 
-/// Where a fit may look for parameters: half a plausible range beyond the
-/// plausible range, within the admissible one, always holding the neutral
-/// value; and the scale (the plausible range's width) the search works in.
+/// Where a fit may look for parameters: [`FitSettings::search_widening`]
+/// plausible widths beyond the plausible range, within the admissible
+/// one, always holding the neutral value; and the scale (the plausible
+/// range's width) the search works in.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SearchBox {
     /// Scale per parameter.
@@ -37,10 +47,11 @@ pub struct SearchBox {
 
 impl SearchBox {
     /// The box of parameters `specs`.
-    pub fn of(specs: &[ParameterSpec]) -> SearchBox {
+    pub fn of(specs: &[ParameterSpec], settings: &FitSettings) -> SearchBox {
+        let widening = settings.search_widening;
         let scale: Vec<f64> = specs
             .iter()
-            .map(|p| (p.plausible.1 - p.plausible.0).abs().max(1e-12))
+            .map(|p| (p.plausible.1 - p.plausible.0).abs().max(SCALE_FLOOR))
             .collect();
         // The neutral value (the effect absent) is always inside: a range
         // that excludes it forces every fit onto a bound (thermal expansion's
@@ -48,12 +59,20 @@ impl SearchBox {
         let lower = specs
             .iter()
             .zip(&scale)
-            .map(|(p, s)| (p.plausible.0 - 0.5 * s).min(p.neutral).max(p.admissible.0))
+            .map(|(p, s)| {
+                (p.plausible.0 - widening * s)
+                    .min(p.neutral)
+                    .max(p.admissible.0)
+            })
             .collect();
         let upper = specs
             .iter()
             .zip(&scale)
-            .map(|(p, s)| (p.plausible.1 + 0.5 * s).max(p.neutral).min(p.admissible.1))
+            .map(|(p, s)| {
+                (p.plausible.1 + widening * s)
+                    .max(p.neutral)
+                    .min(p.admissible.1)
+            })
             .collect();
         SearchBox {
             scale,
@@ -85,11 +104,18 @@ impl SearchBox {
 
 /// Jacobian of `z` in scaled parameters at `x` by forward differences
 /// (backwards where a step forwards would leave the box); `None` if a run
-/// fails or changes which readings exist.
-pub fn jacobian(eval: &Residuals, x: &[f64], r: &[f64], b: &SearchBox) -> Option<DMatrix<f64>> {
+/// fails or changes which readings exist. The step is
+/// [`FitSettings::difference_step`] plausible widths.
+pub fn jacobian(
+    eval: &Residuals,
+    x: &[f64],
+    r: &[f64],
+    b: &SearchBox,
+    settings: &FitSettings,
+) -> Option<DMatrix<f64>> {
     let mut jac = DMatrix::<f64>::zeros(r.len(), x.len());
     for i in 0..x.len() {
-        let h = DIFFERENCE_STEP * b.scale[i];
+        let h = settings.difference_step * b.scale[i];
         let mut xp = x.to_vec();
         xp[i] += if xp[i] + h <= b.upper[i] { h } else { -h };
         let step = xp[i] - x[i];
@@ -108,13 +134,19 @@ pub fn jacobian(eval: &Residuals, x: &[f64], r: &[f64], b: &SearchBox) -> Option
 /// remove, with the step kept admissible (parameters it pushes below their
 /// admissible range held there, the rest solved again). `None` if the
 /// model could not be run or changes which readings exist.
-pub fn predicted_gain(eval: &Residuals, x0: &[f64], b: &SearchBox, expected: usize) -> Option<f64> {
+pub fn predicted_gain(
+    eval: &Residuals,
+    x0: &[f64],
+    b: &SearchBox,
+    expected: usize,
+    settings: &FitSettings,
+) -> Option<f64> {
     let k = x0.len();
     let r0 = eval(x0)?;
     if r0.len() != expected {
         return None;
     }
-    let jac = jacobian(eval, x0, &r0, b)?;
+    let jac = jacobian(eval, x0, &r0, b, settings)?;
     let r = DVector::from_vec(r0);
     let jtj = jac.transpose() * &jac;
     let grad = jac.transpose() * &r;
@@ -127,7 +159,7 @@ pub fn predicted_gain(eval: &Residuals, x0: &[f64], b: &SearchBox, expected: usi
         let a = DMatrix::from_fn(idx.len(), idx.len(), |i, j| {
             jtj[(idx[i], idx[j])]
                 + if i == j {
-                    1e-12 * jtj[(idx[i], idx[i])].max(1e-300)
+                    SCREEN_RIDGE * jtj[(idx[i], idx[i])].max(SCREEN_DIAGONAL_FLOOR)
                 } else {
                     0.0
                 }
@@ -167,30 +199,36 @@ pub struct Fit {
     pub converged: bool,
 }
 
-/// Levenberg–Marquardt from `x0` within box `b`.
-pub fn levenberg_marquardt(eval: &Residuals, x0: &[f64], b: &SearchBox) -> Option<Fit> {
+/// Levenberg–Marquardt from `x0` within box `b`, its damping and
+/// stopping rules from `settings`.
+pub fn levenberg_marquardt(
+    eval: &Residuals,
+    x0: &[f64],
+    b: &SearchBox,
+    settings: &FitSettings,
+) -> Option<Fit> {
     let k = x0.len();
     let mut x = x0.to_vec();
     b.clamp(&mut x);
     let mut r = eval(&x)?;
     let mut cost: f64 = r.iter().map(|v| v * v).sum();
-    let mut lambda = 1e-2;
+    let mut lambda = settings.initial_damping;
     let mut converged = false;
     let mut jtj = DMatrix::<f64>::zeros(k, k);
-    for _ in 0..MAX_LM_ITERATIONS {
-        let Some(jac) = jacobian(eval, &x, &r, b) else {
+    for _ in 0..settings.max_iterations {
+        let Some(jac) = jacobian(eval, &x, &r, b, settings) else {
             break;
         };
         jtj = jac.transpose() * &jac;
         let grad = jac.transpose() * DVector::from_vec(r.clone());
         let mut improved = false;
-        for _ in 0..8 {
+        for _ in 0..settings.damping_tries {
             let mut a = jtj.clone();
             for i in 0..k {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
+                a[(i, i)] += lambda * jtj[(i, i)].max(DAMPING_DIAGONAL_FLOOR);
             }
             let Some(delta) = a.lu().solve(&(-&grad)) else {
-                lambda *= 10.0;
+                lambda *= settings.damping_raise_singular;
                 continue;
             };
             let mut trial: Vec<f64> = (0..k).map(|i| x[i] + delta[i] * b.scale[i]).collect();
@@ -202,15 +240,15 @@ pub fn levenberg_marquardt(eval: &Residuals, x0: &[f64], b: &SearchBox) -> Optio
                     x = trial;
                     r = rt;
                     cost = c;
-                    lambda = (lambda / 3.0).max(1e-9);
+                    lambda = (lambda / settings.damping_lower).max(settings.min_damping);
                     improved = true;
-                    if gain < 1e-6 * cost.max(1.0) {
+                    if gain < settings.converged_gain_rel * cost.max(1.0) {
                         converged = true;
                     }
                     break;
                 }
             }
-            lambda *= 4.0;
+            lambda *= settings.damping_raise;
         }
         if !improved {
             converged = true;
@@ -274,8 +312,9 @@ mod tests {
         let eval = |x: &[f64]| -> Option<Vec<f64>> {
             Some(t.iter().zip(&y).map(|(t, y)| y - x[0] - x[1] * t).collect())
         };
-        let b = SearchBox::of(&LINE);
-        let fit = levenberg_marquardt(&eval, &[0.0, 0.0], &b).unwrap();
+        let settings = FitSettings::default();
+        let b = SearchBox::of(&LINE, &settings);
+        let fit = levenberg_marquardt(&eval, &[0.0, 0.0], &b, &settings).unwrap();
         let n = t.len() as f64;
         let (st, stt) = (t.iter().sum::<f64>(), t.iter().map(|t| t * t).sum::<f64>());
         let (sy, sty) = (
@@ -301,7 +340,7 @@ mod tests {
         // The screen's one Gauss–Newton step is exact for a linear model.
         let r0: f64 = y.iter().map(|v| v * v).sum();
         let left: f64 = eval(&fit.values).unwrap().iter().map(|v| v * v).sum();
-        let gain = predicted_gain(&eval, &[0.0, 0.0], &b, t.len()).unwrap();
+        let gain = predicted_gain(&eval, &[0.0, 0.0], &b, t.len(), &settings).unwrap();
         assert!((gain - (r0 - left)).abs() < 1e-5 * r0);
     }
 }

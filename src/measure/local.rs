@@ -57,6 +57,11 @@ pub enum LocalKind {
     },
 }
 
+// The local candidates' parameters: what each candidate is (its neutral,
+// plausible and admissible values), as an effect's parameters are in
+// `model::effects`, so they are definitions of the candidates, not
+// settings of the diagnosis; the search ranges built from them are tuned
+// by `FitSettings::search_widening`.
 const SCALE_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
     name: "scale",
     unit: "1",

@@ -1,7 +1,8 @@
 //! Model against measurement: logs in memory ([`log`]), the synthetic lab
 //! that makes logs from a truth model ([`lab`]), the comparison of a model
 //! with a log ([`compare`]) and the search for what the model lacks
-//! ([`diagnose`]). Pure: files are read and written in [`crate::io`].
+//! ([`diagnose`]), tuned by [`settings`]. Pure: files are read and written
+//! in [`crate::io`].
 
 pub mod compare;
 pub mod comparison_verdict;
@@ -12,6 +13,7 @@ pub mod lab;
 pub mod local;
 pub mod log;
 pub mod outliers;
+pub mod settings;
 pub mod tail_probability;
 
 pub use log::{Cycle, MeasurementLog, StepCommand};

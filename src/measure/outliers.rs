@@ -2,16 +2,18 @@
 //! (a spike from a loose connector, a bird on a target), counted and named
 //! rather than taken for structure a model should explain.
 //!
-//! A reading is an outlier when its `z` lies more than [`OUTLIER_LIMIT`]
-//! robust SDs from the median `z` of its sensor, the robust SD being
+//! A reading is an outlier when its `z` lies more than
+//! [`OutlierSettings::limit_robust_sds`] (default 6) robust SDs from the
+//! median `z` of its sensor, the robust SD being
 //! `1.4826·MAD` (the median absolute deviation, scaled to the SD of a
 //! normal) and never below 1 (the noise). Against the median and MAD, a
 //! model error that moves many readings of a sensor widens the scale and
 //! is not flagged; a few spikes do not move either. Under pure noise a
 //! reading passes 6 SDs once in 500 million: a log of 2000 readings shows
 //! one once in 250 000 logs. Outliers are rare: a sensor with more than
-//! [`MAX_OUTLIER_SHARE`] of its readings beyond the limit has a fault (a
-//! clip, a jump), left in as structure to be located.
+//! [`OutlierSettings::max_share`] (default one in ten) of its readings
+//! beyond the limit has a fault (a clip, a jump), left in as structure to
+//! be located.
 //!
 //! `diagnose` removes the outliers of the model's comparison (as missing
 //! readings) before its search and lists them; `compare` lists them and
@@ -21,15 +23,17 @@ use serde::{Deserialize, Serialize};
 
 use super::compare::Comparison;
 use super::log::MeasurementLog;
+use super::settings::OutlierSettings;
 
-/// Distance from its sensor's median `z`, in robust SDs, beyond which a
-/// reading is an outlier.
-pub const OUTLIER_LIMIT: f64 = 6.0;
+/// The SD of a standard normal over its median absolute deviation
+/// (`1/Φ⁻¹(3/4)`): what makes the MAD a robust SD. A definition, not a
+/// setting.
+const MAD_TO_SD: f64 = 1.4826;
 
-/// Most outliers a sensor may have, as a share of its readings (at least
-/// one): outliers are rare. A sensor with more readings that far out has a
-/// fault (a clip, a jump), which is structure to be located, not set aside.
-pub const MAX_OUTLIER_SHARE: f64 = 0.1;
+/// The robust SD is never below the noise (`z` is in noise SDs): a sensor
+/// whose readings agree better than its noise has no outliers for being
+/// precise. A definition, not a setting.
+const NOISE_SD: f64 = 1.0;
 
 /// One reading found to be an outlier.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -60,7 +64,7 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// The outliers of comparison `c` of a log with `sensors` sensors, in the
 /// comparison's order.
-pub fn find_outliers(c: &Comparison, sensors: usize) -> Vec<Outlier> {
+pub fn find_outliers(c: &Comparison, sensors: usize, settings: &OutlierSettings) -> Vec<Outlier> {
     let mut z_of: Vec<Vec<f64>> = vec![Vec::new(); sensors];
     for r in &c.residuals {
         if let Some(v) = z_of.get_mut(r.sensor) {
@@ -72,7 +76,7 @@ pub fn find_outliers(c: &Comparison, sensors: usize) -> Vec<Outlier> {
         .map(|z| {
             let m = median(z);
             let mut dev: Vec<f64> = z.iter().map(|v| (v - m).abs()).collect();
-            (m, (1.4826 * median(&mut dev)).max(1.0))
+            (m, (MAD_TO_SD * median(&mut dev)).max(NOISE_SD))
         })
         .collect();
     let found: Vec<Outlier> = c
@@ -81,7 +85,7 @@ pub fn find_outliers(c: &Comparison, sensors: usize) -> Vec<Outlier> {
         .filter_map(|r| {
             let (m, s) = *centre_scale.get(r.sensor)?;
             let robust_z = (r.z - m) / s;
-            (robust_z.abs() > OUTLIER_LIMIT).then_some(Outlier {
+            (robust_z.abs() > settings.limit_robust_sds).then_some(Outlier {
                 cycle: r.cycle,
                 step: r.step,
                 sensor: r.sensor,
@@ -91,7 +95,7 @@ pub fn find_outliers(c: &Comparison, sensors: usize) -> Vec<Outlier> {
         })
         .collect();
     let count = |s: usize| found.iter().filter(|o| o.sensor == s).count();
-    let most = |s: usize| ((MAX_OUTLIER_SHARE * z_of[s].len() as f64).floor() as usize).max(1);
+    let most = |s: usize| ((settings.max_share * z_of[s].len() as f64).floor() as usize).max(1);
     found
         .iter()
         .filter(|o| count(o.sensor) <= most(o.sensor))
@@ -184,7 +188,7 @@ mod tests {
             (0, _) => pm(k),
             _ => k as f64,
         });
-        let o = find_outliers(&c, 2);
+        let o = find_outliers(&c, 2, &OutlierSettings::default());
         assert_eq!(o.len(), 1, "{o:?}");
         assert_eq!((o[0].cycle, o[0].step, o[0].sensor), (0, 7, 0));
         assert!((o[0].robust_z - 9.0 / 1.4826).abs() < 1e-9);
@@ -198,12 +202,15 @@ mod tests {
             (0, _) => pm(k),
             _ => k as f64,
         });
-        assert!(find_outliers(&faulty, 2).is_empty());
+        assert!(find_outliers(&faulty, 2, &OutlierSettings::default()).is_empty());
         let four = comparison(|s, k| match (s, k) {
             (0, 3 | 9 | 15 | 27) => 20.0,
             (0, _) => pm(k),
             _ => k as f64,
         });
-        assert_eq!(find_outliers(&four, 2).len(), 4);
+        assert_eq!(
+            find_outliers(&four, 2, &OutlierSettings::default()).len(),
+            4
+        );
     }
 }

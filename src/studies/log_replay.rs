@@ -490,9 +490,12 @@ pub enum CalibrationError {
 
 /// Held-out RMS residual of `model` on `log`, noise SDs.
 fn held_out_rms(model: &EffectModel, log: &MeasurementLog) -> Result<f64, PlantError> {
-    Ok(part(&compare(model, log)?, log.cycles.len(), true)
-        .overall
-        .rms)
+    let settings = DiagnoseSettings::default();
+    Ok(
+        part(&compare(model, log)?, log.cycles.len(), true, &settings)
+            .overall
+            .rms,
+    )
 }
 
 fn fitted_effect(kind: EffectKind, values: &[f64], se: &[f64], converged: bool) -> FittedEffect {
@@ -522,6 +525,7 @@ pub fn calibrate_on_log(
         CalibrationMethod::Diagnose { max_rounds } => {
             let settings = DiagnoseSettings {
                 max_rounds: *max_rounds,
+                ..DiagnoseSettings::default()
             };
             let d = diagnose(base, log, &settings)?;
             let effects = effects_found(base.effects, &d.verdict);
@@ -572,7 +576,7 @@ pub fn calibrate_on_log(
             let mut rms = before;
             let mut fitted = Vec::new();
             for kind in kinds {
-                let c = fit_candidate(base, effects, *kind, log)?;
+                let c = fit_candidate(base, effects, *kind, log, &DiagnoseSettings::default())?;
                 let mut f = fitted_effect(*kind, &c.values, &c.std_errors, c.converged);
                 if c.converged {
                     let trial = effects.with_parameters(*kind, &c.values);
