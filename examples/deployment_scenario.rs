@@ -101,7 +101,7 @@ fn print_deployment(d: &Deployment) {
                         r.truth_worst_utilisation, r.truth_min_tension_n, r.qp_status, r.trust_region_m, r.rejected_trials, r.active_constraints
                     );
         for v in &r.truth_violations {
-            println!("   VIOLATION {v}");
+            println!("   VIOLATION {}", v.describe());
         }
     }
     println!("status {:?}", d.status);
