@@ -60,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     Err(e) => println!("error: {e}"),
                     Ok(end) => {
                         if let Some(why) = end.stopped {
-                            println!("stopped: {why}");
+                            println!("stopped: {}", why.describe());
                         }
                     }
                 }
