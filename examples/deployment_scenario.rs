@@ -68,7 +68,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     Err(e) => println!("error: {e}"),
                     Ok(end) => {
                         if let Some(why) = end.stopped {
-                            println!("stopped: {why}");
+                            println!("stopped: {}", why.describe());
                         }
                     }
                 }
@@ -109,7 +109,7 @@ fn print_deployment(d: &Deployment) {
                         r.truth_worst_utilisation, r.truth_min_tension_n, r.qp_status, r.trust_region_m, r.rejected_trials, r.active_constraints
                     );
         for v in &r.truth_violations {
-            println!("   VIOLATION {v}");
+            println!("   VIOLATION {}", v.describe());
         }
     }
     println!("status {:?}", d.status);

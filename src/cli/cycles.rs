@@ -171,7 +171,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
             r.truth_limit_violations.to_string(),
             field(r.learnt_from_case),
             field(r.ilc_predicted_gap_m),
-            r.adaptation_error.clone().unwrap_or_default(),
+            field(r.adaptation_error.as_ref()),
         ]);
     }
     t
@@ -276,8 +276,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
             ""
         }
     );
-    if let Some(reason) = end.stopped {
-        return Ok(Outcome::GoalMissed(reason));
+    if let Some(stop) = end.stopped {
+        return Ok(Outcome::GoalMissed(stop.describe()));
     }
     let failed: Vec<String> = end
         .results

@@ -337,7 +337,8 @@ fn deployment_table(d: &Deployment) -> CsvTable {
         row.push(r.trust_region_m.map(|t| t.to_string()).unwrap_or_default());
         row.push(r.rejected_trials.to_string());
         row.push(r.active_constraints.join("; "));
-        row.push(r.truth_violations.join("; "));
+        let violations: Vec<String> = r.truth_violations.iter().map(|v| v.describe()).collect();
+        row.push(violations.join("; "));
         table.row(row);
     }
     table

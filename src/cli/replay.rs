@@ -45,6 +45,7 @@ use tensegrity_deploy::sim::{EffectModel, PlantError};
 use tensegrity_deploy::studies::log_replay::{
     calibrate_on_log, counterfactual, default_cycle, deployment_start, replay_log, Calibration,
     CalibrationError, CalibrationMethod, Margins, Replay, ReplayInputError, ReplayStart,
+    ReplayStop,
 };
 
 use super::deploy::compact_mm;
@@ -265,7 +266,7 @@ struct Summary<'a> {
     same_as_policy: usize,
     policy_would_have_stopped: usize,
     largest_difference_m: Option<f64>,
-    replay_stopped: &'a Option<String>,
+    replay_stopped: &'a Option<ReplayStop>,
     policy_next_command_m: &'a Option<Vec<f64>>,
     policy_next_stop: &'a Option<PlanStatus>,
     calibration: Option<&'a Calibration>,
@@ -340,7 +341,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         );
     }
     if let Some(why) = &replay.stopped {
-        say!("the replay stopped early: {why}");
+        say!("the replay stopped early: {}", why.describe());
     }
 
     let context = format!("calibrating on {}", o.log.display());

@@ -45,7 +45,7 @@ use super::measured_offsets::measured_gap_vectors;
 use super::truth_watch::TruthWatch;
 use crate::model::{ForwardModel, Structure};
 use crate::plan::limits::{LimitCheck, Limits};
-use crate::plan::{DeploymentProblem, PlanError, PlanStatus, Policy};
+use crate::plan::{DeploymentProblem, PlanError, PlanStatus, Policy, SolverFailure};
 use crate::sim::{EffectModel, Plant, PlantError, Sensor};
 
 /// Everything a closed-loop deployment runs with.
@@ -79,21 +79,51 @@ pub enum DeployError {
     #[error("the truth plant, reaching the folded start: {0}")]
     TruthStart(PlantError),
     /// The controller's model and the truth are not the same bridge.
-    #[error("the controller's model and the truth differ: {0}")]
-    Mismatch(String),
+    #[error("the controller's model and the truth differ: {}", .0.describe())]
+    Mismatch(BridgeMismatch),
+}
+
+/// How the truth's bridge differs from the controller's model's.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BridgeMismatch {
+    /// Different node counts.
+    NodeCount {
+        /// Nodes in the model.
+        model: usize,
+        /// Nodes in the truth.
+        truth: usize,
+    },
+    /// Different continuous cables: ids or segment counts.
+    ContinuousCables,
+    /// Different midspan pairs.
+    MidspanPairs,
+}
+
+impl BridgeMismatch {
+    /// Plain words.
+    pub fn describe(&self) -> String {
+        match self {
+            BridgeMismatch::NodeCount { model, truth } => {
+                format!("{model} nodes in the model, {truth} in the truth")
+            }
+            BridgeMismatch::ContinuousCables => {
+                "the continuous cables (ids or segment counts) differ".into()
+            }
+            BridgeMismatch::MidspanPairs => "the midspan pairs differ".into(),
+        }
+    }
 }
 
 /// Refuses a truth that is not the controller's bridge: the same nodes,
 /// continuous cables (segment for segment) and midspan pairs, so that
 /// commands, sensors and gaps mean the same on both.
 fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployError> {
-    let mismatch = |what: String| Err(DeployError::Mismatch(what));
+    let mismatch = |what| Err(DeployError::Mismatch(what));
     if model.nodes.len() != truth.nodes.len() {
-        return mismatch(format!(
-            "{} nodes in the model, {} in the truth",
-            model.nodes.len(),
-            truth.nodes.len()
-        ));
+        return mismatch(BridgeMismatch::NodeCount {
+            model: model.nodes.len(),
+            truth: truth.nodes.len(),
+        });
     }
     let cables = |s: &Structure| -> Vec<(String, usize)> {
         s.continuous_cables
@@ -102,10 +132,10 @@ fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployE
             .collect()
     };
     if cables(model) != cables(truth) {
-        return mismatch("the continuous cables (ids or segment counts) differ".into());
+        return mismatch(BridgeMismatch::ContinuousCables);
     }
     if model.midspan_pairs != truth.midspan_pairs {
-        return mismatch("the midspan pairs differ".into());
+        return mismatch(BridgeMismatch::MidspanPairs);
     }
     Ok(())
 }
@@ -196,9 +226,12 @@ pub fn deploy_guided(
         let index = records.len() + 1;
         let mut watch = TruthWatch::new(&truth_model, &truth_limits);
         let report = plant.apply(&p.sent_m, setup.temperature_c, &mut watch);
-        if let Err(e) = report {
+        if let Err(error) = report {
             break PlanStatus::SolverFailure {
-                reason: format!("the truth plant failed on command {index}: {e}"),
+                cause: SolverFailure::TruthPlant {
+                    command: index,
+                    error,
+                },
             };
         }
         let truth_increments = watch.increments;
@@ -212,9 +245,12 @@ pub fn deploy_guided(
         // The controller's own decision: its trial is the prediction, so
         // this cannot fail to follow; a failure would be a bug, reported
         // as the run's end rather than a panic.
-        if let Err(e) = controller.observe(&p.sent_m, &reading) {
+        if let Err(error) = controller.observe(&p.sent_m, &reading) {
             break PlanStatus::SolverFailure {
-                reason: format!("command {index}: {e}"),
+                cause: SolverFailure::Controller {
+                    command: index,
+                    error,
+                },
             };
         }
         let record = DeployRecord {
@@ -271,6 +307,31 @@ pub fn deploy_guided(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bridge_mismatches_read_as_before() {
+        let cases = [
+            (
+                BridgeMismatch::NodeCount {
+                    model: 50,
+                    truth: 52,
+                },
+                "50 nodes in the model, 52 in the truth",
+            ),
+            (
+                BridgeMismatch::ContinuousCables,
+                "the continuous cables (ids or segment counts) differ",
+            ),
+            (BridgeMismatch::MidspanPairs, "the midspan pairs differ"),
+        ];
+        for (m, text) in cases {
+            assert_eq!(m.describe(), text);
+            assert_eq!(
+                DeployError::Mismatch(m).to_string(),
+                format!("the controller's model and the truth differ: {text}")
+            );
+        }
+    }
     use crate::control::fixtures::{frictionless_model, short_fold};
     use crate::design::{reference_bridge, BridgeParameters};
     use crate::sim::{default_truth, standard_sensors};
@@ -300,12 +361,23 @@ mod tests {
             matches!(e, DeployError::TruthStart(PlantError::Solver { .. })),
             "{e:?}"
         );
+        let mut fewer_nodes = default_truth(structure.clone());
+        fewer_nodes.structure.nodes.pop();
+        let e = deploy_closed_loop(&setup(&fewer_nodes), &mut ()).unwrap_err();
+        assert_eq!(
+            e,
+            DeployError::Mismatch(BridgeMismatch::NodeCount {
+                model: structure.nodes.len(),
+                truth: structure.nodes.len() - 1,
+            }),
+            "{e}"
+        );
         let mut other = default_truth(structure);
         other.structure.midspan_pairs.swap(0, 1);
         let e = deploy_closed_loop(&setup(&other), &mut ()).unwrap_err();
         assert_eq!(
             e,
-            DeployError::Mismatch("the midspan pairs differ".into()),
+            DeployError::Mismatch(BridgeMismatch::MidspanPairs),
             "{e}"
         );
     }

@@ -24,8 +24,6 @@
 
 use std::time::Instant;
 
-use thiserror::Error;
-
 use std::collections::VecDeque;
 
 use super::estimation::PayoutScaleEstimator;
@@ -34,8 +32,8 @@ use super::guidance::Guidance;
 use super::measured_offsets::{filter_force_offsets, model_correction};
 use crate::model::{DeploymentState, ForwardModel};
 use crate::plan::{
-    folded_start, planner_for, CommandPlanner, Decision, DeploymentProblem, Measurement,
-    PlanContext, PlanError, PlanStatus, PlannedCommand, Policy, QpStepStatus, Trial,
+    folded_start, planner_for, CommandPlanner, ControllerError, Decision, DeploymentProblem,
+    Measurement, PlanContext, PlanError, PlanStatus, PlannedCommand, Policy, QpStepStatus, Trial,
 };
 use crate::sim::Sensor;
 
@@ -95,30 +93,6 @@ pub struct Observation {
     /// Gap per pair the controller predicted for the sent command, with
     /// the correction in force before the new readings, m.
     pub predicted_gaps_m: Vec<f64>,
-}
-
-/// Why the controller could not follow a command.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum ControllerError {
-    /// A command that is not its own decision took its model somewhere it
-    /// cannot solve (or reeled a segment through).
-    #[error("the controller's model cannot follow the command {command_m:?} m: {reason}")]
-    CannotFollow {
-        /// The cable motion tried, per motor, m.
-        command_m: Vec<f64>,
-        /// What failed, in words.
-        reason: String,
-    },
-    /// A command or readings of the wrong length.
-    #[error("{what}: {found} values, the controller expects {expected}")]
-    WrongLength {
-        /// Which input.
-        what: &'static str,
-        /// Values given.
-        found: usize,
-        /// Values expected.
-        expected: usize,
-    },
 }
 
 /// The controller's own decision, kept until the next observation.
@@ -457,7 +431,7 @@ impl<'a> Controller<'a> {
                 if !trial.status.is_converged() {
                     return Err(ControllerError::CannotFollow {
                         command_m: planned,
-                        reason: trial.failure(),
+                        status: trial.status,
                     });
                 }
                 (planned, trial.state)

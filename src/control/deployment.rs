@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use crate::model::DeploymentState;
-use crate::plan::{PlanStatus, QpStepStatus};
+use crate::plan::{LimitViolation, PlanStatus, QpStepStatus};
 
 /// The largest measured gap below which the deployment is in its last,
 /// corrective phase, m: twice the 30 mm connection tolerance (the issue's
@@ -61,7 +61,7 @@ pub struct DeployRecord {
     /// command, N.
     pub truth_min_tension_n: f64,
     /// Limits the truth broke along the command (empty when none).
-    pub truth_violations: Vec<String>,
+    pub truth_violations: Vec<LimitViolation>,
     /// Increments the truth applied the command in.
     pub truth_increments: usize,
     /// Increments whose state was checked against the limits (all of them

@@ -27,9 +27,14 @@ pub mod guidance;
 pub mod measured_offsets;
 pub mod truth_watch;
 
-pub use closed_loop::{deploy_closed_loop, deploy_guided, ClosedLoopSetup, DeployError};
+/// Defined in `plan` ([`crate::plan::causes`]): a deployment's
+/// [`crate::plan::SolverFailure`] may carry it.
+pub use crate::plan::ControllerError;
+pub use closed_loop::{
+    deploy_closed_loop, deploy_guided, BridgeMismatch, ClosedLoopSetup, DeployError,
+};
 pub use controller::{
-    Controller, ControllerDecision, ControllerError, Observation, Proposal, OWN_COMMAND_TOLERANCE_M,
+    Controller, ControllerDecision, Observation, Proposal, OWN_COMMAND_TOLERANCE_M,
 };
 pub use deployment::{
     DeployObserver, DeployRecord, DeployStart, Deployment, CORRECTIVE_PHASE_GAP_M,

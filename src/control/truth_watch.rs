@@ -56,7 +56,7 @@ impl IncrementObserver for TruthWatch<'_> {
 mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
-    use crate::plan::DeploymentProblem;
+    use crate::plan::{DeploymentProblem, LimitViolation};
     use crate::sim::{default_truth, Plant};
 
     #[test]
@@ -92,7 +92,9 @@ mod tests {
         let w = watch.worst.unwrap();
         assert!(!w.ok());
         assert!(
-            w.violations.iter().all(|v| v.contains("above")),
+            w.violations
+                .iter()
+                .all(|v| matches!(v, LimitViolation::AboveUpper { .. })),
             "{:?}",
             w.violations
         );

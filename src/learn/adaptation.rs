@@ -27,7 +27,7 @@ use super::ilc::{learn_commands, IlcData, IlcUpdate};
 use super::memory::{CaseMemory, FeatureScales};
 use crate::control::Guidance;
 use crate::control::PayoutScaleEstimator;
-use crate::model::{DeploymentState, RelaxStatus, Workspace};
+use crate::model::{DeploymentState, RelaxStatus, SensitivityError, Workspace};
 use crate::plan::response::{IndependentParts, PayoutResponse};
 use crate::plan::search::step_data;
 use crate::plan::{MemorySettings, PlanContext};
@@ -78,12 +78,12 @@ pub enum AdaptError {
         status: RelaxStatus,
     },
     /// No tangent at the end state.
-    #[error("case {case}: no sensitivities at its end: {reason}")]
+    #[error("case {case}: no sensitivities at its end: {error}")]
     Sensitivity {
         /// Case index.
         case: usize,
-        /// Cause.
-        reason: String,
+        /// Why the tangent failed.
+        error: SensitivityError,
     },
 }
 
@@ -149,10 +149,11 @@ pub fn adapt(
             }
         })?;
     cache.last = Some(end.clone());
-    let response = PayoutResponse::tangent(model, &end).map_err(|e| AdaptError::Sensitivity {
-        case: case_index,
-        reason: e.to_string(),
-    })?;
+    let response =
+        PayoutResponse::tangent(model, &end).map_err(|error| AdaptError::Sensitivity {
+            case: case_index,
+            error,
+        })?;
     let max_step = context.motors.largest_step_m();
     let terminal = step_data(context, &end, &response, max_step);
     let to_drum = |mut g: DMatrix<f64>| {

@@ -11,6 +11,7 @@
 
 use rayon::prelude::*;
 
+use super::causes::NotReachable;
 use super::outcome::PlanStatus;
 use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand, Trial};
 use crate::model::DeploymentState;
@@ -53,21 +54,25 @@ impl CommandPlanner for NominalPlanner {
                 .max_midspan_gap_m(context.model.structure())
                 .unwrap_or(0.0);
             return Decision::Stop(PlanStatus::NotReachable {
-                reason: format!(
-                    "the nominal sequence is spent with a largest gap of {:.1} mm",
-                    1e3 * worst
-                ),
+                cause: NotReachable::NominalSequenceSpent {
+                    largest_gap_m: worst,
+                },
             });
         }
         if !context.command_admissible(state, &self.per_step_m) {
             return Decision::Stop(PlanStatus::NotReachable {
-                reason: format!("nominal step {} leaves a motor's stroke", self.done + 1),
+                cause: NotReachable::NominalStepLeavesStroke {
+                    step: self.done + 1,
+                },
             });
         }
         let trial = context.trial(state, &self.per_step_m);
-        if !trial.admissible() {
+        if let Some(failure) = trial.failure() {
             return Decision::Stop(PlanStatus::NotReachable {
-                reason: format!("nominal step {}: {}", self.done + 1, trial.failure()),
+                cause: NotReachable::NominalStepRejected {
+                    step: self.done + 1,
+                    failure,
+                },
             });
         }
         self.done += 1;
@@ -168,11 +173,10 @@ impl CommandPlanner for GreedyTreePlanner {
             self.move_m *= 0.5;
             if self.move_m < context.policy.greedy_min_move_m {
                 return Decision::Stop(PlanStatus::NotReachable {
-                    reason: format!(
-                        "no single-motor move down to ±{:.1} mm reduces the largest gap ({:.1} mm)",
-                        1e3 * context.policy.greedy_min_move_m,
-                        1e3 * current
-                    ),
+                    cause: NotReachable::NoGreedyMove {
+                        min_move_m: context.policy.greedy_min_move_m,
+                        largest_gap_m: current,
+                    },
                 });
             }
         }

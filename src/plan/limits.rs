@@ -15,6 +15,7 @@
 //! and the design is the goal the planner is asked to reach.
 
 use nalgebra::Vector3;
+use serde::{Serialize, Serializer};
 
 use super::problem::DeploymentProblem;
 use crate::model::{DeploymentState, ForwardModel, MemberKind, NodeIndex, Structure};
@@ -69,8 +70,102 @@ pub struct LimitCheck {
     pub min_tension_n: f64,
     /// Smallest strut-to-strut clearance, m.
     pub min_clearance_m: f64,
-    /// The limits broken, named (empty when none).
-    pub violations: Vec<String>,
+    /// The limits broken (empty when none).
+    pub violations: Vec<LimitViolation>,
+}
+
+/// One limit a state breaks, with the member or struts it names. Written
+/// (and serialised) as its [`LimitViolation::describe`] text.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LimitViolation {
+    /// A force row below its lower limit (a tension-only member slack, a
+    /// strut compressed beyond its admissible buckling load).
+    BelowLower {
+        /// The force row's name ([`force_row_name`], e.g. `segment A_cc0[2]`).
+        member: String,
+        /// Its force, N.
+        force_n: f64,
+        /// The limit, N.
+        lower_n: f64,
+    },
+    /// A force row above its upper limit.
+    AboveUpper {
+        /// The force row's name ([`force_row_name`]).
+        member: String,
+        /// Its force, N.
+        force_n: f64,
+        /// The limit, N.
+        upper_n: f64,
+    },
+    /// Two struts closer than their clearance limit.
+    StrutsTooClose {
+        /// Id of the first strut.
+        strut_a: String,
+        /// Id of the second strut.
+        strut_b: String,
+        /// Their distance, m.
+        distance_m: f64,
+        /// The smallest admissible distance, m.
+        min_m: f64,
+    },
+    /// A tension no sensor reads fell to less than the policy's margin
+    /// times its fall above its lower limit (see
+    /// [`super::PlanContext::unmeasured_fall_violations`]).
+    UnmeasuredFall {
+        /// The force row's name ([`force_row_name`]).
+        member: String,
+        /// Its force after the fall, N.
+        force_n: f64,
+        /// The fall, N.
+        fall_n: f64,
+        /// The policy's `unmeasured_force_fall_margin`, 1.
+        margin: f64,
+        /// The lower limit, N.
+        lower_n: f64,
+    },
+}
+
+impl LimitViolation {
+    /// Plain words, as in the deployment tables.
+    pub fn describe(&self) -> String {
+        match self {
+            LimitViolation::BelowLower {
+                member,
+                force_n,
+                lower_n,
+            } => format!("{member} at {force_n:.1} N, below {lower_n:.1} N"),
+            LimitViolation::AboveUpper {
+                member,
+                force_n,
+                upper_n,
+            } => format!("{member} at {force_n:.1} N, above {upper_n:.1} N"),
+            LimitViolation::StrutsTooClose {
+                strut_a,
+                strut_b,
+                distance_m,
+                min_m,
+            } => format!(
+                "struts {strut_a} and {strut_b} {:.1} mm apart, closer than {:.1} mm",
+                1e3 * distance_m,
+                1e3 * min_m
+            ),
+            LimitViolation::UnmeasuredFall {
+                member,
+                force_n,
+                fall_n,
+                margin,
+                lower_n,
+            } => format!(
+                "{member} (unmeasured) at {force_n:.1} N after a {fall_n:.1} N fall: less than {margin} × the fall above {lower_n:.1} N"
+            ),
+        }
+    }
+}
+
+impl Serialize for LimitViolation {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&self.describe())
+    }
 }
 
 impl LimitCheck {
@@ -278,30 +373,29 @@ impl Limits {
             };
             out.worst_utilisation = out.worst_utilisation.max(use_);
             if !(f >= b.lower_n - tolerance_n) {
-                out.violations.push(format!(
-                    "{} at {f:.1} N, below {:.1} N",
-                    force_row_name(s, r),
-                    b.lower_n
-                ));
+                out.violations.push(LimitViolation::BelowLower {
+                    member: force_row_name(s, r),
+                    force_n: f,
+                    lower_n: b.lower_n,
+                });
             } else if !(f <= b.upper_n + tolerance_n) {
-                out.violations.push(format!(
-                    "{} at {f:.1} N, above {:.1} N",
-                    force_row_name(s, r),
-                    b.upper_n
-                ));
+                out.violations.push(LimitViolation::AboveUpper {
+                    member: force_row_name(s, r),
+                    force_n: f,
+                    upper_n: b.upper_n,
+                });
             }
         }
         for (pair, &min) in self.strut_pairs.iter().zip(&self.min_clearance_m) {
             let (d, _, _) = strut_clearance(s, &state.positions_m, *pair);
             out.min_clearance_m = out.min_clearance_m.min(d);
             if !(d >= min - 1e-6) {
-                out.violations.push(format!(
-                    "struts {} and {} {:.1} mm apart, closer than {:.1} mm",
-                    s.members[pair[0]].id,
-                    s.members[pair[1]].id,
-                    1e3 * d,
-                    1e3 * min
-                ));
+                out.violations.push(LimitViolation::StrutsTooClose {
+                    strut_a: s.members[pair[0]].id.clone(),
+                    strut_b: s.members[pair[1]].id.clone(),
+                    distance_m: d,
+                    min_m: min,
+                });
             }
         }
         out
@@ -311,6 +405,51 @@ impl Limits {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn limit_violations_read_as_before() {
+        let cases = [
+            (
+                LimitViolation::BelowLower {
+                    member: "segment A_cc0[2]".into(),
+                    force_n: 9.04,
+                    lower_n: 10.0,
+                },
+                "segment A_cc0[2] at 9.0 N, below 10.0 N",
+            ),
+            (
+                LimitViolation::AboveUpper {
+                    member: "cable A_c3".into(),
+                    force_n: 1234.56,
+                    upper_n: 1200.0,
+                },
+                "cable A_c3 at 1234.6 N, above 1200.0 N",
+            ),
+            (
+                LimitViolation::StrutsTooClose {
+                    strut_a: "A_s1".into(),
+                    strut_b: "A_s7".into(),
+                    distance_m: 0.01234,
+                    min_m: 0.02,
+                },
+                "struts A_s1 and A_s7 12.3 mm apart, closer than 20.0 mm",
+            ),
+            (
+                LimitViolation::UnmeasuredFall {
+                    member: "spring A_k0".into(),
+                    force_n: 12.345,
+                    fall_n: 30.0,
+                    margin: 0.5,
+                    lower_n: 10.0,
+                },
+                "spring A_k0 (unmeasured) at 12.3 N after a 30.0 N fall: less than 0.5 × the fall above 10.0 N",
+            ),
+        ];
+        for (v, text) in cases {
+            assert_eq!(v.describe(), text, "{v:?}");
+            assert_eq!(serde_json::to_value(&v).unwrap(), text);
+        }
+    }
 
     #[test]
     fn segment_distance_matches_hand_cases() {

@@ -13,7 +13,7 @@
 //!   predictions (computed in `crate::control`);
 //! - [`planner`]: the planners' shared trait, context and trials;
 //!   [`planners`]: the planner a policy names; [`outcome`]: plans and
-//!   their status;
+//!   their status; [`causes`]: why a plan stops short;
 //! - [`open_loop`]: the folded start and a plan on the model alone.
 //!
 //! Pure numerics: a plan is a function of (model, problem, policy, state).
@@ -21,6 +21,7 @@
 //! and the measurement corrections) is `crate::control`.
 
 pub mod baselines;
+pub mod causes;
 pub mod correction;
 pub mod limits;
 pub mod open_loop;
@@ -33,7 +34,9 @@ pub mod qp_step;
 pub mod response;
 pub mod search;
 
+pub use causes::{ControllerError, NotReachable, SolverFailure, TrialFailure, TrialRejection};
 pub use correction::ModelCorrection;
+pub use limits::LimitViolation;
 pub use open_loop::{folded_start, plan_open_loop};
 pub use outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 pub use planner::{worst_along_path, CommandPlanner, Decision, PlanContext, PlannedCommand, Trial};

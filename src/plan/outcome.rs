@@ -1,32 +1,34 @@
 //! What a plan is: its status, and one record per command.
 
-use serde::Serialize;
+use serde::ser::SerializeStruct;
+use serde::{Serialize, Serializer};
 use thiserror::Error;
 
+use super::causes::{NotReachable, SolverFailure};
 use super::policy::PolicyError;
 use super::problem::ProblemError;
 use super::qp_step::QpStepStatus;
 use crate::model::{CommandError, DeploymentState, RelaxStatus, SettingsError};
 
-/// How a plan ended.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-#[serde(rename_all = "snake_case", tag = "status")]
+/// How a plan ended. Its JSON form is `{"status": label}`, with
+/// `"reason"`: the cause's words for the two that have a cause.
+#[derive(Debug, Clone, PartialEq)]
 pub enum PlanStatus {
     /// Every midspan pair is within the connection tolerance less the
     /// policy's margin.
     Connected,
     /// No admissible command brings the bridge closer, or the planner's
-    /// own sequence is spent; the reason says which limit or why.
+    /// own sequence is spent; the cause says which limit or why.
     NotReachable {
-        /// Why, in words.
-        reason: String,
+        /// Why.
+        cause: NotReachable,
     },
     /// The policy's command budget is spent before connection.
     CommandLimit,
-    /// The model or the QP solver failed.
+    /// The model, the QP solver or the truth plant failed.
     SolverFailure {
-        /// What failed, in words.
-        reason: String,
+        /// What failed.
+        cause: SolverFailure,
     },
 }
 
@@ -51,12 +53,36 @@ impl PlanStatus {
     pub fn describe(&self) -> String {
         match self {
             PlanStatus::Connected => "connected: every midspan pair within tolerance".into(),
-            PlanStatus::NotReachable { reason } => format!("not reachable: {reason}"),
+            PlanStatus::NotReachable { cause } => format!("not reachable: {}", cause.describe()),
             PlanStatus::CommandLimit => {
                 "command limit: the policy's largest number of commands is spent".into()
             }
-            PlanStatus::SolverFailure { reason } => format!("solver failure: {reason}"),
+            PlanStatus::SolverFailure { cause } => {
+                format!("solver failure: {}", cause.describe())
+            }
         }
+    }
+
+    /// The cause's words, for the statuses that have a cause.
+    fn reason(&self) -> Option<String> {
+        match self {
+            PlanStatus::NotReachable { cause } => Some(cause.describe()),
+            PlanStatus::SolverFailure { cause } => Some(cause.describe()),
+            PlanStatus::Connected | PlanStatus::CommandLimit => None,
+        }
+    }
+}
+
+impl Serialize for PlanStatus {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let reason = self.reason();
+        let mut out =
+            serializer.serialize_struct("PlanStatus", 1 + usize::from(reason.is_some()))?;
+        out.serialize_field("status", self.label())?;
+        if let Some(reason) = reason {
+            out.serialize_field("reason", &reason)?;
+        }
+        out.end()
     }
 }
 
@@ -141,12 +167,50 @@ mod tests {
     fn status_labels_are_the_json_tags() {
         for s in [
             PlanStatus::Connected,
-            PlanStatus::NotReachable { reason: "r".into() },
+            PlanStatus::NotReachable {
+                cause: NotReachable::QpInfeasible,
+            },
             PlanStatus::CommandLimit,
-            PlanStatus::SolverFailure { reason: "r".into() },
+            PlanStatus::SolverFailure {
+                cause: SolverFailure::QpNumericalTrouble,
+            },
         ] {
             let json = serde_json::to_value(&s).unwrap();
             assert_eq!(json["status"], s.label(), "{s:?}");
         }
+    }
+
+    #[test]
+    fn statuses_read_and_serialise_as_before() {
+        let not_reachable = PlanStatus::NotReachable {
+            cause: NotReachable::NoLinearisation,
+        };
+        assert_eq!(
+            not_reachable.describe(),
+            "not reachable: no linearisation gave a command"
+        );
+        assert_eq!(
+            serde_json::to_string(&not_reachable).unwrap(),
+            r#"{"status":"not_reachable","reason":"no linearisation gave a command"}"#
+        );
+        let failure = PlanStatus::SolverFailure {
+            cause: SolverFailure::QpStepBreaksMotorLimit,
+        };
+        assert_eq!(
+            failure.describe(),
+            "solver failure: the QP step breaks a motor limit"
+        );
+        assert_eq!(
+            serde_json::to_string(&failure).unwrap(),
+            r#"{"status":"solver_failure","reason":"the QP step breaks a motor limit"}"#
+        );
+        assert_eq!(
+            serde_json::to_string_pretty(&PlanStatus::Connected).unwrap(),
+            "{\n  \"status\": \"connected\"\n}"
+        );
+        assert_eq!(
+            serde_json::to_string(&PlanStatus::CommandLimit).unwrap(),
+            r#"{"status":"command_limit"}"#
+        );
     }
 }

@@ -5,8 +5,9 @@
 //! planners hold only what they derive from those (a trust-region radius,
 //! a step counter), and every probe runs on clones of the state.
 
+use super::causes::TrialFailure;
 use super::correction::ModelCorrection;
-use super::limits::{corrected_force_rows, force_row_name, LimitCheck, Limits};
+use super::limits::{corrected_force_rows, force_row_name, LimitCheck, LimitViolation, Limits};
 use super::outcome::{PlanError, PlanStatus};
 use super::policy::{Policy, PolicyError};
 use super::problem::{DeploymentProblem, MotorLimits};
@@ -175,7 +176,7 @@ impl PlanContext<'_> {
     /// a load cell) whose fall from `start_rows_n` to `rows_n` (force
     /// rows with their offsets, N) leaves less than the policy's
     /// `unmeasured_force_fall_margin` times that fall above their lower
-    /// limit (less `tolerance_n`), named. The model sees such a force's
+    /// limit (less `tolerance_n`). The model sees such a force's
     /// level and slope only as well as its effects match the bridge's, so
     /// a fall it predicts to end just above the limit may end below it.
     pub fn unmeasured_fall_violations(
@@ -183,7 +184,7 @@ impl PlanContext<'_> {
         start_rows_n: &[f64],
         rows_n: &[f64],
         tolerance_n: f64,
-    ) -> Vec<String> {
+    ) -> Vec<LimitViolation> {
         let beta = self.policy.unmeasured_force_fall_margin;
         if beta <= 0.0 {
             return Vec::new();
@@ -200,11 +201,13 @@ impl PlanContext<'_> {
             }
             let fall = f0 - f;
             if fall > 0.0 && f - beta * fall < b.lower_n - tolerance_n {
-                out.push(format!(
-                    "{} (unmeasured) at {f:.1} N after a {fall:.1} N fall: less than {beta} × the fall above {:.1} N",
-                    force_row_name(self.model.structure(), r),
-                    b.lower_n
-                ));
+                out.push(LimitViolation::UnmeasuredFall {
+                    member: force_row_name(self.model.structure(), r),
+                    force_n: f,
+                    fall_n: fall,
+                    margin: beta,
+                    lower_n: b.lower_n,
+                });
             }
         }
         out
@@ -228,12 +231,17 @@ impl Trial {
         self.status.is_converged() && self.check.ok()
     }
 
-    /// Why the trial is not admissible, in words.
-    pub fn failure(&self) -> String {
+    /// Why the trial is not admissible (`None` when it is): the solve
+    /// that did not converge, else the first limit broken.
+    pub fn failure(&self) -> Option<TrialFailure> {
         if !self.status.is_converged() {
-            format!("the model {}", self.status.describe())
+            Some(TrialFailure::Model(self.status))
         } else {
-            self.check.violations.first().cloned().unwrap_or_default()
+            self.check
+                .violations
+                .first()
+                .cloned()
+                .map(TrialFailure::Limit)
         }
     }
 }

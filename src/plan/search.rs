@@ -12,6 +12,7 @@
 
 use nalgebra::Vector3;
 
+use super::causes::{NotReachable, SolverFailure, TrialRejection};
 use super::limits::{force_row_name, force_rows, strut_clearance};
 use super::outcome::PlanStatus;
 use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand};
@@ -229,7 +230,7 @@ fn responses(
     context: &PlanContext,
     state: &DeploymentState,
     kind: SensitivityKind,
-) -> Result<PayoutResponse, String> {
+) -> Result<PayoutResponse, SolverFailure> {
     match kind {
         SensitivityKind::Secant => PayoutResponse::finite_difference(
             context.model,
@@ -237,9 +238,10 @@ fn responses(
             context.policy.sensitivity_step_m,
             context.policy.increment_m,
         )
-        .map_err(|e| e.to_string()),
+        .map_err(SolverFailure::SecantSensitivities),
         SensitivityKind::Tangent | SensitivityKind::Auto => {
-            PayoutResponse::tangent(context.model, state).map_err(|e| e.to_string())
+            PayoutResponse::tangent(context.model, state)
+                .map_err(SolverFailure::TangentSensitivities)
         }
     }
 }
@@ -293,11 +295,7 @@ impl CommandPlanner for QpPlanner {
                 Linearisation::Kept => kept.take(),
                 Linearisation::Fresh(kind) => match responses(context, state, kind) {
                     Ok(r) => Some(r),
-                    Err(e) => {
-                        return Decision::Stop(PlanStatus::SolverFailure {
-                            reason: format!("sensitivities: {e}"),
-                        })
-                    }
+                    Err(cause) => return Decision::Stop(PlanStatus::SolverFailure { cause }),
                 },
             };
             let Some(response) = response else { continue };
@@ -315,7 +313,7 @@ impl CommandPlanner for QpPlanner {
             }
         }
         Decision::Stop(last.unwrap_or(PlanStatus::NotReachable {
-            reason: "no linearisation gave a command".into(),
+            cause: NotReachable::NoLinearisation,
         }))
     }
 }
@@ -342,7 +340,7 @@ impl QpPlanner {
             match step.status {
                 QpStepStatus::Infeasible => {
                     return Err(StepFailure::Stop(PlanStatus::NotReachable {
-                        reason: "no command meets the linearised limits (QP infeasible)".into(),
+                        cause: NotReachable::QpInfeasible,
                     }))
                 }
                 // Degenerate responses (a tangent where every joint
@@ -350,7 +348,7 @@ impl QpPlanner {
                 // may not.
                 QpStepStatus::NumericalTrouble => {
                     return Err(StepFailure::Unconfirmed(PlanStatus::SolverFailure {
-                        reason: "the QP solver failed numerically".into(),
+                        cause: SolverFailure::QpNumericalTrouble,
                     }))
                 }
                 _ => {}
@@ -358,23 +356,18 @@ impl QpPlanner {
             let predicted = merit0 - context.gap_merit(&step.predicted_gaps_m);
             let largest = step.command_m.iter().fold(0.0f64, |a, d| a.max(d.abs()));
             if !(predicted > NO_REDUCTION_M2) || largest < 1e-6 {
-                let active = if step.active_constraints.is_empty() {
-                    "none".to_string()
-                } else {
-                    step.active_constraints.join(", ")
-                };
                 return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
-                    reason: format!(
-                        "no admissible command reduces the gaps (largest gap {:.1} mm); active: {active}",
-                        1e3 * norms(&data.gaps_m).iter().fold(0.0f64, |a, b| a.max(*b))
-                    ),
+                    cause: NotReachable::NoReducingCommand {
+                        largest_gap_m: norms(&data.gaps_m).iter().fold(0.0f64, |a, b| a.max(*b)),
+                        active_constraints: step.active_constraints,
+                    },
                 }));
             }
             if !context.command_admissible(state, &step.command_m) {
                 // Cannot happen for a solved QP (its bounds are these
                 // limits); treat as numerical trouble, never send it.
                 return Err(StepFailure::Stop(PlanStatus::SolverFailure {
-                    reason: "the QP step breaks a motor limit".into(),
+                    cause: SolverFailure::QpStepBreaksMotorLimit,
                 }));
             }
             let trial = context.trial(state, &step.command_m);
@@ -397,24 +390,26 @@ impl QpPlanner {
                 });
                 return Ok((command, ratio));
             }
-            let last_failure = if trial.admissible() {
-                format!("reduction ratio {ratio:.2} below {}", tr.acceptance_ratio)
-            } else {
-                trial.failure()
+            let last_trial = match trial.failure() {
+                Some(failure) => TrialRejection::Inadmissible(failure),
+                None => TrialRejection::LowReductionRatio {
+                    ratio,
+                    required: tr.acceptance_ratio,
+                },
             };
             rejected += 1;
             self.trust_region_m *= tr.shrink;
             if patience.is_some_and(|p| rejected >= p) {
                 return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
-                    reason: format!("kept sensitivities not confirmed ({last_failure})"),
+                    cause: NotReachable::KeptSensitivitiesUnconfirmed { last_trial },
                 }));
             }
             if self.trust_region_m < tr.min_m {
                 return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
-                    reason: format!(
-                        "trust region collapsed below {:.1} mm (last trial: {last_failure})",
-                        1e3 * tr.min_m
-                    ),
+                    cause: NotReachable::TrustRegionCollapsed {
+                        min_radius_m: tr.min_m,
+                        last_trial,
+                    },
                 }));
             }
         }

@@ -15,13 +15,15 @@
 //! Randomness: the sensor noise of cycle `k` (1-based) is seeded with
 //! [`scenario_seed`]`(seed, k)`; nothing else is drawn.
 
-use serde::Serialize;
+use serde::{Serialize, Serializer};
 
 use super::statistics::scenario_seed;
 use crate::control::{deploy_guided, ClosedLoopSetup, DeployError, Deployment, Guidance};
-use crate::learn::{adapt, Case, CaseConditions, CaseMemory, EndStateCache, FeatureScales};
+use crate::learn::{
+    adapt, AdaptError, Case, CaseConditions, CaseMemory, EndStateCache, FeatureScales,
+};
 use crate::plan::{folded_start, PlanContext, PlanError};
-use crate::sim::Plant;
+use crate::sim::{Plant, PlantError};
 
 /// One cycle's figures: a row of the learning curve.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -50,8 +52,10 @@ pub struct CycleResult {
     pub learnt_from_case: Option<usize>,
     /// Largest end gap the ILC update predicted, m.
     pub ilc_predicted_gap_m: Option<f64>,
-    /// Why the memory gave no guidance although it held cases.
-    pub adaptation_error: Option<String>,
+    /// Why the memory gave no guidance although it held cases
+    /// (serialised as its message).
+    #[serde(serialize_with = "error_message")]
+    pub adaptation_error: Option<AdaptError>,
     /// Wall-clock planning time of the cycle (adaptation and every
     /// command), s: the only value not a function of the inputs.
     #[serde(skip)]
@@ -77,7 +81,34 @@ pub struct CyclesEnd {
     pub results: Vec<CycleResult>,
     /// `None` when every cycle ran; otherwise why the run stopped (the
     /// truth could not be folded back).
-    pub stopped: Option<String>,
+    pub stopped: Option<FoldBackFailure>,
+}
+
+/// The truth could not be folded back after a cycle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FoldBackFailure {
+    /// The cycle after which the fold failed, 1 for the first.
+    pub after_cycle: usize,
+    /// What the truth plant said.
+    pub error: PlantError,
+}
+
+impl FoldBackFailure {
+    /// Plain words.
+    pub fn describe(&self) -> String {
+        format!(
+            "folding back after cycle {}: {}",
+            self.after_cycle, self.error
+        )
+    }
+}
+
+/// An optional error as its message.
+fn error_message<S: Serializer>(
+    error: &Option<AdaptError>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    error.as_ref().map(|e| e.to_string()).serialize(serializer)
 }
 
 /// Runs `cycles` cycles of `setup` (its truth's hidden effects fixed for
@@ -128,7 +159,7 @@ pub fn run_cycles(
                     &mut end_states,
                 ) {
                     Ok(a) => (a, None),
-                    Err(e) => (None, Some(e.to_string())),
+                    Err(e) => (None, Some(e)),
                 }
             }
             None => (None, None),
@@ -165,10 +196,13 @@ pub fn run_cycles(
         if cycle == cycles {
             break;
         }
-        if let Err(reason) = fold_back(&mut plant, &d.commands(), &motors.max_step_m, setup) {
+        if let Err(error) = fold_back(&mut plant, &d.commands(), &motors.max_step_m, setup) {
             return Ok(CyclesEnd {
                 results,
-                stopped: Some(format!("folding back after cycle {cycle}: {reason}")),
+                stopped: Some(FoldBackFailure {
+                    after_cycle: cycle,
+                    error,
+                }),
             });
         }
     }
@@ -185,7 +219,7 @@ fn fold_back(
     commands_m: &[Vec<f64>],
     max_step_m: &[f64],
     setup: &ClosedLoopSetup,
-) -> Result<(), String> {
+) -> Result<(), PlantError> {
     let motors = max_step_m.len();
     let mut total = vec![0.0; motors];
     for u in commands_m {
@@ -201,9 +235,61 @@ fn fold_back(
         .unwrap_or(0);
     for _ in 0..steps {
         let step: Vec<f64> = total.iter().map(|t| t / steps as f64).collect();
-        plant
-            .apply(&step, setup.temperature_c, &mut ())
-            .map_err(|e| e.to_string())?;
+        plant.apply(&step, setup.temperature_c, &mut ())?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{MotorDirection, SensitivityError};
+
+    #[test]
+    fn a_fold_back_failure_and_an_adaptation_error_read_as_before() {
+        let stop = FoldBackFailure {
+            after_cycle: 2,
+            error: PlantError::SeatsUnsettled {
+                cycle: 0,
+                step: 1,
+                change_m: 2e-3,
+            },
+        };
+        assert_eq!(
+            stop.describe(),
+            "folding back after cycle 2: cycle 0, step 1: the cable-seat arcs did not settle (2.00e-3 m still changing)"
+        );
+        let error = AdaptError::Sensitivity {
+            case: 3,
+            error: SensitivityError::UnstableTangent {
+                motor: 1,
+                direction: MotorDirection::PayOut,
+            },
+        };
+        let text = "case 3: no sensitivities at its end: motor 1, PayOut: the tangent stiffness is singular or unstable";
+        assert_eq!(error.to_string(), text);
+        let result = CycleResult {
+            cycle: 1,
+            status: "connected".into(),
+            commands: 8,
+            corrective_commands: None,
+            approach_commands: None,
+            approach_gap_m: None,
+            final_gap_m: None,
+            final_true_gap_m: None,
+            truth_limit_violations: 0,
+            learnt_from_case: None,
+            ilc_predicted_gap_m: None,
+            adaptation_error: Some(error),
+            planning_time_s: 0.0,
+        };
+        let json = serde_json::to_value(&result).unwrap();
+        assert_eq!(json["adaptation_error"], text);
+        let json = serde_json::to_value(CycleResult {
+            adaptation_error: None,
+            ..result
+        })
+        .unwrap();
+        assert!(json["adaptation_error"].is_null());
+    }
 }

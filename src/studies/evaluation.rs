@@ -29,7 +29,7 @@ use thiserror::Error;
 
 use super::cycles::{run_cycles, CycleObserver, CycleResult};
 use super::statistics::{median, percentile, scenario_seed, wilson_interval};
-use crate::control::{deploy_closed_loop, ClosedLoopSetup, DeployError, Deployment};
+use crate::control::{deploy_closed_loop, ClosedLoopSetup, Deployment};
 use crate::learn::{Case, CaseMemory};
 use crate::model::{EffectKind, Effects, ForwardModel, Structure};
 use crate::plan::{DeploymentProblem, PerMotor, PlanStatus, Policy};
@@ -400,15 +400,15 @@ pub struct RunResult {
 }
 
 impl RunResult {
-    /// The numbers of `outcome` (a deployment, or why it did not start).
+    /// The numbers of `deployment` (`None`: it did not start).
     pub fn of(
         scenario: usize,
         policy: usize,
-        outcome: &Result<Deployment, String>,
+        deployment: Option<&Deployment>,
         tolerance_m: f64,
     ) -> RunResult {
-        match outcome {
-            Ok(d) => RunResult {
+        match deployment {
+            Some(d) => RunResult {
                 scenario,
                 policy,
                 status: d.status.label().to_string(),
@@ -436,7 +436,7 @@ impl RunResult {
                     d.records.iter().map(|r| r.planning_time_s).collect(),
                 ),
             },
-            Err(_) => RunResult {
+            None => RunResult {
                 scenario,
                 policy,
                 status: "not_started".into(),
@@ -465,11 +465,10 @@ struct CycleRuns {
 
 impl CycleObserver for CycleRuns {
     fn on_cycle(&mut self, _: &CycleResult, deployment: &Deployment, _: &Case) {
-        let outcome = Ok(deployment.clone());
         self.results.push(RunResult::of(
             self.scenario,
             self.policy,
-            &outcome,
+            Some(deployment),
             self.tolerance_m,
         ));
     }
@@ -477,18 +476,17 @@ impl CycleObserver for CycleRuns {
 
 impl RunResult {
     /// The result of `cycles` deployment-fold cycles on one scenario from
-    /// the results of the cycles that ran (`start_error`: why the first
-    /// could not start): the last cycle's figures, since the cycles before
-    /// it are the learning, except that limits broken in any cycle count
-    /// (`truth_violations` summed, `worst_utilisation` the largest) and
-    /// fail the run. A run whose truth could not be folded back before the
-    /// last cycle has the status `cycles_stopped` and did not succeed.
+    /// the results of the cycles that ran (none: the first could not
+    /// start, `not_started`): the last cycle's figures, since the cycles
+    /// before it are the learning, except that limits broken in any cycle
+    /// count (`truth_violations` summed, `worst_utilisation` the largest)
+    /// and fail the run. A run whose truth could not be folded back before
+    /// the last cycle has the status `cycles_stopped` and did not succeed.
     pub fn of_cycles(
         scenario: usize,
         policy: usize,
         per_cycle: Vec<RunResult>,
         cycles: usize,
-        start_error: Option<DeployError>,
     ) -> RunResult {
         let ran = per_cycle.len();
         let violations: usize = per_cycle.iter().map(|r| r.truth_violations).sum();
@@ -497,8 +495,7 @@ impl RunResult {
             .map(|r| r.worst_utilisation)
             .fold(0.0, f64::max);
         let Some(mut last) = per_cycle.into_iter().last() else {
-            let error = start_error.map(|e| e.to_string()).unwrap_or_default();
-            return RunResult::of(scenario, policy, &Err(error), 0.0);
+            return RunResult::of(scenario, policy, None, 0.0);
         };
         if ran < cycles {
             last.status = "cycles_stopped".into();
@@ -648,8 +645,8 @@ pub fn evaluate(
             let policy = &setup.policies[p];
             let result = scenario.with_setup(setup.model, setup.problem, policy, |run| {
                 if setup.cycles <= 1 {
-                    let outcome = deploy_closed_loop(run, &mut ()).map_err(|e| e.to_string());
-                    RunResult::of(scenario.index, p, &outcome, tolerance)
+                    let deployment = deploy_closed_loop(run, &mut ()).ok();
+                    RunResult::of(scenario.index, p, deployment.as_ref(), tolerance)
                 } else {
                     let mut each = CycleRuns {
                         scenario: scenario.index,
@@ -657,8 +654,10 @@ pub fn evaluate(
                         tolerance_m: tolerance,
                         results: Vec::new(),
                     };
-                    let end = run_cycles(run, setup.cycles, &mut CaseMemory::default(), &mut each);
-                    RunResult::of_cycles(scenario.index, p, each.results, setup.cycles, end.err())
+                    // A run that could not start, or stopped early, shows
+                    // in its cycles' results.
+                    let _ = run_cycles(run, setup.cycles, &mut CaseMemory::default(), &mut each);
+                    RunResult::of_cycles(scenario.index, p, each.results, setup.cycles)
                 }
             });
             run_done();
@@ -699,7 +698,6 @@ mod tests {
             1,
             vec![cycle(9, 0, 0.4), cycle(10, 2, 0.9), cycle(8, 0, 0.5)],
             3,
-            None,
         );
         assert_eq!(whole.commands, 8);
         assert_eq!(whole.truth_violations, 2);
@@ -707,15 +705,15 @@ mod tests {
         assert!(!whole.succeeded);
         assert_eq!(whole.status, "connected");
 
-        let clean = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4), cycle(8, 0, 0.5)], 2, None);
+        let clean = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4), cycle(8, 0, 0.5)], 2);
         assert!(clean.succeeded);
         assert_eq!((clean.commands, clean.truth_violations), (8, 0));
 
-        let cut = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4)], 2, None);
+        let cut = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4)], 2);
         assert_eq!(cut.status, "cycles_stopped");
         assert!(!cut.succeeded);
 
-        let none = RunResult::of_cycles(3, 1, Vec::new(), 2, None);
+        let none = RunResult::of_cycles(3, 1, Vec::new(), 2);
         assert_eq!(
             (none.status.as_str(), none.succeeded),
             ("not_started", false)

@@ -45,7 +45,8 @@ use thiserror::Error;
 
 use crate::control::measured_gap_vectors;
 use crate::control::{
-    deploy_closed_loop, ClosedLoopSetup, Controller, ControllerDecision, DeployError, Deployment,
+    deploy_closed_loop, ClosedLoopSetup, Controller, ControllerDecision, ControllerError,
+    DeployError, Deployment,
 };
 use crate::measure::compare::compare;
 use crate::measure::diagnose::{
@@ -125,14 +126,14 @@ pub enum ReplayInputError {
         cycle: u64,
     },
     /// The start is a payout the problem does not allow (a stroke limit).
-    #[error("cycle {cycle}: the start payout {start_payout_m:?} m cannot be a deployment's start: {reason}")]
+    #[error("cycle {cycle}: the start payout {start_payout_m:?} m cannot be a deployment's start: {error}")]
     BadStart {
         /// The cycle's label.
         cycle: u64,
         /// The payouts at the start, m.
         start_payout_m: Vec<f64>,
         /// What the problem or the controller's model said.
-        reason: String,
+        error: PlanError,
     },
 }
 
@@ -315,7 +316,30 @@ pub struct Replay {
     pub next_stop: Option<PlanStatus>,
     /// Why the replay stopped before the log's end (the controller's model
     /// could not follow a logged command), if it did.
-    pub stopped: Option<String>,
+    pub stopped: Option<ReplayStop>,
+}
+
+/// Where and why a replay stopped before the log's end. Serialised as its
+/// [`ReplayStop::describe`] text.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayStop {
+    /// The logged step whose command the controller could not follow.
+    pub step: u64,
+    /// What the controller said.
+    pub error: ControllerError,
+}
+
+impl ReplayStop {
+    /// Plain words.
+    pub fn describe(&self) -> String {
+        format!("step {}: {}", self.step, self.error)
+    }
+}
+
+impl Serialize for ReplayStop {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&self.describe())
+    }
 }
 
 impl Replay {
@@ -358,10 +382,10 @@ pub fn replay_log(
             .collect()
     };
     let first = &cycle.readings[start.start_reading];
-    let bad_start = |e: PlanError| ReplayInputError::BadStart {
+    let bad_start = |error: PlanError| ReplayInputError::BadStart {
         cycle: start.cycle,
         start_payout_m: start.start_payout_m.clone(),
-        reason: e.to_string(),
+        error,
     };
     let mut controller =
         Controller::new(model, &problem, policy, &log.sensors, first).map_err(bad_start)?;
@@ -382,8 +406,11 @@ pub fn replay_log(
             };
         let observation = match controller.observe(logged, after) {
             Ok(o) => o,
-            Err(e) => {
-                stopped = Some(format!("step {}: {e}", cycle.step_labels[k]));
+            Err(error) => {
+                stopped = Some(ReplayStop {
+                    step: cycle.step_labels[k],
+                    error,
+                });
                 break;
             }
         };
@@ -469,8 +496,10 @@ pub struct Calibration {
     pub effects: Effects,
     /// The effects fitted.
     pub fitted: Vec<FittedEffect>,
-    /// The diagnosis's verdict, in words (diagnosis only).
-    pub verdict: Option<String>,
+    /// The diagnosis's verdict (diagnosis only), serialised in words
+    /// ([`describe_verdict`]).
+    #[serde(serialize_with = "verdict_words")]
+    pub verdict: Option<Verdict>,
     /// Held-out RMS residual of the model before, noise SDs.
     pub held_out_rms_before: f64,
     /// Held-out RMS residual of the calibrated model, noise SDs.
@@ -529,26 +558,9 @@ pub fn calibrate_on_log(
             };
             let d = diagnose(base, log, &settings)?;
             let effects = effects_found(base.effects, &d.verdict);
-            let (found, verdict) = match &d.verdict {
-                Verdict::NothingMissing => (&[][..], "nothing missing".to_string()),
-                Verdict::Missing { found, confident } => (
-                    &found[..],
-                    format!(
-                        "missing: {}{}",
-                        names(found),
-                        if *confident { "" } else { " (not confident)" }
-                    ),
-                ),
-                Verdict::Unexplained {
-                    found,
-                    held_out_rms,
-                } => (
-                    &found[..],
-                    format!(
-                        "structured residual left ({held_out_rms:.2} σ held out) after {}",
-                        names(found)
-                    ),
-                ),
+            let found = match &d.verdict {
+                Verdict::NothingMissing => &[][..],
+                Verdict::Missing { found, .. } | Verdict::Unexplained { found, .. } => &found[..],
             };
             let fitted = found
                 .iter()
@@ -567,7 +579,7 @@ pub fn calibrate_on_log(
                 held_out_rms_after: held_out_rms(&with(effects), log)?,
                 effects,
                 fitted,
-                verdict: Some(verdict),
+                verdict: Some(d.verdict),
                 held_out_rms_before: before,
             })
         }
@@ -599,6 +611,33 @@ pub fn calibrate_on_log(
             })
         }
     }
+}
+
+/// A diagnosis's verdict in words, as a calibration reports it.
+pub fn describe_verdict(verdict: &Verdict) -> String {
+    match verdict {
+        Verdict::NothingMissing => "nothing missing".to_string(),
+        Verdict::Missing { found, confident } => format!(
+            "missing: {}{}",
+            names(found),
+            if *confident { "" } else { " (not confident)" }
+        ),
+        Verdict::Unexplained {
+            found,
+            held_out_rms,
+        } => format!(
+            "structured residual left ({held_out_rms:.2} σ held out) after {}",
+            names(found)
+        ),
+    }
+}
+
+/// [`Calibration::verdict`] in words.
+fn verdict_words<S: serde::Serializer>(
+    verdict: &Option<Verdict>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    verdict.as_ref().map(describe_verdict).serialize(serializer)
 }
 
 fn names(found: &[crate::measure::diagnose::Candidate]) -> String {
@@ -725,6 +764,61 @@ mod tests {
             commands,
             readings,
         }
+    }
+
+    #[test]
+    fn verdicts_read_as_before() {
+        let cases = [
+            (Verdict::NothingMissing, "nothing missing"),
+            (
+                Verdict::Missing {
+                    found: vec![],
+                    confident: true,
+                },
+                "missing: none",
+            ),
+            (
+                Verdict::Missing {
+                    found: vec![],
+                    confident: false,
+                },
+                "missing: none (not confident)",
+            ),
+            (
+                Verdict::Unexplained {
+                    found: vec![],
+                    held_out_rms: 2.346,
+                },
+                "structured residual left (2.35 σ held out) after none",
+            ),
+        ];
+        for (v, text) in cases {
+            assert_eq!(describe_verdict(&v), text);
+        }
+    }
+
+    #[test]
+    fn a_replay_stop_and_a_bad_start_read_as_before() {
+        let stop = ReplayStop {
+            step: 4,
+            error: ControllerError::WrongLength {
+                what: "the sent command",
+                found: 9,
+                expected: 10,
+            },
+        };
+        let text = "step 4: the sent command: 9 values, the controller expects 10";
+        assert_eq!(stop.describe(), text);
+        assert_eq!(serde_json::to_value(&stop).unwrap(), text);
+        let bad = ReplayInputError::BadStart {
+            cycle: 2,
+            start_payout_m: vec![0.4, 0.3],
+            error: PlanError::NoMidspanPairs,
+        };
+        assert_eq!(
+            bad.to_string(),
+            "cycle 2: the start payout [0.4, 0.3] m cannot be a deployment's start: the structure has no midspan pairs to connect"
+        );
     }
 
     #[test]
