@@ -43,9 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         args.drain(k..k + 2);
     }
     if args.len() < 3 {
-        return Err(
-            "usage: POLICY SEED [--cycles N] [--distribution D.toml] SCENARIO...".into(),
-        );
+        return Err("usage: POLICY SEED [--cycles N] [--distribution D.toml] SCENARIO...".into());
     }
     let policy = read_policy(std::path::Path::new(&args[0]))?;
     let seed: u64 = args[1].parse()?;

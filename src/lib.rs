@@ -52,7 +52,8 @@
 //! - [`sim`]: a model with effects ([`sim::EffectModel`], the one way it
 //!   becomes a forward model), the plant stepped one command at a time,
 //!   sensors, schedule runs.
-//! - [`measure`]: logs in memory, the synthetic lab, compare, diagnose.
+//! - [`measure`]: logs in memory, the synthetic lab, compare, diagnose,
+//!   calibrate.
 //! - [`plan`]: the deployment planner on a model alone: problem, limits,
 //!   responses, QP step, sequence search, baselines, policies, open-loop
 //!   plans.
@@ -60,7 +61,8 @@
 //!   loop, the estimation and the measurement corrections.
 //! - [`learn`]: the case memory of past deployment cycles.
 //! - [`studies`]: what the experiments and `evaluate` compute.
-//! - [`io`]: file formats; with the CLI, the only code that touches files.
+//! - [`io`]: file formats and every writer of the commands' outputs: the
+//!   only code that touches files (the CLI calls it).
 //! - [`report`]: SVG drawings and figures.
 
 pub mod control;

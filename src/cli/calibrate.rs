@@ -1,18 +1,28 @@
 //! `tdeploy calibrate MODEL LOG --add EFFECT -o NEW.toml`: fit one effect
 //! to a log and write a new model file with it switched on.
+//!
+//! The calibration is [`tensegrity_deploy::measure::calibrate`]'s, the one
+//! `tdeploy replay --fit` makes, with one difference of purpose: here the
+//! effect is kept whenever its fit converged
+//! ([`KeepFit::IfConverged`]), whether or not it lowered the held-out
+//! residual (the user named the effect; the printed held-out figures
+//! before and after tell whether it helped). A fit that did not converge
+//! writes no model (exit 1).
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::{read_model, write_new_model, ModelFile};
-use tensegrity_deploy::measure::compare::compare;
-use tensegrity_deploy::measure::diagnose::{fit_candidate, part, DiagnoseSettings};
+use tensegrity_deploy::measure::calibrate::{
+    calibrate_on_log, CalibrationError, CalibrationMethod, KeepFit,
+};
 use tensegrity_deploy::model::EffectKind;
 
-use super::{fitted_parameter, replay_stopped, value, Outcome};
+use super::words::fitted_parameter;
+use super::{replay_stopped, value, Outcome};
 
 /// The `calibrate` subcommand's arguments.
 pub fn command() -> Command {
@@ -68,16 +78,20 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let log = read_log(&o.log, &model.structure)?;
     let name = o.add.name();
     let context = || format!("fitting {name} to {}", o.log.display());
-    let settings = DiagnoseSettings::default();
-    let fitted = compare(&model, &log).and_then(|all| {
-        let before = part(&all, log.cycles.len(), true, &settings);
-        fit_candidate(&model, model.effects, o.add, &log, &settings).map(|c| (before, c))
-    });
-    let (before, c) = match fitted {
-        Ok(fitted) => fitted,
-        Err(e) => return replay_stopped(e, context()),
+    let method = CalibrationMethod::Fit {
+        effects: vec![o.add],
+        keep: KeepFit::IfConverged,
     };
-    if !c.converged {
+    let c = match calibrate_on_log(&model, &log, &method) {
+        Ok(c) => c,
+        Err(CalibrationError::Replay(e)) => return replay_stopped(e, context()),
+        Err(e) => return Err(anyhow::Error::new(e).context(context())),
+    };
+    let fitted = c
+        .fitted
+        .first()
+        .ok_or_else(|| anyhow!("{}: no fit made", context()))?;
+    if !fitted.converged {
         return Ok(Outcome::GoalMissed(format!(
             "{}: the fit did not converge; no model written",
             context()
@@ -85,22 +99,22 @@ pub fn run(o: &Options) -> Result<Outcome> {
     }
     let new = ModelFile {
         structure: model_file.structure.clone(),
-        effects: model.effects.with_parameters(o.add, &c.values),
+        effects: c.effects,
     };
     write_new_model(&o.out, &new)?;
     for (p, (v, se)) in o
         .add
         .parameters()
         .iter()
-        .zip(c.values.iter().zip(&c.std_errors))
+        .zip(fitted.values.iter().zip(&fitted.std_errors))
     {
         say!("{name}.{}", fitted_parameter(p, *v, *se));
     }
     say!(
         "held-out RMS residual: {:.2} σ before, {:.2} σ after ({} readings)",
-        before.overall.rms,
-        c.held_out_rms,
-        before.overall.count
+        c.held_out_rms_before,
+        c.held_out_rms_after,
+        c.held_out_readings
     );
     say!("wrote {}", o.out.display());
     Ok(Outcome::GoalReached)

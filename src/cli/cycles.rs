@@ -7,16 +7,15 @@
 //! frictionless reference bridge as the controller's model, the policy
 //! `policies/memory.toml` (built in), 10 cycles, seed 1.
 //!
-//! Writes in DIR (as a whole): `cycles.csv` (one row per cycle: status,
-//! commands, corrective commands, the first approach's commands and the
-//! largest measured gap after it, final measured and true gaps, truth
-//! violations, the case learnt from and the gap the ILC update
-//! predicted), `cycles.svg` (the learning curve), `timing.csv` (planning
-//! time per cycle, the only file that changes from run to run), and,
-//! without `--memory`, `memory.tdm` with the cycles' cases. With
-//! `--memory FILE` the cases already in FILE are learnt from and each new
-//! case is appended to it as its cycle ends (atomically: a crash loses
-//! nothing stored before).
+//! Writes in DIR (as a whole): `cycles.csv` (one row per cycle) and
+//! `timing.csv` (planning time per cycle, the only file that changes from
+//! run to run), formats in [`tensegrity_deploy::io::cycles_files`];
+//! `cycles.svg`, the learning curve
+//! ([`tensegrity_deploy::report::cycles_figure`]); and, without
+//! `--memory`, `memory.tdm` with the cycles' cases
+//! ([`tensegrity_deploy::io::memory_file`]). With `--memory FILE` the
+//! cases already in FILE are learnt from and each new case is appended to
+//! it as its cycle ends (atomically: a crash loses nothing stored before).
 //!
 //! Exit 0 when every cycle connected with no truth limit broken, 1
 //! otherwise, 2 on bad input.
@@ -27,24 +26,23 @@ use anyhow::{bail, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
 use tensegrity_deploy::control::{ClosedLoopSetup, Deployment};
-use tensegrity_deploy::io::csv_table::CsvTable;
-use tensegrity_deploy::io::memory_file::{append_case, read_memory};
+use tensegrity_deploy::io::cycles_files::write_cycles;
+use tensegrity_deploy::io::memory_file::{append_case, read_memory_or_empty};
 use tensegrity_deploy::io::model_file::read_model;
-use tensegrity_deploy::io::write_atomically;
-use tensegrity_deploy::io::FileError;
+use tensegrity_deploy::io::output::ResultsFolder;
+use tensegrity_deploy::io::policy_file::{parse_policy, read_policy};
+use tensegrity_deploy::io::{write_atomically, FileError};
 use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::JointFriction;
 use tensegrity_deploy::plan::Policy;
-use tensegrity_deploy::report::figures::grouped_bars_svg;
+use tensegrity_deploy::report::cycles_figure::cycles_svg;
 use tensegrity_deploy::sim::default_truth::default_truth;
 use tensegrity_deploy::sim::standard_sensors;
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult};
 
-use super::deploy::gap_mm;
-use super::plan::{planning_model, problem_or_default};
+use super::inputs::{planning_model, problem_or_default};
+use super::words::mm;
 use super::{value, Outcome};
-use tensegrity_deploy::io::output::ResultsFolder;
-use tensegrity_deploy::io::policy_file::parse_policy;
 
 /// The built-in default policy of `cycles`: `policies/memory.toml`.
 const MEMORY_POLICY: &str = include_str!("../../policies/memory.toml");
@@ -131,56 +129,16 @@ impl CycleObserver for MemoryWriter<'_> {
             result.status,
             result.commands,
             result.corrective_commands.map_or("–".into(), |c| c.to_string()),
-            gap_mm(result.approach_gap_m),
-            gap_mm(result.final_gap_m)
+            mm(result.approach_gap_m),
+            mm(result.final_gap_m)
         );
     }
-}
-
-/// A CSV field: the value or empty.
-fn field<T: ToString>(v: Option<T>) -> String {
-    v.map_or(String::new(), |v| v.to_string())
-}
-
-/// `cycles.csv`.
-fn cycles_table(results: &[CycleResult]) -> CsvTable {
-    let mut t = CsvTable::new(&[
-        "cycle",
-        "status",
-        "commands",
-        "corrective_commands",
-        "approach_commands",
-        "approach_gap_m",
-        "final_gap_m",
-        "final_true_gap_m",
-        "truth_limit_violations",
-        "learnt_from_case",
-        "ilc_predicted_gap_m",
-        "adaptation_error",
-    ]);
-    for r in results {
-        t.row([
-            r.cycle.to_string(),
-            r.status.clone(),
-            r.commands.to_string(),
-            field(r.corrective_commands),
-            field(r.approach_commands),
-            field(r.approach_gap_m),
-            field(r.final_gap_m),
-            field(r.final_true_gap_m),
-            r.truth_limit_violations.to_string(),
-            field(r.learnt_from_case),
-            field(r.ilc_predicted_gap_m),
-            field(r.adaptation_error.as_ref()),
-        ]);
-    }
-    t
 }
 
 /// Runs `tdeploy cycles`.
 pub fn run(o: &Options) -> Result<Outcome> {
     let policy: Policy = match &o.policy {
-        Some(p) => tensegrity_deploy::io::policy_file::read_policy(p)?,
+        Some(p) => read_policy(p)?,
         None => parse_policy(MEMORY_POLICY, Path::new("policies/memory.toml (built in)"))?,
     };
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
@@ -190,8 +148,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     let problem = problem_or_default(o.problem.as_deref())?;
     let mut memory = match &o.memory {
-        Some(p) if p.exists() => read_memory(p)?,
-        _ => CaseMemory::default(),
+        Some(p) => read_memory_or_empty(p)?,
+        None => CaseMemory::default(),
     };
     let stored_before = memory.cases.len();
     let folder = ResultsFolder::claim(&o.out, "cycles", o.force)?;
@@ -232,39 +190,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
     if let Some(e) = writer.failure {
         return Err(e.into());
     }
-    cycles_table(&end.results).write(&folder.path().join("cycles.csv"))?;
-    let mut timing = CsvTable::new(&["cycle", "planning_time_s"]);
-    for r in &end.results {
-        timing.row([r.cycle.to_string(), r.planning_time_s.to_string()]);
-    }
-    timing.write(&folder.path().join("timing.csv"))?;
-    let labels: Vec<String> = end.results.iter().map(|r| r.cycle.to_string()).collect();
-    let series = [
-        (
-            "largest gap after the first approach",
-            end.results
-                .iter()
-                .map(|r| r.approach_gap_m.unwrap_or(0.0) * 1e3)
-                .collect(),
-        ),
-        (
-            "final gap",
-            end.results
-                .iter()
-                .map(|r| r.final_gap_m.unwrap_or(0.0) * 1e3)
-                .collect(),
-        ),
-    ];
-    let svg = grouped_bars_svg(
-        &format!(
-            "Learning curve: policy {} (cycles 1–{})",
-            policy.name, o.cycles
-        ),
-        "largest measured gap, mm",
-        &labels,
-        &series,
-    )
-    .map_err(|e| anyhow::anyhow!("drawing cycles.svg: {e}"))?;
+    write_cycles(folder.path(), &end.results)?;
+    let svg = cycles_svg(&policy.name, o.cycles, &end.results)
+        .map_err(|e| anyhow::anyhow!("drawing cycles.svg: {e}"))?;
     write_atomically(&folder.path().join("cycles.svg"), svg.as_bytes())?;
     folder.commit()?;
     say!(

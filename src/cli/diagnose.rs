@@ -1,32 +1,31 @@
 //! `tdeploy diagnose MODEL LOG`: which effect the model lacks, found by
 //! fitting every candidate and scoring it on held-out cycles.
 //!
-//! `--json FILE` writes the diagnosis as one JSON object: `model`, `log`,
-//! `sensors` (ids in log order), `diagnosis` ([`Diagnosis`]: `rounds`,
-//! `verdict`, and `final_comparison`, whose `overall.rms` is the overall
-//! RMS in noise SDs with the effects found) and `where_it_fails` (for a
-//! structured residual, else `null`). Standard errors that could not be
-//! estimated are `null`.
+//! `--json FILE` writes the diagnosis as one JSON object (its fields in
+//! [`tensegrity_deploy::io::comparison_files`]).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::{value_parser, Arg, ArgMatches, Command};
-use serde::Serialize;
 
+use tensegrity_deploy::io::comparison_files::{
+    sensor_ids, write_diagnosis_report, DiagnosisReport,
+};
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
-use tensegrity_deploy::io::write_new_json;
-use tensegrity_deploy::measure::comparison_verdict::{where_it_fails, WhereItFails};
+use tensegrity_deploy::measure::comparison_verdict::where_it_fails;
 use tensegrity_deploy::measure::diagnose::{
-    diagnose, Candidate, DiagnoseError, DiagnoseSettings, Diagnosis, Screened, Verdict,
+    diagnose, Candidate, DiagnoseError, DiagnoseSettings, Screened, Verdict,
 };
 use tensegrity_deploy::measure::evidence::{Statistic, Subject};
 use tensegrity_deploy::measure::local::Term;
 use tensegrity_deploy::model::EffectKind;
 
-use super::compare::{number, outliers_in_words, signed_number, where_it_fails_in_words};
-use super::{fitted_parameter, replay_stopped, value, Outcome};
+use super::words::{
+    fitted_parameter, number, outliers_in_words, signed_number, where_it_fails_in_words,
+};
+use super::{replay_stopped, value, Outcome};
 
 /// The `diagnose` subcommand's arguments.
 pub fn command() -> Command {
@@ -73,16 +72,6 @@ impl Options {
             force: m.get_flag("force"),
         })
     }
-}
-
-/// The JSON report (see the module notes).
-#[derive(Serialize)]
-struct DiagnoseReport<'a> {
-    model: &'a Path,
-    log: &'a Path,
-    sensors: Vec<&'a str>,
-    diagnosis: &'a Diagnosis,
-    where_it_fails: Option<WhereItFails>,
 }
 
 fn params(c: &Candidate) -> String {
@@ -258,14 +247,14 @@ pub fn run(o: &Options) -> Result<Outcome> {
         rayon::current_num_threads()
     );
     if let Some(json) = &o.json {
-        let report = DiagnoseReport {
+        let report = DiagnosisReport {
             model: &o.model,
             log: &o.log,
-            sensors: log.sensors.iter().map(|s| s.id.as_str()).collect(),
+            sensors: sensor_ids(&log),
             diagnosis: &d,
             where_it_fails: fails,
         };
-        write_new_json(json, &report, o.force)?;
+        write_diagnosis_report(json, &report, o.force)?;
         say!("JSON report in {}", json.display());
     }
     Ok(Outcome::GoalReached)

@@ -7,23 +7,24 @@
 //! `evaluation.toml` (what ran), `runs.csv` (one row per scenario and
 //! policy, with the scenario's seed and drawn values), `summary.csv`,
 //! `paired.csv` (the first policy against each other, exact McNemar),
-//! `evaluation.svg`, and `timing.csv` (planning times, the only file that
-//! changes from run to run). Every other file is the same, byte for byte,
-//! at any thread count, and `tdeploy merge` of the shards `1/n … n/n` of
-//! a sweep writes the same files as the sweep in one piece.
+//! and `timing.csv` (planning times, the only file that changes from run
+//! to run), formats in [`tensegrity_deploy::io::evaluation_files`] and
+//! [`tensegrity_deploy::io::evaluation_summary`]; and `evaluation.svg`
+//! ([`tensegrity_deploy::report::evaluation_figure`]). Every other file
+//! is the same, byte for byte, at any thread count, and `tdeploy merge`
+//! of the shards `1/n … n/n` of a sweep writes the same files as the
+//! sweep in one piece.
 //!
 //! Exit 0 when no run broke a truth limit, 1 when one did (the
 //! evaluation's standard: violations must be 0), 2 on bad input.
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
-use indicatif::{ProgressBar, ProgressStyle};
 
 use tensegrity_deploy::io::evaluation_files::{
-    fingerprint, read_distribution, EvaluationRecord, EvaluationRuns, EVALUATION_FORMAT,
+    read_distribution, EvaluationRecord, EvaluationRuns,
 };
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::model::JointFriction;
@@ -32,9 +33,10 @@ use tensegrity_deploy::studies::evaluation::{
     evaluate, EvaluationSetup, ScenarioDistribution, Shard,
 };
 
-use super::evaluation_report::report;
-use super::plan::{planning_model, policy_or_default, problem_or_default};
-use super::{value, Outcome};
+use super::evaluation_table::print_and_write;
+use super::inputs::{planning_model, policy_or_default, problem_or_default};
+use super::progress::{Progress, Unit};
+use super::{value, with_threads, Outcome};
 
 /// Most scenarios one sweep may have: a bound on the work a flag can ask
 /// for (a million deployments is about a day on 2 cores).
@@ -125,15 +127,6 @@ impl Options {
     }
 }
 
-/// Fingerprint of a policy's settings.
-pub fn policy_fingerprint(policy: &Policy) -> Result<String> {
-    Ok(fingerprint(
-        serde_json::to_string(policy)
-            .context("serialising a policy")?
-            .as_bytes(),
-    ))
-}
-
 /// Runs `tdeploy evaluate`.
 pub fn run(o: &Options) -> Result<Outcome> {
     let policies: Vec<Policy> = if o.policies.is_empty() {
@@ -161,23 +154,17 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
     let problem = problem_or_default(o.problem.as_deref())?;
-    let record = EvaluationRecord {
-        format: EVALUATION_FORMAT.into(),
-        seed: o.seed,
-        scenarios: o.scenarios,
-        shard: format!("{}/{}", o.shard.index, o.shard.count),
-        policies: names.clone(),
-        policy_fingerprints: policies
-            .iter()
-            .map(policy_fingerprint)
-            .collect::<Result<_>>()?,
-        model: o
-            .model
+    let record = EvaluationRecord::new(
+        o.seed,
+        o.scenarios,
+        o.shard,
+        &policies,
+        o.model
             .as_ref()
             .map_or("reference".into(), |p| p.display().to_string()),
-        cycles: o.cycles,
-        distribution: distribution.clone(),
-    };
+        o.cycles,
+        distribution.clone(),
+    )?;
     // Claimed before the work, so that a refusal costs nothing.
     let folder = ResultsFolder::claim(&o.out, "evaluate", o.force)?;
 
@@ -193,14 +180,11 @@ pub fn run(o: &Options) -> Result<Outcome> {
         o.seed,
         names.join(", ")
     );
-    let bar = if std::io::stderr().is_terminal() {
-        ProgressBar::new((indices.len() * policies.len()) as u64)
-    } else {
-        ProgressBar::hidden()
-    };
-    if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} deployments {eta}") {
-        bar.set_style(style);
-    }
+    let progress = Progress::new(
+        Unit::Deployments,
+        (indices.len() * policies.len()) as u64,
+        false,
+    );
     let setup = EvaluationSetup {
         model: &model,
         policies: &policies,
@@ -209,18 +193,12 @@ pub fn run(o: &Options) -> Result<Outcome> {
         seed: o.seed,
         cycles: o.cycles,
     };
-    let sweep = || evaluate(&setup, &indices, &|| bar.inc(1));
-    let (scenarios, results) = match o.threads {
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build()
-            .context("--threads: cannot start the worker threads")?
-            .install(sweep),
-        None => sweep(),
-    };
-    bar.finish_and_clear();
+    let (scenarios, results) = with_threads(o.threads, || {
+        evaluate(&setup, &indices, &|| progress.tick())
+    })?;
+    progress.finish();
     let runs = EvaluationRuns::new(&distribution, names, &scenarios, results);
-    let violations = report(&record, &runs, folder.path())?;
+    let violations = print_and_write(&record, &runs, folder.path())?;
     folder.commit()?;
     say!(
         "results in {} (evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg; planning times in timing.csv)",

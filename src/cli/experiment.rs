@@ -1,39 +1,42 @@
 //! `tdeploy experiment FILE`: the experiments in `experiments/`, each a TOML
 //! file ([`tensegrity_deploy::io::experiment_file`]) whose `kind` picks the
-//! study; results as CSV and SVG, and a table beside the seed's values.
+//! study; results as CSV ([`tensegrity_deploy::io::experiment_tables`],
+//! the deployment experiment an evaluation's set) and SVG
+//! ([`tensegrity_deploy::report::experiment_figures`]), and a table beside
+//! the seed's values.
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{value_parser, Arg, ArgMatches, Command};
 
-use tensegrity_deploy::design::friction_rig::{modelled_slip_ratio, RigError};
+use tensegrity_deploy::design::friction_rig::{rig_slip, RigError};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::io::evaluation_files::{
-    EvaluationRecord, EvaluationRuns, EVALUATION_FORMAT,
-};
+use tensegrity_deploy::io::evaluation_files::{EvaluationRecord, EvaluationRuns};
 use tensegrity_deploy::io::experiment_file::{
     read_experiment, DeploymentExperiment, Experiment, FrictionEffectExperiment,
     FrictionRigExperiment, FrictionVsMeasurementExperiment,
 };
+use tensegrity_deploy::io::experiment_tables::{
+    write_friction_effect, write_friction_rig, write_friction_vs_measurement,
+};
+use tensegrity_deploy::io::output::create_folder;
 use tensegrity_deploy::io::policy_file::read_policy;
-use tensegrity_deploy::io::{write_atomically, CsvTable};
+use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::model::ForwardModel;
 use tensegrity_deploy::model::{FrictionCoefficient, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::DeploymentProblem;
-use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
-use tensegrity_deploy::report::figures::grouped_bars_svg;
-use tensegrity_deploy::studies::evaluation::{evaluate, EvaluationSetup, ScenarioDistribution};
-use tensegrity_deploy::studies::friction_study::{
-    friction_study, CellComparison, FrictionStudySettings,
+use tensegrity_deploy::report::experiment_figures::{average_tension_svg, friction_effect_svg};
+use tensegrity_deploy::studies::evaluation::{
+    evaluate, EvaluationSetup, ScenarioDistribution, Shard,
+};
+use tensegrity_deploy::studies::friction_vs_measurement::{
+    friction_vs_measurement, CellComparison, FrictionVsMeasurementSettings,
 };
 use tensegrity_deploy::studies::{friction_effect, FrictionEffectSettings};
 
-use std::io::IsTerminal;
-
-use indicatif::{ProgressBar, ProgressStyle};
-
-use super::evaluation_report::report;
+use super::evaluation_table::print_and_write;
+use super::progress::{Progress, Unit};
 use super::{replay_stopped, value, Outcome};
 
 /// The `experiment` subcommand's arguments.
@@ -68,27 +71,13 @@ pub fn run(o: &Options) -> Result<Outcome> {
     match read_experiment(&o.file)? {
         Experiment::FrictionRig(e) => friction_rig(&e),
         Experiment::FrictionEffect(e) => friction_effect_experiment(&e),
-        Experiment::FrictionVsMeasurement(e) => friction_vs_measurement(&e),
+        Experiment::FrictionVsMeasurement(e) => friction_vs_measurement_experiment(&e),
         Experiment::Deployment(e) => deployment_experiment(&e),
     }
 }
 
-/// Creates the results folder `dir`.
-fn results_folder(dir: &std::path::Path) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))
-}
-
 fn friction_rig(e: &FrictionRigExperiment) -> Result<Outcome> {
     let friction = JointFriction::new(FrictionCoefficient::Constant(e.mu), e.convention)?;
-    let mut csv = CsvTable::new(&[
-        "interior_angle_deg",
-        "tension_kn",
-        "slip_ratio_model",
-        "slip_ratio_formula",
-        "slip_load_n",
-        "mu_backcalc_interior",
-        "mu_backcalc_wrap",
-    ]);
     say!(
         "friction rig, true μ = {} ({:?} convention)",
         e.mu,
@@ -104,12 +93,11 @@ fn friction_rig(e: &FrictionRigExperiment) -> Result<Outcome> {
         "μ(θ)",
         "μ(π−θ)"
     );
+    let mut slips = Vec::new();
     for (theta_deg, tensions) in e.interior_angles_deg.iter().zip(&e.tensions_kn) {
-        let theta = theta_deg.to_radians();
         for t_kn in tensions {
-            let t = 1e3 * t_kn;
-            let ratio = match modelled_slip_ratio(&friction, theta, t) {
-                Ok(ratio) => ratio,
+            let s = match rig_slip(&friction, *theta_deg, *t_kn) {
+                Ok(s) => s,
                 Err(e @ (RigError::NotConverged { .. } | RigError::NeverSlips)) => {
                     return Ok(Outcome::GoalMissed(format!(
                         "friction rig at {theta_deg}°, {t_kn} kN: {e}"
@@ -120,30 +108,20 @@ fn friction_rig(e: &FrictionRigExperiment) -> Result<Outcome> {
                         .context(format!("friction rig at {theta_deg}°, {t_kn} kN")))
                 }
             };
-            let formula = friction.ratio_bound(theta, false);
-            let mu_interior = ratio.ln() / theta;
-            let mu_wrap = ratio.ln() / (std::f64::consts::PI - theta);
-            let load = t * (ratio - 1.0);
-            say!("{theta_deg:>6.0} {t_kn:>6.1} {ratio:>12.6} {formula:>12.6} {load:>12.1} {mu_interior:>10.4} {mu_wrap:>10.4}");
-            csv.row(
-                [
-                    theta_deg,
-                    t_kn,
-                    &ratio,
-                    &formula,
-                    &load,
-                    &mu_interior,
-                    &mu_wrap,
-                ]
-                .map(f64::to_string),
+            say!(
+                "{theta_deg:>6.0} {t_kn:>6.1} {:>12.6} {:>12.6} {:>12.1} {:>10.4} {:>10.4}",
+                s.modelled_ratio,
+                s.formula_ratio,
+                s.slip_load_n,
+                s.mu_interior,
+                s.mu_wrap
             );
+            slips.push(s);
         }
     }
-    results_folder(&e.out)?;
-    let file = e.out.join("friction-rig.csv");
-    csv.write(&file)?;
+    write_friction_rig(&e.out, &slips)?;
     say!("The seed back-calculates μ with the interior angle θ; with the wrap angle π−θ the same slips give the μ(π−θ) column.");
-    say!("results in {}", file.display());
+    say!("results in {}", e.out.join("friction-rig.csv").display());
     Ok(Outcome::GoalReached)
 }
 
@@ -199,14 +177,6 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment) -> Result<Outcome> {
             100.0 * seed / 30.0
         );
     }
-    let mut shifts = CsvTable::new(&["node", "shift_m", "percent_of_30mm"]);
-    for (node, shift) in &r.midspan_shift_m {
-        shifts.row([
-            structure.nodes[*node].id.clone(),
-            shift.to_string(),
-            (100.0 * shift / 0.03).to_string(),
-        ]);
-    }
     say!(
         "relative member-force change (members above {} N without friction):",
         e.force_floor_n
@@ -218,12 +188,6 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment) -> Result<Outcome> {
         "mean %",
         "max %"
     );
-    let mut kinds = CsvTable::new(&[
-        "kind",
-        "members",
-        "mean_relative_change",
-        "max_relative_change",
-    ]);
     for c in &r.force_change {
         say!(
             "{:>18} {:>8} {:>10.2} {:>10.2}",
@@ -232,41 +196,10 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment) -> Result<Outcome> {
             100.0 * c.mean_relative,
             100.0 * c.max_relative
         );
-        kinds.row([
-            c.kind.to_string(),
-            c.counted.to_string(),
-            c.mean_relative.to_string(),
-            c.max_relative.to_string(),
-        ]);
     }
     say!("seed (Fig. 12): continuous cables change least, discontinuous cables moderately, struts most.");
-    let mut members = CsvTable::new(&["member", "relative_change"]);
-    let n_members = structure.members.len();
-    for (i, rel) in &r.member_change {
-        let name = match structure.members.get(*i) {
-            Some(m) => m.id.clone(),
-            None => format!("segment_{}", i - n_members),
-        };
-        members.row([name, rel.to_string()]);
-    }
-    results_folder(&e.out)?;
-    shifts.write(&e.out.join("midspan_shift.csv"))?;
-    kinds.write(&e.out.join("force_change_by_type.csv"))?;
-    members.write(&e.out.join("force_change_by_member.csv"))?;
-    let svg = state_views_svg(
-        &structure,
-        DrawnState {
-            state: &r.with_friction.state,
-            forces: &r.with_friction.forces,
-            label: "with friction",
-        },
-        Some(DrawnState {
-            state: &r.frictionless.state,
-            forces: &r.frictionless.forces,
-            label: "without friction",
-        }),
-        "Friction effect after a fold-deploy cycle",
-    )?;
+    write_friction_effect(&e.out, &structure, &r)?;
+    let svg = friction_effect_svg(&structure, &r)?;
     write_atomically(&e.out.join("overlay.svg"), svg.as_bytes())?;
     say!("results in {}", e.out.display());
     Ok(Outcome::GoalReached)
@@ -276,11 +209,11 @@ fn friction_effect_experiment(e: &FrictionEffectExperiment) -> Result<Outcome> {
 /// standard deviation by 40 %.
 const SEED_CUTS_PERCENT: (f64, f64) = (50.0, 40.0);
 
-fn friction_vs_measurement(e: &FrictionVsMeasurementExperiment) -> Result<Outcome> {
+fn friction_vs_measurement_experiment(e: &FrictionVsMeasurementExperiment) -> Result<Outcome> {
     let structure = reference_bridge(&BridgeParameters::default())?;
-    let study = match friction_study(
+    let study = match friction_vs_measurement(
         &structure,
-        &FrictionStudySettings {
+        &FrictionVsMeasurementSettings {
             truth_effects: e.truth,
             model_mu: e.model_mu,
             actuation_m: e.actuation_m,
@@ -314,13 +247,6 @@ fn friction_vs_measurement(e: &FrictionVsMeasurementExperiment) -> Result<Outcom
         "sd no-fr",
         "sd fric."
     );
-    let mut csv = CsvTable::new(&[
-        "sensor",
-        "step",
-        "measured_n",
-        "no_friction_n",
-        "friction_n",
-    ]);
     for c in &study.cells {
         let (a, b) = (c.no_friction(), c.friction());
         say!(
@@ -334,15 +260,6 @@ fn friction_vs_measurement(e: &FrictionVsMeasurementExperiment) -> Result<Outcom
             a.sd_n,
             b.sd_n
         );
-        for k in 0..c.measured_n.len() {
-            csv.row([
-                c.sensor.clone(),
-                (k + 1).to_string(),
-                c.measured_n[k].to_string(),
-                c.no_friction_n[k].to_string(),
-                c.friction_n[k].to_string(),
-            ]);
-        }
     }
     let (without, with) = study.differences();
     let cut = |a: f64, b: f64| 100.0 * (1.0 - b / a);
@@ -360,32 +277,8 @@ fn friction_vs_measurement(e: &FrictionVsMeasurementExperiment) -> Result<Outcom
         cut(without.sd_n, with.sd_n),
         SEED_CUTS_PERCENT.1
     );
-    let labels: Vec<String> = study.cells.iter().map(|c| c.sensor.clone()).collect();
-    let averages = |f: fn(&CellComparison) -> &Vec<f64>| -> Vec<f64> {
-        study
-            .cells
-            .iter()
-            .map(|c| CellComparison::average(f(c)) / 1000.0)
-            .collect()
-    };
-    let svg = grouped_bars_svg(
-        &format!(
-            "Average tension over a {} cm deployment (seed Fig. 16)",
-            100.0 * e.actuation_m
-        ),
-        "tension, kN",
-        &labels,
-        &[
-            (
-                "simulation without friction",
-                averages(|c| &c.no_friction_n),
-            ),
-            ("simulation with friction", averages(|c| &c.friction_n)),
-            ("measurement", averages(|c| &c.measured_n)),
-        ],
-    )?;
-    results_folder(&e.out)?;
-    csv.write(&e.out.join("tensions.csv"))?;
+    let svg = average_tension_svg(&study, e.actuation_m)?;
+    write_friction_vs_measurement(&e.out, &study)?;
     write_atomically(&e.out.join("average_tension.svg"), svg.as_bytes())?;
     say!("results in {}", e.out.display());
     Ok(Outcome::GoalReached)
@@ -413,14 +306,11 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         e.hidden_effects.iter().map(|k| k.name()).collect::<Vec<_>>(),
         e.model_mu
     );
-    let bar = if std::io::stderr().is_terminal() {
-        ProgressBar::new((e.scenarios * policies.len()) as u64)
-    } else {
-        ProgressBar::hidden()
-    };
-    if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} deployments {eta}") {
-        bar.set_style(style);
-    }
+    let progress = Progress::new(
+        Unit::Deployments,
+        (e.scenarios * policies.len()) as u64,
+        false,
+    );
     let setup = EvaluationSetup {
         model: &model,
         policies: &policies,
@@ -430,26 +320,21 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         cycles: 1,
     };
     let indices: Vec<usize> = (0..e.scenarios).collect();
-    let (scenarios, results) = evaluate(&setup, &indices, &|| bar.inc(1));
-    bar.finish_and_clear();
+    let (scenarios, results) = evaluate(&setup, &indices, &|| progress.tick());
+    progress.finish();
     let names: Vec<String> = policies.iter().map(|p| p.name.clone()).collect();
-    let record = EvaluationRecord {
-        format: EVALUATION_FORMAT.into(),
-        seed: e.seed,
-        scenarios: e.scenarios,
-        shard: "1/1".into(),
-        policies: names.clone(),
-        policy_fingerprints: policies
-            .iter()
-            .map(super::evaluate::policy_fingerprint)
-            .collect::<Result<_>>()?,
-        model: format!("reference, joint friction mu = {}", e.model_mu),
-        cycles: 1,
-        distribution: distribution.clone(),
-    };
+    let record = EvaluationRecord::new(
+        e.seed,
+        e.scenarios,
+        Shard::ALL,
+        &policies,
+        format!("reference, joint friction mu = {}", e.model_mu),
+        1,
+        distribution.clone(),
+    )?;
     let runs = EvaluationRuns::new(&distribution, names, &scenarios, results);
-    results_folder(&e.out)?;
-    report(&record, &runs, &e.out)?;
+    create_folder(&e.out)?;
+    print_and_write(&record, &runs, &e.out)?;
     say!(
         "seed lab practice: predetermined 5 cm commands of every cable, no feedback (the nominal policy); connection judged by eye, success rate not reported"
     );

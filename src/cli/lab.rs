@@ -1,15 +1,19 @@
 //! `tdeploy lab TRUTH.toml`: a synthetic measurement log from a truth model.
+//! Writes the log folder ([`tensegrity_deploy::io::log`]) and, beside it,
+//! the truth record `<out>.truth.toml`
+//! ([`tensegrity_deploy::io::model_file::write_truth_record`]).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{anyhow, Result};
 use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::io::experiment_file::PAYOUT_RANGE_M;
 use tensegrity_deploy::io::log::write_log;
-use tensegrity_deploy::io::model_file::read_model;
-use tensegrity_deploy::io::output::{check_absent, ResultsFolder, RESULTS_MARKER};
-use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::io::model_file::{
+    check_truth_record, read_model, truth_record_path, write_truth_record, LabRun,
+};
+use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles};
 use tensegrity_deploy::numerics::NumberRange;
 use tensegrity_deploy::sim::standard_sensors;
@@ -105,8 +109,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         o.swing_k,
     );
     // Claimed before the work, so that a refusal costs nothing.
-    let truth_copy = truth_record_path(&o.out);
-    check_absent(&truth_copy, o.force || o.out.join(RESULTS_MARKER).is_file())?;
+    check_truth_record(&o.out, o.force)?;
     let folder = ResultsFolder::claim(&o.out, "lab", o.force)?;
     let log = match run_lab(&model, &sensors, &cycles, o.seed) {
         Ok(log) => log,
@@ -114,18 +117,16 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     write_log(folder.path(), &log, &model.structure)?;
     folder.commit()?;
-    // The truth stays outside the log folder: compare, diagnose and
-    // calibrate read only the log.
-    let record = format!(
-        "# The truth behind the log {}: seed {}, amplitudes {:?} m, {} steps each way, temperature 20 ± {} °C.\n# Nothing in compare, diagnose or calibrate reads this file.\n{}",
-        o.out.display(),
-        o.seed,
-        o.amplitudes_m,
-        o.steps,
-        o.swing_k,
-        truth.to_toml(truth_copy.parent().unwrap_or(Path::new(".")))
-    );
-    write_atomically(&truth_copy, record.as_bytes())?;
+    write_truth_record(
+        &o.out,
+        &truth,
+        &LabRun {
+            seed: o.seed,
+            amplitudes_m: &o.amplitudes_m,
+            steps: o.steps,
+            swing_k: o.swing_k,
+        },
+    )?;
     let readings: usize = log
         .cycles
         .iter()
@@ -141,17 +142,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     say!(
         "log in {}; truth recorded in {}",
         o.out.display(),
-        truth_copy.display()
+        truth_record_path(&o.out).display()
     );
     Ok(Outcome::GoalReached)
-}
-
-/// `out/log` → `out/log.truth.toml`.
-fn truth_record_path(log_dir: &Path) -> PathBuf {
-    let mut name = log_dir
-        .file_name()
-        .map(|n| n.to_os_string())
-        .unwrap_or_else(|| "log".into());
-    name.push(".truth.toml");
-    log_dir.with_file_name(name)
 }

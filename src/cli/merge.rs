@@ -20,7 +20,7 @@ use tensegrity_deploy::io::evaluation_files::{
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::studies::evaluation::Shard;
 
-use super::evaluation_report::report;
+use super::evaluation_table::print_and_write;
 use super::{value, Outcome};
 
 /// The `merge` subcommand's arguments.
@@ -150,7 +150,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         runs.scenarios.len(),
         runs.policy_names.len()
     );
-    let violations = report(&whole, &runs, folder.path())?;
+    let violations = print_and_write(&whole, &runs, folder.path())?;
     folder.commit()?;
     say!("results in {}", o.out.display());
     Ok(if violations == 0 {

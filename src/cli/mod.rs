@@ -1,13 +1,23 @@
-//! Command-line interface: argument parsing, files and printing. The
-//! numerics it calls never print.
+//! Command-line interface: argument parsing, printing and exit codes. The
+//! numerics it calls never print; the files it reads and writes are the
+//! library's ([`tensegrity_deploy::io`]).
 //!
 //! Every subcommand is a module with the same three parts, so that a new
 //! one is added the same way (as hyperfine's CLI is laid out):
 //! - `command() -> clap::Command`: its arguments;
 //! - `Options::from_matches(&ArgMatches) -> Result<Options>`: the typed
 //!   options, every flag value checked here, with an error naming the flag;
-//! - `run(&Options) -> Result<Outcome>`: the work; it reads and writes
-//!   files through [`tensegrity_deploy::io`] and prints what it found.
+//! - `run(&Options) -> Result<Outcome>`: the work; it calls the library,
+//!   reads and writes files only through [`tensegrity_deploy::io`] (every
+//!   output format has its writer there, every figure is drawn in
+//!   [`tensegrity_deploy::report`]), prints what it found and maps the
+//!   outcome to an exit code.
+//!
+//! No subcommand module uses another. What several share lives in its
+//! own module: [`inputs`] (the model, policy and problem the flags name),
+//! [`words`] (the numbers and sentences they print), [`progress`] (the
+//! one progress bar), [`evaluation_table`] (the printed table of an
+//! evaluation, for `evaluate`, `merge` and the deployment experiment).
 //!
 //! Subcommands: `structure` ([`structure`]), `simulate` ([`simulate`]),
 //! `experiment` ([`experiment`]), `lab` ([`lab`]), `compare` ([`compare`]),
@@ -44,21 +54,23 @@ mod cycles;
 mod deploy;
 mod diagnose;
 mod evaluate;
-mod evaluation_report;
+mod evaluation_table;
 mod experiment;
+mod inputs;
 mod lab;
 mod merge;
 mod plan;
+mod progress;
 mod replay;
 mod simulate;
 mod structure;
+mod words;
 
 use std::process::ExitCode;
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::{ArgMatches, Command};
 
-use tensegrity_deploy::model::effects::ParameterSpec;
 use tensegrity_deploy::numerics::NumberRange;
 use tensegrity_deploy::sim::PlantError;
 
@@ -224,31 +236,17 @@ fn replay_stopped(e: PlantError, context: String) -> Result<Outcome> {
     }
 }
 
-/// `name = value ± error unit` of one fitted parameter (no unit for
-/// dimensionless ones).
-fn fitted_parameter(spec: &ParameterSpec, value: f64, std_error: f64) -> String {
-    let unit = if spec.unit == "1" {
-        String::new()
-    } else {
-        format!(" {}", spec.unit)
-    };
-    format!(
-        "{} = {}{unit}",
-        spec.name,
-        value_with_error(value, std_error)
-    )
-}
-
-/// A fitted value with its standard error, to four significant figures
-/// whatever the unit's scale (a compliance of 3e-5 m/N must not print as
-/// 0.0000).
-fn value_with_error(value: f64, std_error: f64) -> String {
-    let magnitude = value.abs().max(std_error.abs());
-    if magnitude == 0.0 || (1e-2..1e4).contains(&magnitude) {
-        format!("{value:.4} ± {std_error:.2e}")
-    } else {
-        format!("{value:.4e} ± {std_error:.2e}")
-    }
+/// Runs `work` on `threads` worker threads (`None`: rayon's default, one
+/// per core); the results of the library do not depend on the count.
+fn with_threads<R: Send>(threads: Option<usize>, work: impl FnOnce() -> R + Send) -> Result<R> {
+    Ok(match threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .context("--threads: cannot start the worker threads")?
+            .install(work),
+        None => work(),
+    })
 }
 
 #[cfg(test)]
@@ -293,11 +291,5 @@ mod tests {
     #[test]
     fn errors_are_one_line() {
         assert_eq!(one_line("a\n  b\n\nc"), "a; b; c");
-    }
-
-    #[test]
-    fn values_print_to_four_figures_at_any_scale() {
-        assert_eq!(value_with_error(0.1234567, 0.001), "0.1235 ± 1.00e-3");
-        assert_eq!(value_with_error(3.2e-5, 1e-6), "3.2000e-5 ± 1.00e-6");
     }
 }

@@ -1,22 +1,19 @@
 //! `tdeploy plan [MODEL] [--policy P] [--problem F] -o DIR`: an open-loop
 //! deployment command sequence planned on a model, from the folded state
-//! to the midspan connection.
+//! to the midspan connection. Writes `commands.csv` and `plan.csv` in DIR
+//! (formats in [`tensegrity_deploy::io::plan_files`]).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{value_parser, Arg, ArgMatches, Command};
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::io::commands::{write_commands, CommandSequence};
-use tensegrity_deploy::io::model_file::read_model;
-use tensegrity_deploy::io::policy_file::read_policy;
-use tensegrity_deploy::io::problem_file::read_problem;
-use tensegrity_deploy::io::CsvTable;
-use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Structure};
-use tensegrity_deploy::plan::{folded_start, plan_open_loop, DeploymentProblem, Plan, Policy};
-use tensegrity_deploy::sim::EffectModel;
+use tensegrity_deploy::io::plan_files::write_plan;
+use tensegrity_deploy::model::JointFriction;
+use tensegrity_deploy::plan::{folded_start, plan_open_loop};
 
+use super::inputs::{planning_model, policy_or_default, problem_or_default};
+use super::words::mm_list;
 use super::{value, Outcome};
 
 /// Friction of the built-in default model (the seed's joints are of order
@@ -58,64 +55,6 @@ impl Options {
     }
 }
 
-/// The model a controller plans on: a model file's structure with its
-/// structural effects and joint friction (motor, thermal and sensor
-/// effects belong to a truth, not to a plan), or, without a file, the
-/// reference bridge with `default_friction`.
-pub(super) fn planning_model(
-    path: Option<&Path>,
-    default_friction: JointFriction,
-) -> Result<ForwardModel> {
-    Ok(match path {
-        Some(p) => {
-            let file = read_model(p)?;
-            EffectModel::for_measurement(file.load_structure()?, file.effects)
-                .forward_model()
-                .with_context(|| format!("{}: applying its effects", p.display()))?
-        }
-        None => ForwardModel::new(
-            reference_bridge(&BridgeParameters::default())?,
-            default_friction,
-            RelaxSettings::default(),
-        )?,
-    })
-}
-
-/// The policy file's policy, or the built-in default.
-pub(super) fn policy_or_default(path: Option<&Path>) -> Result<Policy> {
-    Ok(match path {
-        Some(p) => read_policy(p)?,
-        None => Policy::default(),
-    })
-}
-
-/// The problem file's problem, or the documented default.
-pub(super) fn problem_or_default(path: Option<&Path>) -> Result<DeploymentProblem> {
-    Ok(match path {
-        Some(p) => read_problem(p)?,
-        None => DeploymentProblem::default(),
-    })
-}
-
-/// Writes `commands` as a command file whose step 0 is the fold from the
-/// designed state (where `simulate` starts), so that `tdeploy simulate
-/// -c FILE` replays the whole deployment; steps 1… are the commands.
-pub(super) fn write_fold_and_commands(
-    path: &Path,
-    structure: &Structure,
-    start_payout_m: Vec<f64>,
-    commands: Vec<Vec<f64>>,
-) -> Result<()> {
-    let mut payout_change_m = vec![start_payout_m];
-    payout_change_m.extend(commands);
-    let sequence = CommandSequence {
-        step_labels: (0..payout_change_m.len() as u64).collect(),
-        payout_change_m,
-    };
-    write_commands(path, &sequence, structure)?;
-    Ok(())
-}
-
 /// Runs `tdeploy plan`: the goal is a plan that connects the halves.
 pub fn run(o: &Options) -> Result<Outcome> {
     let model = planning_model(o.model.as_deref(), JointFriction::constant(DEFAULT_MU)?)?;
@@ -152,15 +91,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
             r.active_constraints.len()
         );
     }
-    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
     let motors = problem.motor_limits(model.structure().continuous_cables.len())?;
-    write_fold_and_commands(
-        &out.join("commands.csv"),
-        model.structure(),
-        motors.start_payout_m,
-        plan.commands(),
-    )?;
-    plan_table(&plan).write(&out.join("plan.csv"))?;
+    write_plan(out, model.structure(), motors.start_payout_m, &plan)?;
     say!("{}", plan.status.describe());
     say!(
         "{} commands; final gaps {} mm; commands in {}, per-command table in {}",
@@ -177,60 +109,4 @@ pub fn run(o: &Options) -> Result<Outcome> {
             plan.status.describe()
         ))
     })
-}
-
-/// Values in m as a list in mm, one decimal.
-pub(super) fn mm_list(v: &[f64]) -> String {
-    v.iter()
-        .map(|g| format!("{:.1}", 1e3 * g))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// `plan.csv`: one row per command.
-fn plan_table(plan: &Plan) -> CsvTable {
-    let pairs = plan.start_gaps_m.len();
-    let mut header = vec!["step".to_string()];
-    header.extend((0..pairs).map(|p| format!("gap_{p}_m")));
-    header.extend((0..pairs).map(|p| format!("predicted_gap_{p}_m")));
-    header.extend(
-        [
-            "worst_utilisation",
-            "min_tension_n",
-            "min_clearance_m",
-            "qp_status",
-            "trust_region_m",
-            "rejected_trials",
-            "planning_time_s",
-            "active_constraints",
-        ]
-        .map(String::from),
-    );
-    let mut table = CsvTable::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
-    for (k, r) in plan.records.iter().enumerate() {
-        let mut row = vec![(k + 1).to_string()];
-        row.extend(r.gaps_m.iter().map(|g| g.to_string()));
-        match &r.predicted_gaps_m {
-            Some(p) => row.extend(p.iter().map(|g| g.to_string())),
-            None => row.extend((0..pairs).map(|_| String::new())),
-        }
-        row.push(r.worst_utilisation.to_string());
-        row.push(r.min_tension_n.to_string());
-        row.push(if r.min_clearance_m.is_finite() {
-            r.min_clearance_m.to_string()
-        } else {
-            String::new()
-        });
-        row.push(
-            r.qp_status
-                .map(|s| s.as_str().to_string())
-                .unwrap_or_default(),
-        );
-        row.push(r.trust_region_m.map(|t| t.to_string()).unwrap_or_default());
-        row.push(r.rejected_trials.to_string());
-        row.push(format!("{:.4}", r.planning_time_s));
-        row.push(r.active_constraints.join("; "));
-        table.row(row);
-    }
-    table
 }

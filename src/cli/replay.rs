@@ -7,21 +7,20 @@
 //!    far, beside the command logged; then the controller takes the logged
 //!    command and readings in. A deploy log replayed with the policy and
 //!    model that made it gives its own commands back.
-//! 2. **Calibration**: the controller's model calibrated on the whole log:
-//!    by default the diagnosis (`tdeploy diagnose`, two rounds; the
-//!    effects it finds), with `--fit` the listed effects fitted in turn
-//!    (cheaper, cruder).
+//! 2. **Calibration**: the controller's model calibrated on the whole log
+//!    ([`tensegrity_deploy::measure::calibrate`]): by default the
+//!    diagnosis (`tdeploy diagnose`, two rounds; the effects it finds),
+//!    with `--fit` the listed effects fitted in turn (cheaper, cruder),
+//!    each kept only if it lowers the held-out residual.
 //! 3. **Counterfactual**: the policy deploys the calibrated model (as the
 //!    truth, read by the log's sensors with noise from `--seed`) in closed
 //!    loop from the logged start.
 //!
-//! Writes in DIR, as a whole: `replay.csv` (step 0 the start, then one row
-//! per logged command: logged and policy commands per motor, their
-//! difference, measured gaps and the gaps the controller predicted for
-//! the logged and for its own command), `counterfactual.csv` (one row per
-//! command of the counterfactual run), `summary.json` (format
-//! `tensegrity-deploy/replay/1`), `replay.svg`, `timing.csv` (planning
-//! times, the only file that changes from run to run).
+//! Writes in DIR, as a whole: `replay.csv`, `counterfactual.csv`,
+//! `summary.json` and `timing.csv` (formats in
+//! [`tensegrity_deploy::io::replay_files`]; `timing.csv` holds the
+//! planning times, the only file that changes from run to run) and
+//! `replay.svg` ([`tensegrity_deploy::report::replay_figure`]).
 //!
 //! Exit 0 when the counterfactual connected, 1 when it did not (or could
 //! not run), 2 on bad input (a log that cannot be read or replayed, named
@@ -31,29 +30,25 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
-use serde::Serialize;
 
-use tensegrity_deploy::control::{DeployError, Deployment};
+use tensegrity_deploy::control::DeployError;
 use tensegrity_deploy::io::log::read_log;
-use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
 use tensegrity_deploy::io::output::ResultsFolder;
-use tensegrity_deploy::io::{write_atomically, write_json, CsvTable, FileError};
-use tensegrity_deploy::model::{EffectKind, Effects, JointFriction};
-use tensegrity_deploy::plan::PlanStatus;
+use tensegrity_deploy::io::replay_files::{write_replay, ReplaySet, ReplaySources, ReplaySummary};
+use tensegrity_deploy::io::{write_atomically, FileError};
+use tensegrity_deploy::measure::calibrate::{
+    calibrate_on_log, CalibrationError, CalibrationMethod, KeepFit,
+};
+use tensegrity_deploy::model::{EffectKind, JointFriction};
 use tensegrity_deploy::report::replay_figure::replay_svg;
 use tensegrity_deploy::sim::{EffectModel, PlantError};
 use tensegrity_deploy::studies::log_replay::{
-    calibrate_on_log, counterfactual, default_cycle, deployment_start, replay_log, Calibration,
-    CalibrationError, CalibrationMethod, Margins, Replay, ReplayInputError, ReplayStart,
-    ReplayStop,
+    counterfactual, default_cycle, deployment_start, replay_log, Margins, Replay, ReplayInputError,
 };
 
-use super::deploy::compact_mm;
-use super::plan::{planning_model, policy_or_default, problem_or_default};
+use super::inputs::{controller_model_file, planning_model, policy_or_default, problem_or_default};
+use super::words::{compact_mm, mm};
 use super::{value, Outcome};
-
-/// The `format` of `summary.json`.
-const SUMMARY_FORMAT: &str = "tensegrity-deploy/replay/1";
 
 /// The `replay` subcommand's arguments.
 pub fn command() -> Command {
@@ -123,7 +118,10 @@ impl Options {
                         kinds.push(kind);
                     }
                 }
-                CalibrationMethod::Fit(kinds)
+                CalibrationMethod::Fit {
+                    effects: kinds,
+                    keep: KeepFit::IfHeldOutFalls,
+                }
             }
         };
         Ok(Options {
@@ -149,146 +147,15 @@ fn log_error(o: &Options, e: ReplayInputError) -> FileError {
     }
 }
 
-/// `x` in mm with one decimal, `-` when unknown.
-fn mm(x: Option<f64>) -> String {
-    x.map_or("-".into(), |x| format!("{:.1}", 1e3 * x))
-}
-
-fn opt(x: Option<f64>) -> String {
-    x.map(|v| v.to_string()).unwrap_or_default()
-}
-
+/// Largest of the known gaps.
 fn largest(gaps: &[Option<f64>]) -> Option<f64> {
     gaps.iter().flatten().copied().reduce(f64::max)
-}
-
-/// `replay.csv`: step 0 the start, then one row per logged command.
-fn replay_table(r: &Replay, motors: &[String], pairs: usize) -> CsvTable {
-    let mut header = vec![
-        "step".to_string(),
-        "same_as_policy".into(),
-        "policy_stop".into(),
-        "largest_difference_m".into(),
-    ];
-    for kind in ["logged", "policy", "difference"] {
-        header.extend(motors.iter().map(|m| format!("{kind}_{m}_m")));
-    }
-    for kind in ["measured", "predicted_logged", "predicted_policy"] {
-        header.extend((0..pairs).map(|p| format!("{kind}_gap_{p}_m")));
-    }
-    let mut table = CsvTable::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
-    let mut row = vec![r.start.start_step.to_string()];
-    row.resize(4 + 3 * motors.len(), String::new());
-    row.extend(r.start_measured_gaps_m.iter().map(|g| opt(*g)));
-    row.resize(header.len(), String::new());
-    table.row(row);
-    for s in &r.steps {
-        let mut row = vec![
-            s.step.to_string(),
-            s.same_as_policy.to_string(),
-            s.policy_stop
-                .as_ref()
-                .map(|p| p.describe())
-                .unwrap_or_default(),
-            opt(s.largest_difference_m),
-        ];
-        row.extend(s.logged_command_m.iter().map(|c| c.to_string()));
-        match &s.policy_command_m {
-            Some(p) => {
-                row.extend(p.iter().map(|c| c.to_string()));
-                row.extend(
-                    p.iter()
-                        .zip(&s.logged_command_m)
-                        .map(|(a, b)| (a - b).to_string()),
-                );
-            }
-            None => row.extend(std::iter::repeat_n(String::new(), 2 * motors.len())),
-        }
-        row.extend(s.measured_gaps_m.iter().map(|g| opt(*g)));
-        row.extend(s.logged_predicted_gaps_m.iter().map(|g| g.to_string()));
-        match &s.policy_predicted_gaps_m {
-            Some(g) => row.extend(g.iter().map(|g| g.to_string())),
-            None => row.extend(std::iter::repeat_n(String::new(), pairs)),
-        }
-        table.row(row);
-    }
-    table
-}
-
-/// `counterfactual.csv`: step 0 the start, then one row per command.
-fn counterfactual_table(d: Option<&Deployment>, motors: &[String], pairs: usize) -> CsvTable {
-    let mut header = vec!["step".to_string()];
-    header.extend(motors.iter().map(|m| format!("command_{m}_m")));
-    for kind in ["measured", "true"] {
-        header.extend((0..pairs).map(|p| format!("{kind}_gap_{p}_m")));
-    }
-    header.extend(
-        [
-            "truth_worst_utilisation",
-            "truth_min_tension_n",
-            "truth_violations",
-        ]
-        .map(String::from),
-    );
-    let mut table = CsvTable::new(&header.iter().map(String::as_str).collect::<Vec<_>>());
-    let Some(d) = d else { return table };
-    let mut row = vec!["0".to_string()];
-    row.resize(1 + motors.len(), String::new());
-    row.extend(d.start.measured_gaps_m.iter().map(|g| opt(*g)));
-    row.extend(d.start.true_gaps_m.iter().map(|g| g.to_string()));
-    row.resize(header.len(), String::new());
-    table.row(row);
-    for r in &d.records {
-        let mut row = vec![r.index.to_string()];
-        row.extend(r.command_m.iter().map(|c| c.to_string()));
-        row.extend(r.measured_gaps_m.iter().map(|g| opt(*g)));
-        row.extend(r.true_gaps_m.iter().map(|g| g.to_string()));
-        row.push(r.truth_worst_utilisation.to_string());
-        row.push(r.truth_min_tension_n.to_string());
-        row.push(r.truth_violations.len().to_string());
-        table.row(row);
-    }
-    table
-}
-
-/// `summary.json` (no timings: the same inputs give the same bytes).
-#[derive(Serialize)]
-struct Summary<'a> {
-    format: &'static str,
-    verdict: String,
-    log: String,
-    policy: &'a str,
-    planner: &'static str,
-    model: String,
-    start: &'a ReplayStart,
-    logged_commands: usize,
-    replayed_commands: usize,
-    same_as_policy: usize,
-    policy_would_have_stopped: usize,
-    largest_difference_m: Option<f64>,
-    replay_stopped: &'a Option<ReplayStop>,
-    policy_next_command_m: &'a Option<Vec<f64>>,
-    policy_next_stop: &'a Option<PlanStatus>,
-    calibration: Option<&'a Calibration>,
-    calibration_failed: Option<String>,
-    seed: u64,
-    counterfactual: Option<Margins>,
-    counterfactual_failed: Option<String>,
 }
 
 /// Runs `tdeploy replay`.
 pub fn run(o: &Options) -> Result<Outcome> {
     let folder = ResultsFolder::claim(&o.out, "replay", o.force)?;
-    let (model_file, model_words) = match &o.model {
-        Some(p) => (read_model(p)?, p.display().to_string()),
-        None => (
-            ModelFile {
-                structure: StructureSource::Reference,
-                effects: Effects::default(),
-            },
-            "the reference bridge without friction".to_string(),
-        ),
-    };
+    let (model_file, model_words) = controller_model_file(o.model.as_deref())?;
     let base = model_file.measurement_model()?;
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
     let policy = policy_or_default(o.policy.as_deref())?;
@@ -370,45 +237,32 @@ pub fn run(o: &Options) -> Result<Outcome> {
 
     let s = model.structure();
     let motors: Vec<String> = s.continuous_cables.iter().map(|c| c.id.clone()).collect();
-    let pairs = s.midspan_pairs.len();
+    let summary = ReplaySummary::new(
+        &replay,
+        &policy,
+        ReplaySources {
+            log: o.log.display().to_string(),
+            model: model_words,
+            logged_commands: log.cycles[start.cycle_index].commands.len() - start.start_reading,
+            seed: o.seed,
+        },
+        calibration.as_ref().map_err(Clone::clone),
+        cf.as_ref().map(Margins::of).map_err(Clone::clone),
+        verdict.clone(),
+    );
     let out = folder.path();
-    replay_table(&replay, &motors, pairs).write(&out.join("replay.csv"))?;
-    counterfactual_table(cf.as_ref().ok(), &motors, pairs)
-        .write(&out.join("counterfactual.csv"))?;
-    let mut timing = CsvTable::new(&["step", "planning_time_s"]);
-    for st in &replay.steps {
-        timing.row([st.step.to_string(), st.planning_time_s.to_string()]);
-    }
-    timing.write(&out.join("timing.csv"))?;
+    write_replay(
+        out,
+        &ReplaySet {
+            replay: &replay,
+            counterfactual: cf.as_ref().ok(),
+            motors: &motors,
+            pairs: s.midspan_pairs.len(),
+            summary: &summary,
+        },
+    )?;
     let svg = replay_svg(&replay, cf.as_ref().ok(), problem.connection_tolerance_m)?;
     write_atomically(&out.join("replay.svg"), svg.as_bytes())?;
-    let summary = Summary {
-        format: SUMMARY_FORMAT,
-        verdict: verdict.clone(),
-        log: o.log.display().to_string(),
-        policy: &policy.name,
-        planner: policy.planner.as_str(),
-        model: model_words,
-        start: &start,
-        logged_commands: log.cycles[start.cycle_index].commands.len() - start.start_reading,
-        replayed_commands: replay.steps.len(),
-        same_as_policy: replay.same_commands(),
-        policy_would_have_stopped: replay
-            .steps
-            .iter()
-            .filter(|s| s.policy_stop.is_some())
-            .count(),
-        largest_difference_m: replay.largest_difference_m(),
-        replay_stopped: &replay.stopped,
-        policy_next_command_m: &replay.next_command_m,
-        policy_next_stop: &replay.next_stop,
-        calibration: calibration.as_ref().ok(),
-        calibration_failed: calibration.as_ref().err().cloned(),
-        seed: o.seed,
-        counterfactual: margins.clone(),
-        counterfactual_failed: cf.as_ref().err().cloned(),
-    };
-    write_json(&out.join("summary.json"), &summary)?;
     folder.commit()?;
 
     if let Ok(c) = &calibration {

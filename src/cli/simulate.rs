@@ -1,28 +1,29 @@
 //! `tdeploy simulate`: a command sequence applied to a structure, results as
-//! CSV and an SVG of the final state over the initial one.
+//! CSV ([`tensegrity_deploy::io::simulation_files`]) and an SVG of the
+//! final state over the initial one
+//! ([`tensegrity_deploy::report::drawing::simulation_svg`]).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
-use indicatif::{ProgressBar, ProgressStyle};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::commands::{check_increments, read_commands, CommandSequence};
 use tensegrity_deploy::io::experiment_file::{INCREMENT_RANGE_M, MU_RANGE};
 use tensegrity_deploy::io::friction_table::read_friction_table;
 use tensegrity_deploy::io::output::ResultsFolder;
-use tensegrity_deploy::io::results::{write_simulation, StepRecord};
+use tensegrity_deploy::io::simulation_files::{write_simulation, StepRecord};
 use tensegrity_deploy::io::structure_file::read_structure;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::model::{
-    AngleConvention, CommandError, CommandReport, DeploymentState, ForwardModel,
-    FrictionCoefficient, IncrementObserver, JointFriction, RelaxReport, RelaxSettings, RelaxStatus,
-    Structure, Workspace,
+    AngleConvention, CommandError, CommandReport, ForwardModel, FrictionCoefficient, JointFriction,
+    RelaxSettings, RelaxStatus, Structure, Workspace,
 };
 use tensegrity_deploy::numerics::NumberRange;
-use tensegrity_deploy::report::drawing::{state_views_svg, DrawnState};
+use tensegrity_deploy::report::drawing::simulation_svg;
 
+use super::progress::{Progress, Unit};
 use super::{number_in, value, Outcome};
 
 /// Range of `--tol`: what [`RelaxSettings::validate`] admits.
@@ -128,18 +129,6 @@ impl Options {
     }
 }
 
-struct Progress(ProgressBar);
-
-impl IncrementObserver for Progress {
-    fn on_increment(&mut self, index: usize, count: usize, r: &RelaxReport, _: &DeploymentState) {
-        self.0.set_message(format!(
-            "increment {}/{count}: {} iterations",
-            index + 1,
-            r.iterations
-        ));
-    }
-}
-
 /// A 5 cm fold-deploy cycle, the range of the seed's tests: every cable paid
 /// out 1 cm per step for 5 steps, then reeled in 1 cm per step for 5 steps.
 fn default_commands(s: &Structure) -> CommandSequence {
@@ -192,15 +181,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         },
         state: state.clone(),
     }];
-    let bar = if o.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(commands.step_labels.len() as u64)
-    };
-    if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} steps {msg}") {
-        bar.set_style(style);
-    }
-    let mut progress = Progress(bar.clone());
+    let mut progress = Progress::new(Unit::Steps, commands.step_labels.len() as u64, o.quiet);
     let mut worst = initial.status;
     let mut refused = None;
     if initial.status.is_converged() {
@@ -231,7 +212,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
                     break;
                 }
             };
-            bar.inc(1);
+            progress.tick();
             if report.status.severity() > worst.severity() {
                 worst = report.status;
             }
@@ -246,24 +227,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
             }
         }
     }
-    bar.finish_and_clear();
+    progress.finish();
     write_simulation(folder.path(), &model, &records)?;
     let (first, last) = (&records[0].state, &records[records.len() - 1].state);
-    let (f0, f1) = (model.member_forces(first), model.member_forces(last));
-    let svg = state_views_svg(
-        model.structure(),
-        DrawnState {
-            state: last,
-            forces: &f1,
-            label: "final state",
-        },
-        Some(DrawnState {
-            state: first,
-            forces: &f0,
-            label: "initial state",
-        }),
-        &model.structure().name,
-    )?;
+    let svg = simulation_svg(&model, first, last)?;
     write_atomically(&folder.path().join("state.svg"), svg.as_bytes())?;
     folder.commit()?;
     print_summary(&model, &records, &o.out);

@@ -8,9 +8,7 @@ use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::bridge_params::read_bridge_parameters;
-use tensegrity_deploy::io::output::check_new_file;
-use tensegrity_deploy::io::structure_file::structure_to_json;
-use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::io::structure_file::write_new_structure;
 
 use super::{value, Outcome};
 
@@ -73,9 +71,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Some(path) => format!("{}: generating the bridge", path.display()),
         None => "generating the default bridge".into(),
     })?;
-    let json = structure_to_json(&s);
-    check_new_file(&o.out, json.as_bytes(), o.force)?;
-    write_atomically(&o.out, json.as_bytes())?;
+    write_new_structure(&o.out, &s, o.force)?;
     let count = |kind: &str| s.members.iter().filter(|m| m.kind.name() == kind).count();
     say!(
         "wrote {}: {} nodes, {} struts, {} cables, {} springs, {} continuous cables ({} segments)",

@@ -198,3 +198,46 @@ pub fn modelled_slip_ratio(
     }
     Ok(hi)
 }
+
+/// One slip of the rig, and the friction coefficient the seed's
+/// back-calculation makes of it with either angle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigSlip {
+    /// Interior angle θ at the seat, degrees.
+    pub interior_angle_deg: f64,
+    /// Tension on the low side, kN.
+    pub tension_kn: f64,
+    /// Load ratio `T_high/T_low` at which the modelled joint slides
+    /// ([`modelled_slip_ratio`]).
+    pub modelled_ratio: f64,
+    /// The capstan formula's ratio `e^(μα)` with the model's convention.
+    pub formula_ratio: f64,
+    /// Extra load on the high side at the slip, N.
+    pub slip_load_n: f64,
+    /// μ back-calculated with the interior angle θ (the seed's way).
+    pub mu_interior: f64,
+    /// μ back-calculated with the wrap angle π − θ.
+    pub mu_wrap: f64,
+}
+
+/// The rig at interior angle `interior_angle_deg` with `tension_kn` on the
+/// low side, loaded until it slips ([`modelled_slip_ratio`]), and the μ
+/// either angle convention back-calculates from that slip.
+pub fn rig_slip(
+    friction: &JointFriction,
+    interior_angle_deg: f64,
+    tension_kn: f64,
+) -> Result<RigSlip, RigError> {
+    let theta = interior_angle_deg.to_radians();
+    let tension_n = 1e3 * tension_kn;
+    let ratio = modelled_slip_ratio(friction, theta, tension_n)?;
+    Ok(RigSlip {
+        interior_angle_deg,
+        tension_kn,
+        modelled_ratio: ratio,
+        formula_ratio: friction.ratio_bound(theta, false),
+        slip_load_n: tension_n * (ratio - 1.0),
+        mu_interior: ratio.ln() / theta,
+        mu_wrap: ratio.ln() / (std::f64::consts::PI - theta),
+    })
+}

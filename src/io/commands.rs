@@ -188,6 +188,26 @@ pub fn write_commands(
     commands_table(seq, structure).write(path)
 }
 
+/// Writes `commands` as a command file whose step 0 is the fold from the
+/// designed state to `start_payout_m` (where `tdeploy simulate` starts),
+/// so that `tdeploy simulate -c FILE` replays the whole deployment; steps
+/// 1… are the commands (`tdeploy plan`'s and `tdeploy deploy`'s
+/// `commands.csv`).
+pub fn write_fold_and_commands(
+    path: &Path,
+    structure: &Structure,
+    start_payout_m: Vec<f64>,
+    commands: Vec<Vec<f64>>,
+) -> Result<(), FileError> {
+    let mut payout_change_m = vec![start_payout_m];
+    payout_change_m.extend(commands);
+    let sequence = CommandSequence {
+        step_labels: (0..payout_change_m.len() as u64).collect(),
+        payout_change_m,
+    };
+    write_commands(path, &sequence, structure)
+}
+
 fn commands_table(seq: &CommandSequence, structure: &Structure) -> CsvTable {
     let mut table = CsvTable::new(&COMMAND_HEADER);
     for (label, row) in seq.step_labels.iter().zip(&seq.payout_change_m) {

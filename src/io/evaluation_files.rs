@@ -36,6 +36,9 @@
 //!
 //! **`timing.csv`**: `scenario,policy,median_planning_time_s`, the one
 //! file that differs from run to run.
+//!
+//! The set's summary tables (`summary.csv`, `paired.csv`) and the writer
+//! of the whole set are [`super::evaluation_summary`]'s.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -45,6 +48,7 @@ use serde::{Deserialize, Serialize};
 use super::problem_file::{field_line, parse_versioned};
 use super::toml_text::{field_error, parse_toml};
 use super::{csv_records, csv_with_header, read_text, CsvTable, FileError};
+use crate::plan::Policy;
 use crate::studies::evaluation::{RunResult, Scenario, ScenarioDistribution, Shard};
 
 /// The `format` of a scenario-distribution file.
@@ -107,6 +111,35 @@ pub struct EvaluationRecord {
 }
 
 impl EvaluationRecord {
+    /// The record of shard `shard` of a sweep of `scenarios` scenarios
+    /// drawn from `distribution` with `seed`, `cycles` cycles each, for
+    /// `policies` (their names and the fingerprints of their settings) on
+    /// the controller's model `model` (`reference` or its file).
+    pub fn new(
+        seed: u64,
+        scenarios: usize,
+        shard: Shard,
+        policies: &[Policy],
+        model: String,
+        cycles: usize,
+        distribution: ScenarioDistribution,
+    ) -> Result<Self, FileError> {
+        Ok(EvaluationRecord {
+            format: EVALUATION_FORMAT.into(),
+            seed,
+            scenarios,
+            shard: format!("{}/{}", shard.index, shard.count),
+            policies: policies.iter().map(|p| p.name.clone()).collect(),
+            policy_fingerprints: policies
+                .iter()
+                .map(policy_fingerprint)
+                .collect::<Result<_, _>>()?,
+            model,
+            cycles,
+            distribution,
+        })
+    }
+
     /// This record's shard.
     pub fn shard(&self) -> Option<Shard> {
         Shard::parse(&self.shard)
@@ -165,6 +198,16 @@ pub fn fingerprint(bytes: &[u8]) -> String {
         h = h.wrapping_mul(0x0000_0100_0000_01b3);
     }
     format!("{h:016x}")
+}
+
+/// The [`fingerprint`] of a policy's settings (their JSON text).
+pub fn policy_fingerprint(policy: &Policy) -> Result<String, FileError> {
+    let json = serde_json::to_string(policy).map_err(|e| FileError::Invalid {
+        path: "evaluation.toml".into(),
+        entry: format!("policy_fingerprints ({})", policy.name),
+        message: e.to_string(),
+    })?;
+    Ok(fingerprint(json.as_bytes()))
 }
 
 /// One scenario's row prefix in `runs.csv`.

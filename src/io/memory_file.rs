@@ -50,6 +50,16 @@ pub fn read_memory(path: &Path) -> Result<CaseMemory, FileError> {
     parse_memory(&text, path)
 }
 
+/// Reads the memory file `path` if there is one, else an empty memory
+/// (a memory that [`append_case`] will create).
+pub fn read_memory_or_empty(path: &Path) -> Result<CaseMemory, FileError> {
+    if path.exists() {
+        read_memory(path)
+    } else {
+        Ok(CaseMemory::default())
+    }
+}
+
 /// Parses a memory file's text; `path` names it in errors.
 pub fn parse_memory(text: &str, path: &Path) -> Result<CaseMemory, FileError> {
     let lines: Vec<&str> = text.split_inclusive('\n').collect();

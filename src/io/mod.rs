@@ -4,20 +4,41 @@
 //! and field or the entry, in its error. Every writer writes atomically
 //! (a temporary file in the same folder, then a rename), so a crash or a
 //! failed run never leaves a half-written file in place of a good one.
+//!
+//! Every file a command writes has its writer here, its format documented
+//! in the writer's module: the inputs that are also outputs
+//! ([`structure_file`], [`commands`], [`model_file`], [`problem_file`],
+//! [`log`], [`memory_file`]) and the command's results:
+//! [`simulation_files`] (`simulate`), [`plan_files`] (`plan`),
+//! [`deployment_files`] (`deploy`), [`replay_files`] (`replay`),
+//! [`cycles_files`] (`cycles`), [`evaluation_files`] and
+//! [`evaluation_summary`] (`evaluate`, `merge`, the deployment
+//! experiment), [`experiment_tables`] (the other experiments),
+//! [`comparison_files`] (`compare`, and the JSON reports of `compare` and
+//! `diagnose`). Results folders are written whole ([`output`]). The SVG
+//! figures are drawn in [`crate::report`] and written with
+//! [`write_atomically`].
 
 pub mod bridge_params;
 pub mod commands;
+pub mod comparison_files;
 pub mod csv_table;
+pub mod cycles_files;
+pub mod deployment_files;
 pub mod evaluation_files;
+pub mod evaluation_summary;
 pub mod experiment_file;
+pub mod experiment_tables;
 pub mod friction_table;
 pub mod log;
 pub mod memory_file;
 pub mod model_file;
 pub mod output;
+pub mod plan_files;
 pub mod policy_file;
 pub mod problem_file;
-pub mod results;
+pub mod replay_files;
+pub mod simulation_files;
 pub mod structure_file;
 mod toml_text;
 
@@ -40,6 +61,14 @@ pub enum FileError {
     #[error("{}: cannot read: {cause}", path.display())]
     Read {
         /// The file.
+        path: PathBuf,
+        /// Cause.
+        cause: std::io::Error,
+    },
+    /// The folder could not be created.
+    #[error("{}: cannot create: {cause}", path.display())]
+    Create {
+        /// The folder.
         path: PathBuf,
         /// Cause.
         cause: std::io::Error,
@@ -226,10 +255,17 @@ pub fn write_new_json<T: serde::Serialize + ?Sized>(
 /// `value` as pretty-printed JSON text with a final newline; `path` names
 /// the file in errors.
 fn json_bytes<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Result<Vec<u8>, FileError> {
-    let mut bytes =
-        serde_json::to_vec_pretty(value).map_err(|e| FileError::write(path, e.into()))?;
-    bytes.push(b'\n');
-    Ok(bytes)
+    json_text(value)
+        .map(String::into_bytes)
+        .map_err(|e| FileError::write(path, e.into()))
+}
+
+/// `value` as the JSON text [`write_json`] writes: pretty-printed, with a
+/// final newline (a command that prints a file it wrote prints this).
+pub fn json_text<T: serde::Serialize + ?Sized>(value: &T) -> Result<String, serde_json::Error> {
+    let mut text = serde_json::to_string_pretty(value)?;
+    text.push('\n');
+    Ok(text)
 }
 
 /// Writes `bytes` to `path` atomically: a temporary sibling, flushed, then

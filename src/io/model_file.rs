@@ -39,6 +39,12 @@
 //! A missing `[effects.*]` table is an effect switched off. Every effect,
 //! its physics, parameters, units and plausible ranges are documented in
 //! [`crate::model::effects`]. Unknown keys are errors, not ignored.
+//!
+//! Written as: a calibrated model (`tdeploy calibrate -o`,
+//! [`write_new_model`], never over an existing file); `truth.toml` and
+//! `model.toml` of a deployment ([`super::deployment_files`]); the truth
+//! record `LOG.truth.toml` beside a synthetic log ([`write_truth_record`]:
+//! the model file after two `#` comment lines naming the lab run).
 
 use std::path::{Path, PathBuf};
 
@@ -213,6 +219,60 @@ pub fn write_new_model(path: &Path, model: &ModelFile) -> Result<(), FileError> 
     }
     let dir = path.parent().unwrap_or(Path::new("."));
     write_atomically(path, model.to_toml(dir).as_bytes())
+}
+
+/// The settings of a synthetic lab run, as a truth record names them.
+#[derive(Debug, Clone, Copy)]
+pub struct LabRun<'a> {
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Cable actuation of each cycle, m.
+    pub amplitudes_m: &'a [f64],
+    /// Steps each way per cycle.
+    pub steps: usize,
+    /// Amplitude of the daily temperature swing about 20 °C, K.
+    pub swing_k: f64,
+}
+
+/// Where `tdeploy lab` records the truth behind the log folder `log_dir`:
+/// beside it, `out/log` → `out/log.truth.toml`. It stays outside the log
+/// folder: compare, diagnose and calibrate read only the log.
+pub fn truth_record_path(log_dir: &Path) -> PathBuf {
+    let mut name = log_dir
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_else(|| "log".into());
+    name.push(".truth.toml");
+    log_dir.with_file_name(name)
+}
+
+/// Checks, before the work, that the truth record of `log_dir` may be
+/// written: there is none, the log folder is a results set tdeploy wrote
+/// (the record is that set's), or `force`.
+pub fn check_truth_record(log_dir: &Path, force: bool) -> Result<(), FileError> {
+    let replaces_own = log_dir.join(super::output::RESULTS_MARKER).is_file();
+    super::output::check_absent(&truth_record_path(log_dir), force || replaces_own)
+}
+
+/// Writes the truth record of the log `log_dir` ([`truth_record_path`]):
+/// two comment lines naming the log and the lab run, then `truth` as a
+/// model file (a structure file relative to the record's folder).
+pub fn write_truth_record(
+    log_dir: &Path,
+    truth: &ModelFile,
+    lab: &LabRun,
+) -> Result<(), FileError> {
+    let path = truth_record_path(log_dir);
+    let record = format!(
+        "# The truth behind the log {}: seed {}, amplitudes {:?} m, {} steps each way, temperature 20 ± {} °C.\n# Nothing in compare, diagnose or calibrate reads this file.\n{}",
+        log_dir.display(),
+        lab.seed,
+        lab.amplitudes_m,
+        lab.steps,
+        lab.swing_k,
+        truth.to_toml(path.parent().unwrap_or(Path::new(".")))
+    );
+    write_atomically(&path, record.as_bytes())
 }
 
 #[cfg(test)]

@@ -58,6 +58,16 @@ pub fn check_absent(path: &Path, force: bool) -> Result<(), FileError> {
     }
 }
 
+/// Creates the folder `dir` with its parents, if missing: the plain
+/// output folder of a command whose files are written one by one
+/// (`tdeploy plan`, the experiments), not as a [`ResultsFolder`].
+pub fn create_folder(dir: &Path) -> Result<(), FileError> {
+    std::fs::create_dir_all(dir).map_err(|cause| FileError::Create {
+        path: dir.to_path_buf(),
+        cause,
+    })
+}
+
 /// A results folder being written: files go into [`ResultsFolder::path`],
 /// and [`ResultsFolder::commit`] puts the whole set in place. Dropped
 /// uncommitted (an error on the way), it removes what it wrote and leaves

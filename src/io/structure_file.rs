@@ -419,3 +419,12 @@ pub fn structure_to_json(s: &Structure) -> String {
 pub fn write_structure(path: &Path, s: &Structure) -> Result<(), FileError> {
     write_atomically(path, structure_to_json(s).as_bytes())
 }
+
+/// Writes `s` as [`write_structure`] does, but only where no file is,
+/// where the file already holds exactly these bytes, or with `force`
+/// ([`super::output::check_new_file`]: `tdeploy structure -o`).
+pub fn write_new_structure(path: &Path, s: &Structure, force: bool) -> Result<(), FileError> {
+    let json = structure_to_json(s);
+    super::output::check_new_file(path, json.as_bytes(), force)?;
+    write_atomically(path, json.as_bytes())
+}

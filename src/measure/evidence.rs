@@ -113,6 +113,13 @@ pub struct Evidence {
 }
 
 impl Evidence {
+    /// The test of `statistic` about `subject`, if it was made.
+    pub fn test_of(&self, subject: Subject, statistic: Statistic) -> Option<&NoiseTest> {
+        self.tests
+            .iter()
+            .find(|t| t.subject == subject && t.statistic == statistic)
+    }
+
     /// The tests that reject pure noise.
     pub fn significant(&self) -> impl Iterator<Item = &NoiseTest> {
         self.tests.iter().filter(|t| t.significant)

@@ -1,9 +1,10 @@
 //! Model against measurement: logs in memory ([`log`]), the synthetic lab
 //! that makes logs from a truth model ([`lab`]), the comparison of a model
-//! with a log ([`compare`]) and the search for what the model lacks
-//! ([`diagnose`]), tuned by [`settings`]. Pure: files are read and written
-//! in [`crate::io`].
+//! with a log ([`compare`]), the search for what the model lacks
+//! ([`diagnose`]) and the calibration of a model on a log
+//! ([`calibrate`]). Pure: files are read and written in [`crate::io`].
 
+pub mod calibrate;
 pub mod compare;
 pub mod comparison_verdict;
 pub mod diagnose;

@@ -9,7 +9,7 @@ use plotters::prelude::*;
 
 use super::drawing::{draw_state_views, DrawingError, DrawnState};
 use crate::control::Deployment;
-use crate::model::Structure;
+use crate::model::ForwardModel;
 
 fn err<E: std::fmt::Debug>(e: E) -> DrawingError {
     DrawingError::new(format!("{e:?}"))
@@ -25,17 +25,30 @@ const PAIR_COLOURS: [RGBColor; 5] = [
 ];
 const BAND: RGBColor = RGBColor(200, 235, 200);
 
-/// The figure for `deployment` on the truth's `structure`: its gaps, and
-/// `end` (the truth's final state with its forces) drawn over `start`
-/// (its folded start), connecting within `tolerance_m`.
+/// The figure for `deployment` of the truth `truth`: its gaps, and the
+/// truth's final state drawn over its folded start, each with the member
+/// forces `truth` gives it, connecting within `tolerance_m`.
 pub fn deployment_svg(
-    structure: &Structure,
+    truth: &ForwardModel,
     deployment: &Deployment,
-    end: DrawnState<'_>,
-    start: DrawnState<'_>,
     tolerance_m: f64,
     title: &str,
 ) -> Result<String, DrawingError> {
+    let (start_forces, end_forces) = (
+        truth.member_forces(&deployment.start_true_state),
+        truth.member_forces(&deployment.final_true_state),
+    );
+    let end = DrawnState {
+        state: &deployment.final_true_state,
+        forces: &end_forces,
+        label: "truth at the end",
+    };
+    let start = DrawnState {
+        state: &deployment.start_true_state,
+        forces: &start_forces,
+        label: "truth folded at the start",
+    };
+    let structure = truth.structure();
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (1900, 980)).into_drawing_area();

@@ -11,7 +11,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::model::{DeploymentState, MemberForces, MemberKind, Structure};
+use crate::model::{DeploymentState, ForwardModel, MemberForces, MemberKind, Structure};
 
 /// A state to draw, with its forces.
 #[derive(Debug, Clone, Copy)]
@@ -191,6 +191,31 @@ pub fn state_views_svg(
         root.present().map_err(err)?;
     }
     Ok(svg)
+}
+
+/// `state.svg` of a simulation (`tdeploy simulate`): its `last` state
+/// over its `first`, each with the member forces `model` gives it, titled
+/// by the structure's name.
+pub fn simulation_svg(
+    model: &ForwardModel,
+    first: &DeploymentState,
+    last: &DeploymentState,
+) -> Result<String, DrawingError> {
+    let (f0, f1) = (model.member_forces(first), model.member_forces(last));
+    state_views_svg(
+        model.structure(),
+        DrawnState {
+            state: last,
+            forces: &f1,
+            label: "final state",
+        },
+        Some(DrawnState {
+            state: first,
+            forces: &f0,
+            label: "initial state",
+        }),
+        &model.structure().name,
+    )
 }
 
 /// Draws the three views of `primary` (and `overlay`, in grey beneath it)

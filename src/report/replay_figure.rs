@@ -6,8 +6,8 @@
 
 use plotters::prelude::*;
 
+use super::comparison_figures::range;
 use super::drawing::DrawingError;
-use super::figures::range;
 use crate::control::Deployment;
 use crate::studies::log_replay::Replay;
 

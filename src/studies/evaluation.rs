@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::cycles::{run_cycles, CycleObserver, CycleResult};
-use super::statistics::{median, percentile, scenario_seed, wilson_interval};
+use super::statistics::{mcnemar_exact_p, median, percentile, scenario_seed, wilson_interval};
 use crate::control::{deploy_closed_loop, ClosedLoopSetup, Deployment};
 use crate::learn::{Case, CaseMemory};
 use crate::model::{EffectKind, Effects, ForwardModel, Structure};
@@ -539,6 +539,13 @@ pub struct PolicySummary {
     pub planning_time_median_s: Option<f64>,
 }
 
+impl PolicySummary {
+    /// Share of the runs that succeeded, 0–1 (0 without runs).
+    pub fn success_rate(&self) -> f64 {
+        self.successes as f64 / self.runs.max(1) as f64
+    }
+}
+
 /// The summary of policy `policy` over `results`.
 pub fn summarise_results(results: &[RunResult], policy: usize) -> PolicySummary {
     let mine: Vec<&RunResult> = results.iter().filter(|r| r.policy == policy).collect();
@@ -600,6 +607,52 @@ pub fn paired_outcomes(results: &[RunResult], a: usize, b: usize) -> (usize, usi
         }
     }
     counts
+}
+
+/// The first policy of an evaluation against another on the same
+/// scenarios: their paired outcomes and the exact McNemar test of them.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PairedComparison {
+    /// The first policy (index).
+    pub a: usize,
+    /// The other policy (index).
+    pub b: usize,
+    /// Scenarios both succeeded on.
+    pub both: usize,
+    /// Scenarios only `a` succeeded on.
+    pub only_a: usize,
+    /// Scenarios only `b` succeeded on.
+    pub only_b: usize,
+    /// Scenarios neither succeeded on.
+    pub neither: usize,
+    /// Exact McNemar p-value of the discordant pairs.
+    pub mcnemar_p: f64,
+}
+
+impl PairedComparison {
+    /// Scenarios in the comparison.
+    pub fn scenarios(&self) -> usize {
+        self.both + self.only_a + self.only_b + self.neither
+    }
+}
+
+/// The first of `policies` policies against each other one over `results`
+/// ([`paired_outcomes`], [`mcnemar_exact_p`]).
+pub fn first_against_others(results: &[RunResult], policies: usize) -> Vec<PairedComparison> {
+    (1..policies)
+        .map(|b| {
+            let (both, only_a, only_b, neither) = paired_outcomes(results, 0, b);
+            PairedComparison {
+                a: 0,
+                b,
+                both,
+                only_a,
+                only_b,
+                neither,
+                mcnemar_p: mcnemar_exact_p(only_a, only_b),
+            }
+        })
+        .collect()
 }
 
 /// Everything an evaluation runs with.

@@ -34,7 +34,8 @@
 //! and logs keep every number exactly.
 //!
 //! # Counterfactual
-//! A model calibrated on the log ([`calibrate_on_log`]: the diagnosis's
+//! A model calibrated on the log
+//! ([`crate::measure::calibrate::calibrate_on_log`]: the diagnosis's
 //! effects, or a chosen set of effects fitted in turn) stands in as the
 //! truth of a closed-loop run of the policy from the logged start
 //! ([`counterfactual`]): would it have connected, after how many commands,
@@ -48,15 +49,10 @@ use crate::control::{
     deploy_closed_loop, ClosedLoopSetup, Controller, ControllerDecision, ControllerError,
     DeployError, Deployment,
 };
-use crate::measure::compare::compare;
-use crate::measure::diagnose::{
-    diagnose, effects_found, fit_candidate, part, DiagnoseError, DiagnoseSettings, Verdict,
-};
-use crate::measure::local::Term;
 use crate::measure::log::MeasurementLog;
-use crate::model::{EffectKind, Effects, ForwardModel};
+use crate::model::ForwardModel;
 use crate::plan::{DeploymentProblem, PerMotor, PlanError, PlanStatus, Policy};
-use crate::sim::{EffectModel, PlantError, SensorTarget};
+use crate::sim::{EffectModel, SensorTarget};
 
 /// How a logged cycle is laid out (see the module notes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -450,207 +446,6 @@ pub fn replay_log(
     })
 }
 
-/// How the counterfactual's model is calibrated on the log.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CalibrationMethod {
-    /// The full diagnosis ([`diagnose`]): every effect the model lacks
-    /// screened and fitted, the best ones kept and refitted jointly; the
-    /// model gets [`effects_found`].
-    Diagnose {
-        /// Effects to look for at most.
-        max_rounds: usize,
-    },
-    /// These effects fitted in turn ([`fit_candidate`]), each on top of
-    /// those kept before it; one is kept if its fit converged and lowered
-    /// the held-out RMS residual. Cheap (one fit each), but without the
-    /// diagnosis's joint refit an early effect absorbs part of a later
-    /// one's signal.
-    Fit(Vec<EffectKind>),
-}
-
-/// One effect fitted in a calibration.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FittedEffect {
-    /// The effect's name.
-    pub effect: &'static str,
-    /// Its parameters' names.
-    pub parameters: Vec<&'static str>,
-    /// Fitted values (the effect's units, see its parameters).
-    pub values: Vec<f64>,
-    /// Their standard errors.
-    pub std_errors: Vec<f64>,
-    /// Whether the fit converged.
-    pub converged: bool,
-    /// Whether the calibrated model has it.
-    pub kept: bool,
-}
-
-/// A model calibrated on a log.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Calibration {
-    /// The method.
-    pub method: CalibrationMethod,
-    /// The calibrated model's effects.
-    #[serde(skip)]
-    pub effects: Effects,
-    /// The effects fitted.
-    pub fitted: Vec<FittedEffect>,
-    /// The diagnosis's verdict (diagnosis only), serialised in words
-    /// ([`describe_verdict`]).
-    #[serde(serialize_with = "verdict_words")]
-    pub verdict: Option<Verdict>,
-    /// Held-out RMS residual of the model before, noise SDs.
-    pub held_out_rms_before: f64,
-    /// Held-out RMS residual of the calibrated model, noise SDs.
-    pub held_out_rms_after: f64,
-}
-
-/// Why a calibration could not be made.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum CalibrationError {
-    /// The diagnosis failed.
-    #[error(transparent)]
-    Diagnose(#[from] DiagnoseError),
-    /// A replay of the log through the model stopped.
-    #[error(transparent)]
-    Replay(#[from] PlantError),
-}
-
-/// Held-out RMS residual of `model` on `log`, noise SDs.
-fn held_out_rms(model: &EffectModel, log: &MeasurementLog) -> Result<f64, PlantError> {
-    let settings = DiagnoseSettings::default();
-    Ok(
-        part(&compare(model, log)?, log.cycles.len(), true, &settings)
-            .overall
-            .rms,
-    )
-}
-
-fn fitted_effect(kind: EffectKind, values: &[f64], se: &[f64], converged: bool) -> FittedEffect {
-    FittedEffect {
-        effect: kind.name(),
-        parameters: kind.parameters().iter().map(|p| p.name).collect(),
-        values: values.to_vec(),
-        std_errors: se.to_vec(),
-        converged,
-        kept: false,
-    }
-}
-
-/// Calibrates `base` (the controller's model with its effects) on `log`
-/// by `method`.
-pub fn calibrate_on_log(
-    base: &EffectModel,
-    log: &MeasurementLog,
-    method: &CalibrationMethod,
-) -> Result<Calibration, CalibrationError> {
-    let before = held_out_rms(base, log)?;
-    let with = |effects: Effects| EffectModel {
-        effects,
-        ..base.clone()
-    };
-    match method {
-        CalibrationMethod::Diagnose { max_rounds } => {
-            let settings = DiagnoseSettings {
-                max_rounds: *max_rounds,
-                ..DiagnoseSettings::default()
-            };
-            let d = diagnose(base, log, &settings)?;
-            let effects = effects_found(base.effects, &d.verdict);
-            let found = match &d.verdict {
-                Verdict::NothingMissing => &[][..],
-                Verdict::Missing { found, .. } | Verdict::Unexplained { found, .. } => &found[..],
-            };
-            let fitted = found
-                .iter()
-                .filter_map(|c| match c.term {
-                    Term::Global(k) => Some(FittedEffect {
-                        kept: true,
-                        ..fitted_effect(k, &c.values, &c.std_errors, c.converged)
-                    }),
-                    // Local terms (one member, one sensor) are not effects
-                    // of a model file: effects_found leaves them out.
-                    Term::Local(_) => None,
-                })
-                .collect();
-            Ok(Calibration {
-                method: method.clone(),
-                held_out_rms_after: held_out_rms(&with(effects), log)?,
-                effects,
-                fitted,
-                verdict: Some(d.verdict),
-                held_out_rms_before: before,
-            })
-        }
-        CalibrationMethod::Fit(kinds) => {
-            let mut effects = base.effects;
-            let mut rms = before;
-            let mut fitted = Vec::new();
-            for kind in kinds {
-                let c = fit_candidate(base, effects, *kind, log, &DiagnoseSettings::default())?;
-                let mut f = fitted_effect(*kind, &c.values, &c.std_errors, c.converged);
-                if c.converged {
-                    let trial = effects.with_parameters(*kind, &c.values);
-                    let after = held_out_rms(&with(trial), log)?;
-                    if after < rms {
-                        effects = trial;
-                        rms = after;
-                        f.kept = true;
-                    }
-                }
-                fitted.push(f);
-            }
-            Ok(Calibration {
-                method: method.clone(),
-                effects,
-                fitted,
-                verdict: None,
-                held_out_rms_before: before,
-                held_out_rms_after: rms,
-            })
-        }
-    }
-}
-
-/// A diagnosis's verdict in words, as a calibration reports it.
-pub fn describe_verdict(verdict: &Verdict) -> String {
-    match verdict {
-        Verdict::NothingMissing => "nothing missing".to_string(),
-        Verdict::Missing { found, confident } => format!(
-            "missing: {}{}",
-            names(found),
-            if *confident { "" } else { " (not confident)" }
-        ),
-        Verdict::Unexplained {
-            found,
-            held_out_rms,
-        } => format!(
-            "structured residual left ({held_out_rms:.2} σ held out) after {}",
-            names(found)
-        ),
-    }
-}
-
-/// [`Calibration::verdict`] in words.
-fn verdict_words<S: serde::Serializer>(
-    verdict: &Option<Verdict>,
-    serializer: S,
-) -> Result<S::Ok, S::Error> {
-    verdict.as_ref().map(describe_verdict).serialize(serializer)
-}
-
-fn names(found: &[crate::measure::diagnose::Candidate]) -> String {
-    if found.is_empty() {
-        return "none".into();
-    }
-    found
-        .iter()
-        .map(|c| c.name.clone())
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 /// The margins of a closed-loop run.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Margins {
@@ -763,37 +558,6 @@ mod tests {
             step_labels: (1..=n as u64).collect(),
             commands,
             readings,
-        }
-    }
-
-    #[test]
-    fn verdicts_read_as_before() {
-        let cases = [
-            (Verdict::NothingMissing, "nothing missing"),
-            (
-                Verdict::Missing {
-                    found: vec![],
-                    confident: true,
-                },
-                "missing: none",
-            ),
-            (
-                Verdict::Missing {
-                    found: vec![],
-                    confident: false,
-                },
-                "missing: none (not confident)",
-            ),
-            (
-                Verdict::Unexplained {
-                    found: vec![],
-                    held_out_rms: 2.346,
-                },
-                "structured residual left (2.35 σ held out) after none",
-            ),
-        ];
-        for (v, text) in cases {
-            assert_eq!(describe_verdict(&v), text);
         }
     }
 

@@ -5,7 +5,7 @@
 pub mod cycles;
 pub mod evaluation;
 pub mod friction_effect;
-pub mod friction_study;
+pub mod friction_vs_measurement;
 pub mod log_replay;
 pub mod statistics;
 

@@ -1,4 +1,6 @@
-//! Simulation results as tidy CSV, one file per table, written atomically.
+//! The tables of a simulation (`tdeploy simulate`): tidy CSV, one file per
+//! table, written atomically ([`write_simulation`]). The figure of the
+//! run, `state.svg`, is drawn by `report::drawing`.
 //!
 //! - `steps.csv`: `step,status,increments,iterations,max_residual_n,max_friction_residual_n,max_midspan_gap_m`
 //! - `positions.csv`: `step,node,x_m,y_m,z_m`
@@ -6,7 +8,11 @@
 //!   (force positive in tension; utilisation = compression / Euler load, struts only)
 //! - `segments.csv`: `step,cable,segment,rest_length_m,length_m,tension_n,payout_m`
 //!
-//! Step 0 is the initial state, relaxed.
+//! Step 0 is the initial state, relaxed. Empty: no value (no midspan gap
+//! for a structure without midspan pairs; no buckling utilisation for a
+//! member that is not a strut). Residuals in `steps.csv` are written in
+//! scientific notation, every other number as the shortest text that
+//! reads back to the same value.
 
 use std::path::Path;
 

@@ -20,7 +20,7 @@ use crate::sim::{CycleSchedule, EffectModel, PlantError};
 
 /// What to run.
 #[derive(Debug, Clone, PartialEq)]
-pub struct FrictionStudySettings {
+pub struct FrictionVsMeasurementSettings {
     /// The effects of the truth that makes the measurement.
     pub truth_effects: Effects,
     /// Friction coefficient of the simulation with friction (the seed took
@@ -84,7 +84,7 @@ impl Difference {
 
 /// The study's result.
 #[derive(Debug, Clone, PartialEq)]
-pub struct FrictionStudy {
+pub struct FrictionVsMeasurement {
     /// Each load cell.
     pub cells: Vec<CellComparison>,
 }
@@ -106,7 +106,7 @@ impl CellComparison {
     }
 }
 
-impl FrictionStudy {
+impl FrictionVsMeasurement {
     /// Average differences over the cells: (without, with friction).
     pub fn differences(&self) -> (Difference, Difference) {
         let without: Vec<_> = self.cells.iter().map(|c| c.no_friction()).collect();
@@ -116,10 +116,10 @@ impl FrictionStudy {
 }
 
 /// Runs the study on `structure`.
-pub fn friction_study(
+pub fn friction_vs_measurement(
     structure: &Structure,
-    settings: &FrictionStudySettings,
-) -> Result<FrictionStudy, PlantError> {
+    settings: &FrictionVsMeasurementSettings,
+) -> Result<FrictionVsMeasurement, PlantError> {
     let model = |effects: Effects| EffectModel {
         structure: structure.clone(),
         effects,
@@ -170,7 +170,7 @@ pub fn friction_study(
             friction_n: series(&friction[0], s),
         })
         .collect();
-    Ok(FrictionStudy { cells })
+    Ok(FrictionVsMeasurement { cells })
 }
 
 #[cfg(test)]

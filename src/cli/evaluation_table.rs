@@ -1,0 +1,95 @@
+//! The printed table of a policy evaluation, shared by `evaluate`, `merge`
+//! and the deployment experiment: a row per policy and a line per paired
+//! comparison; the set of files is written through
+//! [`tensegrity_deploy::io::evaluation_summary`] and its figure drawn by
+//! [`tensegrity_deploy::report::evaluation_figure`].
+
+use std::path::Path;
+
+use anyhow::Result;
+
+use tensegrity_deploy::io::evaluation_files::{EvaluationRecord, EvaluationRuns};
+use tensegrity_deploy::io::evaluation_summary::write_evaluation;
+use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::report::evaluation_figure::evaluation_svg;
+use tensegrity_deploy::studies::evaluation::{
+    first_against_others, summarise_results, PolicySummary,
+};
+
+/// Milliseconds of an optional duration in seconds, for tables.
+fn ms(v: Option<f64>) -> String {
+    v.map_or("-".into(), |s| format!("{:.1}", 1e3 * s))
+}
+
+/// An optional number with `digits` decimals, for tables.
+fn num(v: Option<f64>, digits: usize) -> String {
+    v.map_or("-".into(), |x| format!("{x:.digits$}"))
+}
+
+/// Prints the summary of `runs` and writes every file of the set into
+/// `folder` (which must exist). Returns how many runs broke a truth limit.
+pub fn print_and_write(
+    record: &EvaluationRecord,
+    runs: &EvaluationRuns,
+    folder: &Path,
+) -> Result<usize> {
+    let names = &runs.policy_names;
+    let summaries: Vec<PolicySummary> = (0..names.len())
+        .map(|p| summarise_results(&runs.results, p))
+        .collect();
+    // One decimal on the rates: 1000 of 1000 has a Wilson interval of
+    // 99.6–100 %, which whole percent would print as "100–100".
+    say!(
+        "{:<14} {:>9} {:>15} {:>9} {:>9} {:>11} {:>10} {:>10} {:>10} {:>9} {:>9} {:>6} {:>9}",
+        "policy",
+        "success",
+        "Wilson 95 %",
+        "cmds med",
+        "cmds p95",
+        "corrective",
+        "approach",
+        "gap med",
+        "gap p95",
+        "travel",
+        "worst use",
+        "viol.",
+        "ms/cmd"
+    );
+    for (name, s) in names.iter().zip(&summaries) {
+        say!(
+            "{:<14} {:>8.1}% {:>7.1}–{:>5.1} % {:>9} {:>9} {:>11} {:>7} mm {:>7} mm {:>7} mm {:>7} m {:>9.2} {:>6} {:>9}",
+            name,
+            100.0 * s.success_rate(),
+            100.0 * s.success_interval.0,
+            100.0 * s.success_interval.1,
+            num(s.commands_median, 1),
+            num(s.commands_p95, 1),
+            num(s.corrective_median, 1),
+            num(s.approach_gap_median_m.map(|g| 1e3 * g), 1),
+            num(s.final_gap_median_m.map(|g| 1e3 * g), 1),
+            num(s.final_gap_p95_m.map(|g| 1e3 * g), 1),
+            num(s.travel_median_m, 2),
+            s.worst_utilisation,
+            s.violations,
+            ms(s.planning_time_median_s)
+        );
+    }
+    // The first policy against each other one on the same scenarios.
+    let pairs = first_against_others(&runs.results, names.len());
+    for p in &pairs {
+        let (a, b) = (&names[p.a], &names[p.b]);
+        say!(
+            "{a} vs {b} on the same {} scenarios: both succeed {}, only {a} {}, only {b} {}, neither {}; exact McNemar p = {:.2e}",
+            p.scenarios(),
+            p.both,
+            p.only_a,
+            p.only_b,
+            p.neither,
+            p.mcnemar_p,
+        );
+    }
+    let svg = evaluation_svg(names, &summaries, runs.scenarios.len())?;
+    write_evaluation(folder, record, runs, &summaries, &pairs)?;
+    write_atomically(&folder.join("evaluation.svg"), svg.as_bytes())?;
+    Ok(summaries.iter().map(|s| s.violations).sum())
+}

@@ -1,0 +1,86 @@
+//! The library objects the commands' flags name, read through
+//! [`tensegrity_deploy::io`] or built in when a flag is not given: the
+//! model a controller plans on, the policy, the problem, and the
+//! controller's model as a model file for the records.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+
+use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
+use tensegrity_deploy::io::policy_file::read_policy;
+use tensegrity_deploy::io::problem_file::read_problem;
+use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction, RelaxSettings};
+use tensegrity_deploy::plan::{DeploymentProblem, Policy};
+use tensegrity_deploy::sim::EffectModel;
+
+/// The model a controller plans on: a model file's structure with its
+/// structural effects and joint friction (motor, thermal and sensor
+/// effects belong to a truth, not to a plan), or, without a file, the
+/// reference bridge with `default_friction`.
+pub fn planning_model(
+    path: Option<&Path>,
+    default_friction: JointFriction,
+) -> Result<ForwardModel> {
+    Ok(match path {
+        Some(p) => {
+            let file = read_model(p)?;
+            EffectModel::for_measurement(file.load_structure()?, file.effects)
+                .forward_model()
+                .with_context(|| format!("{}: applying its effects", p.display()))?
+        }
+        None => ForwardModel::new(
+            reference_bridge(&BridgeParameters::default())?,
+            default_friction,
+            RelaxSettings::default(),
+        )?,
+    })
+}
+
+/// The controller's model file as given, or the frictionless reference
+/// bridge, with how a summary names it.
+pub fn controller_model_file(path: Option<&Path>) -> Result<(ModelFile, String)> {
+    Ok(match path {
+        Some(p) => (read_model(p)?, p.display().to_string()),
+        None => (
+            ModelFile {
+                structure: StructureSource::Reference,
+                effects: Effects::default(),
+            },
+            "the reference bridge without friction".to_string(),
+        ),
+    })
+}
+
+/// A model file's structure source made independent of the working
+/// folder, so that a copy written elsewhere still finds its structure.
+pub fn absolute(file: ModelFile) -> Result<ModelFile> {
+    Ok(match file.structure {
+        StructureSource::File(p) if p.is_relative() => ModelFile {
+            structure: StructureSource::File(
+                std::env::current_dir()
+                    .context("the working folder")?
+                    .join(p),
+            ),
+            ..file
+        },
+        _ => file,
+    })
+}
+
+/// The policy file's policy, or the built-in default.
+pub fn policy_or_default(path: Option<&Path>) -> Result<Policy> {
+    Ok(match path {
+        Some(p) => read_policy(p)?,
+        None => Policy::default(),
+    })
+}
+
+/// The problem file's problem, or the documented default.
+pub fn problem_or_default(path: Option<&Path>) -> Result<DeploymentProblem> {
+    Ok(match path {
+        Some(p) => read_problem(p)?,
+        None => DeploymentProblem::default(),
+    })
+}

@@ -1,0 +1,76 @@
+//! The tables of repeated deployment-fold cycles (`tdeploy cycles`),
+//! written into its results folder ([`write_cycles`]). Gaps in m; numbers
+//! as the shortest text that reads back to the same value.
+//!
+//! - `cycles.csv`: one row per cycle. Columns: `cycle` (1 for the first),
+//!   `status` (the deployment's status label, `connected`, …), `commands`,
+//!   `corrective_commands` (commands after the one that brought the
+//!   largest measured gap below 60 mm), `approach_commands` (commands of
+//!   the first approach), `approach_gap_m` (largest measured gap after
+//!   it), `final_gap_m`, `final_true_gap_m` (largest measured and true gap
+//!   at the end), `truth_limit_violations`, `learnt_from_case` (index in
+//!   the memory of the case the cycle learnt from), `ilc_predicted_gap_m`
+//!   (largest end gap the ILC update predicted), `adaptation_error` (why
+//!   the memory gave no guidance although it held cases, in words). Empty:
+//!   no value (no such command, no case learnt from, no error).
+//! - `timing.csv`: `cycle,planning_time_s`, wall-clock planning time of
+//!   each cycle (adaptation and every command): the one file that changes
+//!   from run to run.
+//!
+//! The cases themselves go to the memory file ([`super::memory_file`]),
+//! the learning curve `cycles.svg` is drawn by `report::cycles_figure`.
+
+use std::path::Path;
+
+use super::{CsvTable, FileError};
+use crate::studies::cycles::CycleResult;
+
+/// Writes `cycles.csv` and `timing.csv` of `results` into `dir`.
+pub fn write_cycles(dir: &Path, results: &[CycleResult]) -> Result<(), FileError> {
+    cycles_table(results).write(&dir.join("cycles.csv"))?;
+    let mut timing = CsvTable::new(&["cycle", "planning_time_s"]);
+    for r in results {
+        timing.row([r.cycle.to_string(), r.planning_time_s.to_string()]);
+    }
+    timing.write(&dir.join("timing.csv"))
+}
+
+/// A CSV field: the value or empty.
+fn field<T: ToString>(v: Option<T>) -> String {
+    v.map_or(String::new(), |v| v.to_string())
+}
+
+/// `cycles.csv`.
+fn cycles_table(results: &[CycleResult]) -> CsvTable {
+    let mut t = CsvTable::new(&[
+        "cycle",
+        "status",
+        "commands",
+        "corrective_commands",
+        "approach_commands",
+        "approach_gap_m",
+        "final_gap_m",
+        "final_true_gap_m",
+        "truth_limit_violations",
+        "learnt_from_case",
+        "ilc_predicted_gap_m",
+        "adaptation_error",
+    ]);
+    for r in results {
+        t.row([
+            r.cycle.to_string(),
+            r.status.clone(),
+            r.commands.to_string(),
+            field(r.corrective_commands),
+            field(r.approach_commands),
+            field(r.approach_gap_m),
+            field(r.final_gap_m),
+            field(r.final_true_gap_m),
+            r.truth_limit_violations.to_string(),
+            field(r.learnt_from_case),
+            field(r.ilc_predicted_gap_m),
+            field(r.adaptation_error.as_ref()),
+        ]);
+    }
+    t
+}

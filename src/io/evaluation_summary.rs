@@ -1,0 +1,113 @@
+//! The summary tables of a policy evaluation, and the writer of its whole
+//! set ([`write_evaluation`]: `tdeploy evaluate`, `tdeploy merge`, the
+//! deployment experiment). `evaluation.toml`, `runs.csv` and `timing.csv`
+//! are documented in [`super::evaluation_files`]; numbers are written as
+//! the shortest text that reads back to the same value; empty: no value
+//! (a median over no successful run).
+//!
+//! - `summary.csv`: one row per policy, in the order given. Columns:
+//!   `policy`, `runs`, `successes`, `success_rate` (0–1), `wilson_low`,
+//!   `wilson_high` (Wilson 95 % interval of the rate), `commands_median`,
+//!   `commands_p95`, `corrective_median` (over successful runs),
+//!   `approach_gap_median_m` (largest measured gap after the first
+//!   approach), `final_gap_median_m`, `final_gap_p95_m` (largest true gap
+//!   at the end), `cable_travel_median_m` (over started runs),
+//!   `worst_utilisation` and `violations` (of the truth, over all runs).
+//! - `paired.csv`: the first policy against each other one on the same
+//!   scenarios. Columns: `policy_a`, `policy_b`, `both`, `only_a`,
+//!   `only_b`, `neither` (scenarios each succeeded on) and
+//!   `mcnemar_exact_p` (exact McNemar p-value of the discordant pairs).
+//!   Only the header with one policy.
+//!
+//! The set's figure, `evaluation.svg`, is drawn by
+//! `report::evaluation_figure`.
+
+use std::path::Path;
+
+use super::evaluation_files::{EvaluationRecord, EvaluationRuns};
+use super::{write_atomically, CsvTable, FileError};
+use crate::studies::evaluation::{PairedComparison, PolicySummary};
+
+/// Writes `evaluation.toml`, `runs.csv`, `summary.csv`, `paired.csv` and
+/// `timing.csv` of `runs` into `dir` (which must exist); `summaries` are
+/// the policies' in `runs.policy_names` order.
+pub fn write_evaluation(
+    dir: &Path,
+    record: &EvaluationRecord,
+    runs: &EvaluationRuns,
+    summaries: &[PolicySummary],
+    pairs: &[PairedComparison],
+) -> Result<(), FileError> {
+    write_atomically(&dir.join("evaluation.toml"), record.to_toml()?.as_bytes())?;
+    runs.runs_table().write(&dir.join("runs.csv"))?;
+    summary_table(&runs.policy_names, summaries).write(&dir.join("summary.csv"))?;
+    paired_table(&runs.policy_names, pairs).write(&dir.join("paired.csv"))?;
+    runs.timing_table().write(&dir.join("timing.csv"))
+}
+
+/// `summary.csv`.
+fn summary_table(names: &[String], summaries: &[PolicySummary]) -> CsvTable {
+    let mut summary = CsvTable::new(&[
+        "policy",
+        "runs",
+        "successes",
+        "success_rate",
+        "wilson_low",
+        "wilson_high",
+        "commands_median",
+        "commands_p95",
+        "corrective_median",
+        "approach_gap_median_m",
+        "final_gap_median_m",
+        "final_gap_p95_m",
+        "cable_travel_median_m",
+        "worst_utilisation",
+        "violations",
+    ]);
+    let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
+    for (name, s) in names.iter().zip(summaries) {
+        summary.row([
+            name.clone(),
+            s.runs.to_string(),
+            s.successes.to_string(),
+            s.success_rate().to_string(),
+            s.success_interval.0.to_string(),
+            s.success_interval.1.to_string(),
+            opt(s.commands_median),
+            opt(s.commands_p95),
+            opt(s.corrective_median),
+            opt(s.approach_gap_median_m),
+            opt(s.final_gap_median_m),
+            opt(s.final_gap_p95_m),
+            opt(s.travel_median_m),
+            s.worst_utilisation.to_string(),
+            s.violations.to_string(),
+        ]);
+    }
+    summary
+}
+
+/// `paired.csv`.
+fn paired_table(names: &[String], pairs: &[PairedComparison]) -> CsvTable {
+    let mut paired = CsvTable::new(&[
+        "policy_a",
+        "policy_b",
+        "both",
+        "only_a",
+        "only_b",
+        "neither",
+        "mcnemar_exact_p",
+    ]);
+    for p in pairs {
+        paired.row([
+            names[p.a].clone(),
+            names[p.b].clone(),
+            p.both.to_string(),
+            p.only_a.to_string(),
+            p.only_b.to_string(),
+            p.neither.to_string(),
+            p.mcnemar_p.to_string(),
+        ]);
+    }
+    paired
+}
