@@ -23,9 +23,18 @@ use tensegrity_deploy::model::{
 use tensegrity_deploy::plan::qp_step::step_solver_settings;
 use tensegrity_deploy::plan::search::{step_data, step_weights};
 use tensegrity_deploy::plan::{
-    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PlanContext, Policy,
+    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PlanContext,
+    PlannerSettings, Policy, QpPlannerSettings,
 };
 use tensegrity_deploy::sim::{default_truth, standard_sensors};
+
+/// The QP planner's settings of `policy` (the default policy's planner).
+fn qp_settings(policy: &Policy) -> &QpPlannerSettings {
+    match &policy.planner {
+        PlannerSettings::Qp(settings) => settings,
+        other => panic!("the benchmark needs the QP planner, not {}", other.as_str()),
+    }
+}
 
 fn bench(c: &mut Criterion) {
     let model = ForwardModel::new(
@@ -53,15 +62,16 @@ fn bench(c: &mut Criterion) {
             planner.next_command(&context, &state)
         })
     });
+    let qp = qp_settings(&policy);
     let response = PayoutResponse::finite_difference(
         &model,
         &state,
-        policy.sensitivity_step_m,
+        qp.sensitivity_step_m,
         policy.increment_m,
     )
     .expect("responses");
-    let data = step_data(&context, &state, &response, policy.trust_region.initial_m);
-    let weights = step_weights(&context);
+    let data = step_data(&context, &state, &response, qp.trust_region.initial_m);
+    let weights = step_weights(&qp.weights);
     group.sample_size(50);
     group.bench_function("qp_alone", |b| {
         b.iter(|| solve_step(&data, &weights, &step_solver_settings()))
@@ -105,7 +115,7 @@ fn probe_counters(model: &ForwardModel, state: &DeploymentState, policy: &Policy
     for m in 0..state.payout_m.len() {
         for sign in [1.0, -1.0] {
             let mut delta = vec![0.0; state.payout_m.len()];
-            delta[m] = sign * policy.sensitivity_step_m;
+            delta[m] = sign * qp_settings(policy).sensitivity_step_m;
             let mut probe = state.clone();
             let r = model
                 .apply_payout(&mut probe, &mut ws, &delta, policy.increment_m, &mut ())

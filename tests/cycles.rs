@@ -228,7 +228,7 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
     // From a 10 cm fold a learnt last approach of 4.8 cm leaves an
     // unmeasured tension on the model less than 0.4 of its fall in the
     // command above its limit: the model refuses it
-    // (`unmeasured_force_fall_margin`), the first learnt command is sent
+    // (`margins.unmeasured_force_fall`), the first learnt command is sent
     // as learnt, and the planner connects within every truth limit.
     let short_fold = DeploymentProblem {
         start_payout_m: PerMotor::All(0.10),
@@ -247,10 +247,8 @@ fn a_feedforward_is_sent_as_learnt_and_a_refused_one_hands_over_to_the_planner()
     assert_eq!(d.status.label(), "connected");
     assert_eq!(d.truth_limit_violations, 0);
     // Without the margin the same learnt command is sent whole.
-    let no_margin = Policy {
-        unmeasured_force_fall_margin: 0.0,
-        ..policy.clone()
-    };
+    let mut no_margin = policy.clone();
+    no_margin.margins.unmeasured_force_fall = None;
     let setup = ClosedLoopSetup {
         policy: &no_margin,
         ..setup
@@ -340,10 +338,8 @@ fn keeping_a_halfs_motors_together_keeps_the_unmeasured_axial_cables_taut() {
     assert_eq!(settings.ilc_max_spread_m, 0.001);
     // The planner's margin on the unmeasured tensions' fall guards the
     // same cables; off here, so that the spread bound is tested alone.
-    let alone = Policy {
-        unmeasured_force_fall_margin: 0.0,
-        ..bounded.clone()
-    };
+    let mut alone = bounded.clone();
+    alone.margins.unmeasured_force_fall = None;
     let mut unbounded = alone.clone();
     unbounded.memory = Some(MemorySettings {
         ilc_max_spread_m: 1.0,

@@ -384,7 +384,7 @@ fn bad_policy_and_problem_files_exit_2_naming_file_line_and_field() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(
         dir.path().join("p.toml"),
-        "format = \"tensegrity-deploy/policy/1\"\nname = \"bad\"\nmax_commands = 0\n",
+        "format = \"tensegrity-deploy/policy/2\"\nname = \"bad\"\nmax_commands = 0\n",
     )
     .unwrap();
     let e = failed_with(
@@ -472,10 +472,8 @@ fn negative_drum_slip_does_not_reel_the_truth_past_its_design() {
     assert!(d.final_true_gap_m().unwrap() <= 0.030);
     // The same truth without the estimate breaks limits: the test sees
     // the difference it is named after.
-    let blind = Policy {
-        payout_scale_prior_sd: 0.0,
-        ..Policy::default()
-    };
+    let mut blind = Policy::default();
+    blind.control.payout_scale_prior_sd = None;
     assert!(broken_limits(&deploy_hidden(&effects, &blind)) > 0);
 }
 
@@ -587,10 +585,9 @@ fn unmeasured_axial_cables_keep_their_tension_on_scenario_904() {
         with_margin.status
     );
     assert_eq!(broken_limits(&with_margin), 0);
-    let without = scenario_904(&Policy {
-        unmeasured_force_fall_margin: 0.0,
-        ..Policy::default()
-    });
+    let mut no_margin = Policy::default();
+    no_margin.margins.unmeasured_force_fall = None;
+    let without = scenario_904(&no_margin);
     assert!(
         broken_limits(&without) > 0,
         "the bug no longer shows without the margin"

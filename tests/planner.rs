@@ -367,16 +367,16 @@ fn field_error(e: FileError) -> (usize, String) {
 #[test]
 fn bad_policy_and_problem_files_are_rejected_naming_file_line_and_field() {
     let p = Path::new("bad.toml");
-    let policy = "format = \"tensegrity-deploy/policy/1\"\nplanner = \"qp\"\n\n[trust_region]\nshrink = 1.5\n";
+    let policy = "format = \"tensegrity-deploy/policy/2\"\n[planner]\nkind = \"qp\"\n[planner.trust_region]\nshrink = 1.5\n";
     assert_eq!(
         field_error(parse_policy(policy, p).unwrap_err()),
-        (5, "trust_region.shrink".to_string())
+        (5, "planner.trust_region.shrink".to_string())
     );
-    let policy = "format = \"tensegrity-deploy/policy/1\"\nmax_comands = 3\n";
+    let policy = "format = \"tensegrity-deploy/policy/2\"\nmax_comands = 3\n";
     let (line, message) = field_error(parse_policy(policy, p).unwrap_err());
     assert_eq!(line, 2);
     assert!(message.contains("max_comands"), "{message}");
-    let policy = "format = \"tensegrity-deploy/policy/1\"\nplanner = \"astar\"\n";
+    let policy = "format = \"tensegrity-deploy/policy/2\"\nplanner = { kind = \"astar\" }\n";
     assert_eq!(field_error(parse_policy(policy, p).unwrap_err()).0, 2);
     let policy = "format = \"tensegrity-deploy/policy/9\"\n";
     assert_eq!(

@@ -22,7 +22,8 @@
 //! Subcommands: `structure` ([`structure`]), `simulate` ([`simulate`]),
 //! `experiment` ([`experiment`]), `lab` ([`lab`]), `compare` ([`compare`]),
 //! `diagnose` ([`diagnose`]), `calibrate` ([`calibrate`]), `plan`
-//! ([`plan`]), `deploy` ([`deploy`]), `replay` ([`replay`]).
+//! ([`plan`]), `deploy` ([`deploy`]), `replay` ([`replay`]), `policy
+//! migrate` ([`policy`]).
 //!
 //! # Exit codes
 //! | code | meaning |
@@ -60,6 +61,7 @@ mod inputs;
 mod lab;
 mod merge;
 mod plan;
+mod policy;
 mod progress;
 mod replay;
 mod simulate;
@@ -109,6 +111,7 @@ pub fn command() -> Command {
         .subcommand(merge::command())
         .subcommand(replay::command())
         .subcommand(cycles::command())
+        .subcommand(policy::command())
 }
 
 /// The typed options of one subcommand.
@@ -140,6 +143,8 @@ pub enum Options {
     Replay(replay::Options),
     /// `tdeploy cycles`.
     Cycles(cycles::Options),
+    /// `tdeploy policy`.
+    Policy(policy::Options),
 }
 
 impl Options {
@@ -159,6 +164,7 @@ impl Options {
             Some(("merge", a)) => Options::Merge(merge::Options::from_matches(a)?),
             Some(("replay", a)) => Options::Replay(replay::Options::from_matches(a)?),
             Some(("cycles", a)) => Options::Cycles(cycles::Options::from_matches(a)?),
+            Some(("policy", a)) => Options::Policy(policy::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -181,6 +187,7 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Merge(o) => merge::run(o),
         Options::Replay(o) => replay::run(o),
         Options::Cycles(o) => cycles::run(o),
+        Options::Policy(o) => policy::run(o),
     }
 }
 
@@ -263,6 +270,14 @@ mod tests {
         for sub in command().get_subcommands() {
             let name = sub.get_name().to_string();
             let mut args = vec!["tdeploy".to_string(), name.clone()];
+            // A subcommand with actions (`policy migrate`): its first.
+            let sub = match sub.get_subcommands().next() {
+                Some(action) => {
+                    args.push(action.get_name().to_string());
+                    action
+                }
+                None => sub,
+            };
             // The required positional arguments and flags, with a value.
             for a in sub.get_arguments().filter(|a| a.is_required_set()) {
                 if let Some(long) = a.get_long() {

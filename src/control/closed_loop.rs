@@ -11,7 +11,8 @@
 //!   midspan motion ([`super::estimation`]); commands are sent scaled by
 //!   it, and after each command the model state is re-solved to where the
 //!   command really took the bridge;
-//! - for every quantity the policy [`Policy::measures`], the offset
+//! - for every quantity the policy measures
+//!   ([`crate::plan::ControlSettings::measures`]), the offset
 //!   measured − predicted is added to every later prediction of it, until
 //!   the next measurement ([`super::measured_offsets::model_correction`], [`crate::plan::correction`]);
 //!   with midspan positions measured, the connection test therefore reads

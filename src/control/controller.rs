@@ -33,7 +33,7 @@ use super::measured_offsets::{filter_force_offsets, model_correction};
 use crate::model::{DeploymentState, ForwardModel};
 use crate::plan::{
     folded_start, planner_for, CommandPlanner, ControllerError, Decision, DeploymentProblem,
-    Measurement, PlanContext, PlanError, PlanStatus, PlannedCommand, Policy, QpStepStatus, Trial,
+    PlanContext, PlanError, PlanStatus, PlannedCommand, Policy, QpStepStatus, Trial,
 };
 use crate::sim::Sensor;
 
@@ -161,10 +161,15 @@ impl<'a> Controller<'a> {
         let mut context = PlanContext::new(model, problem, policy, &state)?;
         let mut force_filter = ForceOffsetFilter::new(
             s.members.len() + s.segment_count(),
-            policy.force_model_error_fraction,
+            policy.control.force_model_error_fraction,
         );
-        context.correction =
-            model_correction(model, &state, sensors, start_readings, &policy.measures);
+        context.correction = model_correction(
+            model,
+            &state,
+            sensors,
+            start_readings,
+            &policy.control.measures,
+        );
         filter_force_offsets(
             &mut force_filter,
             &mut context.correction,
@@ -172,28 +177,21 @@ impl<'a> Controller<'a> {
             &state,
             sensors,
             start_readings,
-            &policy.measures,
+            &policy.control.measures,
         );
         // The payout scale is learnt from measured midspan motion; without
         // it there is nothing to learn from.
-        let estimator = (policy.payout_scale_prior_sd > 0.0
-            && policy.measures.contains(&Measurement::MidspanPositions))
-        .then(|| match &guidance.payout_scale_prior {
-            Some(prior) => PayoutScaleEstimator::with_prior(
-                model,
-                prior,
-                if guidance.payout_scale_prior_sd > 0.0 {
-                    guidance.payout_scale_prior_sd
-                } else {
-                    policy.payout_scale_prior_sd
-                },
-                policy.payout_scale_drift_sd,
-            ),
-            None => PayoutScaleEstimator::new(
-                model,
-                policy.payout_scale_prior_sd,
-                policy.payout_scale_drift_sd,
-            ),
+        let drift_sd = policy.control.payout_scale_drift_sd;
+        let estimator = policy.control.payout_scale_estimate_sd().map(|prior_sd| {
+            match &guidance.payout_scale_prior {
+                Some(prior) => PayoutScaleEstimator::with_prior(
+                    model,
+                    prior,
+                    guidance.payout_scale_prior_sd.unwrap_or(prior_sd),
+                    drift_sd,
+                ),
+                None => PayoutScaleEstimator::new(model, prior_sd, drift_sd),
+            }
         });
         let planner = planner_for(&context, &state);
         Ok(Controller {
@@ -464,8 +462,13 @@ impl<'a> Controller<'a> {
             }
         }
         let (model, policy) = (self.context.model, self.context.policy);
-        self.context.correction =
-            model_correction(model, &self.state, self.sensors, readings, &policy.measures);
+        self.context.correction = model_correction(
+            model,
+            &self.state,
+            self.sensors,
+            readings,
+            &policy.control.measures,
+        );
         filter_force_offsets(
             &mut self.force_filter,
             &mut self.context.correction,
@@ -473,7 +476,7 @@ impl<'a> Controller<'a> {
             &self.state,
             self.sensors,
             readings,
-            &policy.measures,
+            &policy.control.measures,
         );
         self.last_readings = readings.to_vec();
         self.commands_observed += 1;

@@ -16,7 +16,7 @@ pub struct Guidance {
     /// Payout scale per independent part to start the estimator from
     /// (index = part id), 1; `None`: start at 0.
     pub payout_scale_prior: Option<Vec<f64>>,
-    /// Standard deviation of that prior, 1 (used with `payout_scale_prior`;
-    /// 0 or less: the policy's own prior).
-    pub payout_scale_prior_sd: f64,
+    /// Standard deviation of that prior, 1 (used with `payout_scale_prior`);
+    /// `None`: the policy's own prior standard deviation.
+    pub payout_scale_prior_sd: Option<f64>,
 }

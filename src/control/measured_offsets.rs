@@ -156,7 +156,8 @@ mod tests {
         let sensors = standard_sensors(&truth.structure);
         let clean = plant.read(&sensors);
         let mut context = PlanContext::new(&model, &problem, &policy, &state).unwrap();
-        context.correction = model_correction(&model, &state, &sensors, &clean, &policy.measures);
+        context.correction =
+            model_correction(&model, &state, &sensors, &clean, &policy.control.measures);
 
         // Noise-free positions: the corrected gap vectors are the truth's
         // (to rounding of coordinates of a few metres, 1e-12 m), and the
@@ -200,7 +201,7 @@ mod tests {
         // computed here from the readings themselves.
         let mut rng = StdRng::seed_from_u64(3);
         let noisy = plant.measure(&sensors, &mut rng);
-        let c = model_correction(&model, &state, &sensors, &noisy, &policy.measures);
+        let c = model_correction(&model, &state, &sensors, &noisy, &policy.control.measures);
         let reading = |node: usize, axis: usize| {
             let k = sensors
                 .iter()
@@ -225,7 +226,7 @@ mod tests {
             .unwrap();
         let mut missing = noisy.clone();
         missing[k] = None;
-        let m = model_correction(&model, &state, &sensors, &missing, &policy.measures);
+        let m = model_correction(&model, &state, &sensors, &missing, &policy.control.measures);
         assert_eq!(m.gap_offsets_m[0], Vector3::zeros());
         assert_eq!(m.gap_offsets_m[1..], c.gap_offsets_m[1..]);
         assert_eq!(m.force_offsets_n, c.force_offsets_n);

@@ -193,7 +193,7 @@ pub fn adapt(
         feedforward_m: ilc.commands_m.clone(),
         payout_scale_prior: (!case.conditions.payout_scale.is_empty())
             .then(|| case.conditions.payout_scale.clone()),
-        payout_scale_prior_sd: settings.payout_scale_prior_sd,
+        payout_scale_prior_sd: Some(settings.payout_scale_prior_sd),
     };
     Ok(Some(Adaptation {
         case_index,

@@ -52,7 +52,7 @@
 //! The member rows are the planner's ([`crate::plan::search::step_data`])
 //! with its margins; the end of a case carries no load-cell reading, so
 //! every tension's predicted fall counts (1 + β) times there
-//! (`Policy::unmeasured_force_fall_margin`).
+//! (`Margins::unmeasured_force_fall`).
 //!
 //! [`formulate`] builds the QP (pure, inspected by tests); [`learn_commands`]
 //! solves it through the one Clarabel adapter.

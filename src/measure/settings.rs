@@ -297,11 +297,7 @@ impl FitSettings {
     /// Range of [`Self::damping_tries`].
     pub const DAMPING_TRIES_RANGE: NumberRange = NumberRange::count(1, 100);
     /// Range of the damping factors: above 1, so that raising raises.
-    pub const DAMPING_FACTOR_RANGE: NumberRange = NumberRange {
-        min: 1.0,
-        min_exclusive: true,
-        max: 1000.0,
-    };
+    pub const DAMPING_FACTOR_RANGE: NumberRange = NumberRange::closed(1.0, 1000.0).excluding_min();
     /// Range of [`Self::min_damping`].
     pub const MIN_DAMPING_RANGE: NumberRange = NumberRange::positive_up_to(1.0);
 

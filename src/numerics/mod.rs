@@ -13,5 +13,5 @@ pub mod sparse_block;
 pub use block_lu::BlockLu;
 pub use block_matrix::{BlockLayout, BlockMatrix, MatrixAssembly};
 pub use dofs::FreeDofs;
-pub use range::NumberRange;
+pub use range::{check_ranges, FieldError, NumberRange, Ranged};
 pub use sparse_block::BlockPattern;

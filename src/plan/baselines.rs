@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use super::causes::NotReachable;
 use super::outcome::PlanStatus;
 use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand, Trial};
+use super::policy::GreedyTreeSettings;
 use crate::model::DeploymentState;
 
 /// Even actuation back to the designed payout.
@@ -93,13 +94,15 @@ impl CommandPlanner for NominalPlanner {
 #[derive(Debug, Clone)]
 pub struct GreedyTreePlanner {
     move_m: f64,
+    min_move_m: f64,
 }
 
 impl GreedyTreePlanner {
-    /// Starts with the policy's move size.
-    pub fn new(context: &PlanContext) -> Self {
+    /// Starts with the settings' move size.
+    pub fn new(settings: &GreedyTreeSettings) -> Self {
         GreedyTreePlanner {
-            move_m: context.policy.greedy_move_m,
+            move_m: settings.move_m,
+            min_move_m: settings.min_move_m,
         }
     }
 }
@@ -171,10 +174,10 @@ impl CommandPlanner for GreedyTreePlanner {
                 }
             }
             self.move_m *= 0.5;
-            if self.move_m < context.policy.greedy_min_move_m {
+            if self.move_m < self.min_move_m {
                 return Decision::Stop(PlanStatus::NotReachable {
                     cause: NotReachable::NoGreedyMove {
-                        min_move_m: context.policy.greedy_min_move_m,
+                        min_move_m: self.min_move_m,
                         largest_gap_m: current,
                     },
                 });

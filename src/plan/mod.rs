@@ -8,7 +8,8 @@
 //! - [`qp_step`]: one step as a QP on those responses;
 //! - [`search`]: sequential convex programming with a trust region;
 //! - [`baselines`]: nominal even actuation and the greedy tree;
-//! - [`policy`]: policies as data;
+//! - [`policy`]: policies as data, one section per concern (planner,
+//!   margins, control, memory);
 //! - [`correction`]: the offsets a measurement adds to the model's
 //!   predictions (computed in `crate::control`);
 //! - [`planner`]: the planners' shared trait, context and trials;
@@ -42,8 +43,8 @@ pub use outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 pub use planner::{worst_along_path, CommandPlanner, Decision, PlanContext, PlannedCommand, Trial};
 pub use planners::planner_for;
 pub use policy::{
-    Measurement, MemorySettings, PlannerKind, Policy, PolicyError, SensitivityKind, TrustRegion,
-    Weights,
+    ControlSettings, GreedyTreeSettings, Margins, Measurement, MemorySettings, NominalSettings,
+    PlannerSettings, Policy, PolicyError, QpPlannerSettings, SensitivityKind, TrustRegion, Weights,
 };
 pub use problem::{DeploymentProblem, MotorLimits, PerMotor, ProblemError};
 pub use qp_step::{formulate, solve_step, QpStep, QpStepStatus, StepData, StepWeights};

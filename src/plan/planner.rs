@@ -54,7 +54,7 @@ impl<'a> PlanContext<'a> {
         let gap_weights = policy
             .gap_weights(s.midspan_pairs.len())
             .ok_or_else(|| PolicyError {
-                field: "weights.gap",
+                field: "planner.weights.gap".into(),
                 reason: format!(
                     "give one weight or {} (one per midspan pair)",
                     s.midspan_pairs.len()
@@ -102,7 +102,7 @@ impl<'a> PlanContext<'a> {
 
     /// `true` when every gap is within the tolerance less the margin.
     pub fn connected(&self, state: &DeploymentState) -> bool {
-        let goal = self.problem.connection_tolerance_m - self.policy.connection_margin_m;
+        let goal = self.problem.connection_tolerance_m - self.policy.margins.connection_m;
         self.gaps_m(state).iter().all(|g| *g <= goal)
     }
 
@@ -175,8 +175,9 @@ impl PlanContext<'_> {
     /// The tensions no sensor reads (cables, springs and segments without
     /// a load cell) whose fall from `start_rows_n` to `rows_n` (force
     /// rows with their offsets, N) leaves less than the policy's
-    /// `unmeasured_force_fall_margin` times that fall above their lower
-    /// limit (less `tolerance_n`). The model sees such a force's
+    /// `margins.unmeasured_force_fall` times that fall above their lower
+    /// limit (less `tolerance_n`); none with that margin off. The model
+    /// sees such a force's
     /// level and slope only as well as its effects match the bridge's, so
     /// a fall it predicts to end just above the limit may end below it.
     pub fn unmeasured_fall_violations(
@@ -185,10 +186,9 @@ impl PlanContext<'_> {
         rows_n: &[f64],
         tolerance_n: f64,
     ) -> Vec<LimitViolation> {
-        let beta = self.policy.unmeasured_force_fall_margin;
-        if beta <= 0.0 {
+        let Some(beta) = self.policy.margins.unmeasured_force_fall else {
             return Vec::new();
-        }
+        };
         let mut out = Vec::new();
         for (r, ((&f0, &f), b)) in start_rows_n
             .iter()

@@ -2,15 +2,15 @@
 
 use super::baselines::{GreedyTreePlanner, NominalPlanner};
 use super::planner::{CommandPlanner, PlanContext};
-use super::policy::PlannerKind;
+use super::policy::PlannerSettings;
 use super::search::QpPlanner;
 use crate::model::DeploymentState;
 
-/// The planner a policy names, starting from `start`.
+/// The planner a policy names, with its settings, starting from `start`.
 pub fn planner_for(context: &PlanContext, start: &DeploymentState) -> Box<dyn CommandPlanner> {
-    match context.policy.planner {
-        PlannerKind::Nominal => Box::new(NominalPlanner::new(context, start)),
-        PlannerKind::GreedyTree => Box::new(GreedyTreePlanner::new(context)),
-        PlannerKind::Qp => Box::new(QpPlanner::new(context)),
+    match &context.policy.planner {
+        PlannerSettings::Nominal(_) => Box::new(NominalPlanner::new(context, start)),
+        PlannerSettings::GreedyTree(settings) => Box::new(GreedyTreePlanner::new(settings)),
+        PlannerSettings::Qp(settings) => Box::new(QpPlanner::new(settings)),
     }
 }

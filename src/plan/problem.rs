@@ -8,6 +8,8 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::numerics::{NumberRange, Ranged};
+
 /// A value given once for every motor or once per motor (in the order of
 /// the structure's continuous cables).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -94,6 +96,50 @@ pub struct DeploymentProblem {
     pub min_strut_clearance_m: f64,
 }
 
+impl DeploymentProblem {
+    /// Every single-valued field with its admissible range.
+    pub fn ranges(&self) -> [Ranged; 5] {
+        [
+            Ranged::real(
+                "connection_tolerance_m",
+                self.connection_tolerance_m,
+                NumberRange::positive_up_to(1.0),
+            ),
+            Ranged::real(
+                "min_tension_n",
+                self.min_tension_n,
+                NumberRange::at_least(0.0),
+            ),
+            Ranged::real("max_tension_n", self.max_tension_n, NumberRange::above(0.0)),
+            Ranged::real(
+                "max_strut_buckling_utilisation",
+                self.max_strut_buckling_utilisation,
+                NumberRange::positive_up_to(1.0),
+            ),
+            Ranged::real(
+                "min_strut_clearance_m",
+                self.min_strut_clearance_m,
+                NumberRange::non_negative_up_to(1.0).excluding_max(),
+            ),
+        ]
+    }
+
+    /// Every per-motor field with the range of each of its values, m.
+    pub fn per_motor_ranges(&self) -> [(&'static str, &PerMotor, NumberRange); 4] {
+        let within_10_m = NumberRange::closed(-10.0, 10.0);
+        [
+            ("start_payout_m", &self.start_payout_m, within_10_m),
+            ("min_payout_m", &self.min_payout_m, within_10_m),
+            ("max_payout_m", &self.max_payout_m, within_10_m),
+            (
+                "max_step_m",
+                &self.max_step_m,
+                NumberRange::positive_up_to(10.0),
+            ),
+        ]
+    }
+}
+
 impl Default for DeploymentProblem {
     fn default() -> Self {
         DeploymentProblem {
@@ -141,67 +187,38 @@ impl MotorLimits {
 }
 
 impl DeploymentProblem {
-    /// Checks every field: finite, in range, and consistent (the start
-    /// inside the stroke range, minimum below maximum).
+    /// Checks every field against its range and the maximum tension
+    /// above the minimum (the start inside the stroke and the list lengths
+    /// are checked against a structure in [`Self::motor_limits`]).
     pub fn validate(&self) -> Result<(), ProblemError> {
-        let bad = |field: &'static str, reason: String| Err(ProblemError { field, reason });
-        let check = |field: &'static str, v: f64, ok: bool, expected: &str| {
-            if v.is_finite() && ok {
-                Ok(())
-            } else {
-                bad(field, format!("{v} is not {expected}"))
-            }
-        };
-        check(
-            "connection_tolerance_m",
-            self.connection_tolerance_m,
-            self.connection_tolerance_m > 0.0 && self.connection_tolerance_m <= 1.0,
-            "a length in (0, 1] m",
-        )?;
-        check(
-            "min_tension_n",
-            self.min_tension_n,
-            self.min_tension_n >= 0.0,
-            "a non-negative force in N",
-        )?;
-        check(
-            "max_tension_n",
-            self.max_tension_n,
-            self.max_tension_n > self.min_tension_n,
-            "a force above min_tension_n",
-        )?;
-        check(
-            "max_strut_buckling_utilisation",
-            self.max_strut_buckling_utilisation,
-            self.max_strut_buckling_utilisation > 0.0 && self.max_strut_buckling_utilisation <= 1.0,
-            "a fraction in (0, 1] of the Euler load",
-        )?;
-        check(
-            "min_strut_clearance_m",
-            self.min_strut_clearance_m,
-            self.min_strut_clearance_m >= 0.0 && self.min_strut_clearance_m < 1.0,
-            "a length in [0, 1) m",
-        )?;
-        let fields: [(&'static str, &PerMotor); 4] = [
-            ("start_payout_m", &self.start_payout_m),
-            ("min_payout_m", &self.min_payout_m),
-            ("max_payout_m", &self.max_payout_m),
-            ("max_step_m", &self.max_step_m),
-        ];
-        for (field, values) in fields {
+        for row in self.ranges() {
+            row.check().map_err(|e| ProblemError {
+                field: row.field(),
+                reason: e.reason,
+            })?;
+        }
+        if !(self.max_tension_n > self.min_tension_n) {
+            return Err(ProblemError {
+                field: "max_tension_n",
+                reason: format!(
+                    "must be above min_tension_n ({} N), got {}",
+                    self.min_tension_n, self.max_tension_n
+                ),
+            });
+        }
+        for (field, values, range) in self.per_motor_ranges() {
             let v = values.values();
             if v.is_empty() {
-                return bad(
+                return Err(ProblemError {
                     field,
-                    "an empty list; give one value or one per motor".into(),
-                );
+                    reason: "an empty list; give one value or one per motor".into(),
+                });
             }
             for x in v {
-                check(field, x, x.abs() <= 10.0, "a length within ±10 m")?;
+                range
+                    .check(x)
+                    .map_err(|reason| ProblemError { field, reason })?;
             }
-        }
-        for x in self.max_step_m.values() {
-            check("max_step_m", x, x > 0.0, "a positive length in m")?;
         }
         Ok(())
     }

@@ -5,10 +5,11 @@
 //! from the same linearisation. Re-linearise after every accepted step.
 //!
 //! Acceptance: with merit `m = Σ w‖g‖²`, the ratio ρ = (m₀ − m_actual) /
-//! (m₀ − m_predicted) must reach η (`trust_region.acceptance_ratio`); a
-//! step on the region's edge with ρ ≥ `grow_ratio` grows the region.
-//! The region collapsing below its minimum, or a step that predicts no
-//! reduction, ends the plan as not reachable, naming the active limits.
+//! (m₀ − m_predicted) decides, by the rule of the QP planner's
+//! [`crate::plan::TrustRegion`], whether the step is accepted and how the
+//! radius changes. The region collapsing below its minimum, or a step
+//! that predicts no reduction, ends the plan as not reachable, naming the
+//! active limits.
 
 use nalgebra::Vector3;
 
@@ -16,7 +17,7 @@ use super::causes::{NotReachable, SolverFailure, TrialRejection};
 use super::limits::{force_row_name, force_rows, strut_clearance};
 use super::outcome::PlanStatus;
 use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand};
-use super::policy::SensitivityKind;
+use super::policy::{QpPlannerSettings, SensitivityKind, Weights};
 use super::qp_step::{
     solve_step, step_solver_settings, LinearLimit, QpStep, QpStepStatus, StepData, StepWeights,
 };
@@ -33,6 +34,7 @@ const NO_REDUCTION_M2: f64 = 1e-8;
 /// The QP planner's state between commands: its trust region.
 #[derive(Debug, Clone)]
 pub struct QpPlanner {
+    settings: QpPlannerSettings,
     trust_region_m: f64,
     /// The last command's responses, Broyden-updated to the state it
     /// reached, while they predicted it well.
@@ -50,10 +52,11 @@ struct KeptResponse {
 }
 
 impl QpPlanner {
-    /// A planner at the policy's initial trust region.
-    pub fn new(context: &PlanContext) -> Self {
+    /// A planner with `settings`, at their initial trust region.
+    pub fn new(settings: &QpPlannerSettings) -> Self {
         QpPlanner {
-            trust_region_m: context.policy.trust_region.initial_m,
+            settings: settings.clone(),
+            trust_region_m: settings.trust_region.initial_m,
             kept: None,
         }
     }
@@ -70,7 +73,7 @@ pub fn step_data(
     trust_region_m: f64,
 ) -> StepData {
     let s = context.model.structure();
-    let p = context.policy;
+    let p = &context.policy.margins;
     let motors = &context.motors;
     let n = state.payout_m.len();
     let reach: Vec<f64> = (0..n)
@@ -97,16 +100,17 @@ pub fn step_data(
         // already inside the margin band may close half its distance to
         // the limit per step (a bound at the current value would freeze a
         // stuck segment that any small move slackens a little).
-        let lower = b.lower_n + p.force_margin_n.min(0.5 * (f - b.lower_n).max(0.0));
-        let upper = b.upper_n - p.force_margin_n.min(0.5 * (b.upper_n - f).max(0.0));
+        let lower = b.lower_n + p.force_n.min(0.5 * (f - b.lower_n).max(0.0));
+        let upper = b.upper_n - p.force_n.min(0.5 * (b.upper_n - f).max(0.0));
         // A tension no sensor reads has no offset to correct its level,
         // and the model's slope may be off too: its predicted fall counts
         // (1 + β) times against the lower limit. With F at or above that
         // limit, F + (1 + β)·ΔF ≥ lower implies F + ΔF ≥ lower, so the one
         // row bounds both (a rise passes either way); below it the
         // inflated row would ask for less recovery than the plain one, so
-        // the plain row stands.
-        let inflate = 1.0 + p.unmeasured_force_fall_margin;
+        // the plain row stands. With the margin off the factor is 1: the
+        // plain row.
+        let inflate = 1.0 + p.unmeasured_force_fall.unwrap_or(0.0);
         let unmeasured_tension = inflate > 1.0
             && f >= lower
             && context.limits.euler_n[r].is_none()
@@ -116,8 +120,8 @@ pub fn step_data(
         } else {
             swing
         };
-        let near_lower = f - lower <= fall_swing + p.force_margin_n;
-        let near_upper = upper - f <= swing + p.force_margin_n;
+        let near_lower = f - lower <= fall_swing + p.force_n;
+        let near_upper = upper - f <= swing + p.force_n;
         if !(near_lower || near_upper) {
             continue;
         }
@@ -191,7 +195,7 @@ pub fn step_data(
                 .iter()
                 .map(|e| slope(&e.positions_m_per_m))
                 .collect(),
-            lower: min + p.clearance_margin_m.min(0.5 * (d - min).max(0.0)),
+            lower: min + p.clearance_m.min(0.5 * (d - min).max(0.0)),
             upper: f64::INFINITY,
             scale: CLEARANCE_SCALE_M,
         });
@@ -211,13 +215,12 @@ pub fn step_data(
     }
 }
 
-/// The step weights of a policy.
-pub fn step_weights(context: &PlanContext) -> StepWeights {
-    let w = &context.policy.weights;
+/// The step weights of the QP planner's `weights`.
+pub fn step_weights(weights: &Weights) -> StepWeights {
     StepWeights {
-        regularisation: w.regularisation,
-        split_penalty: w.split_penalty,
-        soft_limit_penalty: (w.soft_limit_penalty > 0.0).then_some(w.soft_limit_penalty),
+        regularisation: weights.regularisation,
+        split_penalty: weights.split_penalty,
+        soft_limit_penalty: weights.soft_limit_penalty,
     }
 }
 
@@ -225,17 +228,18 @@ fn norms(v: &[Vector3<f64>]) -> Vec<f64> {
     v.iter().map(|g| g.norm()).collect()
 }
 
-/// The responses of `kind` at `state`.
+/// The responses of `kind` at `state` (secants over `secant_step_m`).
 fn responses(
     context: &PlanContext,
     state: &DeploymentState,
     kind: SensitivityKind,
+    secant_step_m: f64,
 ) -> Result<PayoutResponse, SolverFailure> {
     match kind {
         SensitivityKind::Secant => PayoutResponse::finite_difference(
             context.model,
             state,
-            context.policy.sensitivity_step_m,
+            secant_step_m,
             context.policy.increment_m,
         )
         .map_err(SolverFailure::SecantSensitivities),
@@ -266,7 +270,6 @@ enum Linearisation {
 
 impl CommandPlanner for QpPlanner {
     fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
-        let policy = context.policy;
         let kept = self
             .kept
             .take()
@@ -275,7 +278,8 @@ impl CommandPlanner for QpPlanner {
         if kept.is_some() {
             order.push(Linearisation::Kept);
         }
-        let first = policy
+        let first = self
+            .settings
             .sensitivities
             .resolve(!context.model.friction().static_mu.is_zero());
         order.push(Linearisation::Fresh(first));
@@ -293,10 +297,12 @@ impl CommandPlanner for QpPlanner {
             self.trust_region_m = radius;
             let response = match source {
                 Linearisation::Kept => kept.take(),
-                Linearisation::Fresh(kind) => match responses(context, state, kind) {
-                    Ok(r) => Some(r),
-                    Err(cause) => return Decision::Stop(PlanStatus::SolverFailure { cause }),
-                },
+                Linearisation::Fresh(kind) => {
+                    match responses(context, state, kind, self.settings.sensitivity_step_m) {
+                        Ok(r) => Some(r),
+                        Err(cause) => return Decision::Stop(PlanStatus::SolverFailure { cause }),
+                    }
+                }
             };
             let Some(response) = response else { continue };
             // Kept responses get one trial: if the model does not confirm
@@ -329,9 +335,9 @@ impl QpPlanner {
         linearisations_before: usize,
         patience: Option<usize>,
     ) -> Result<(Box<PlannedCommand>, f64), StepFailure> {
-        let tr = context.policy.trust_region;
+        let tr = self.settings.trust_region;
         let mut data = step_data(context, state, response, self.trust_region_m);
-        let weights = step_weights(context);
+        let weights = step_weights(&self.settings.weights);
         let merit0 = context.gap_merit(&data.gaps_m);
         let mut rejected = 0;
         loop {
@@ -373,11 +379,9 @@ impl QpPlanner {
             let trial = context.trial(state, &step.command_m);
             let actual = merit0 - context.gap_merit(&context.gap_vectors(&trial.state));
             let ratio = actual / predicted;
-            if trial.admissible() && ratio >= tr.acceptance_ratio {
+            if trial.admissible() && tr.accepts(ratio) {
                 let radius = self.trust_region_m;
-                if ratio >= tr.grow_ratio && largest >= 0.99 * radius {
-                    self.trust_region_m = (radius * tr.grow).min(tr.max_m);
-                }
+                self.trust_region_m = tr.after_accepted(radius, largest, ratio);
                 let command = Box::new(PlannedCommand {
                     command_m: step.command_m,
                     predicted_gaps_m: Some(norms(&step.predicted_gaps_m)),
@@ -398,13 +402,13 @@ impl QpPlanner {
                 },
             };
             rejected += 1;
-            self.trust_region_m *= tr.shrink;
+            self.trust_region_m = tr.after_rejected(self.trust_region_m);
             if patience.is_some_and(|p| rejected >= p) {
                 return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
                     cause: NotReachable::KeptSensitivitiesUnconfirmed { last_trial },
                 }));
             }
-            if self.trust_region_m < tr.min_m {
+            if tr.collapsed(self.trust_region_m) {
                 return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
                     cause: NotReachable::TrustRegionCollapsed {
                         min_radius_m: tr.min_m,
@@ -418,8 +422,8 @@ impl QpPlanner {
 
 impl QpPlanner {
     /// Keeps `response`, updated by what `command` did on the model, for
-    /// the next command if its reduction ratio was within the policy's
-    /// `sensitivity_reuse_tolerance` of 1.
+    /// the next command if its reduction ratio was within the settings'
+    /// `sensitivity_reuse_tolerance` of 1 (never with reuse off).
     fn keep(
         &mut self,
         context: &PlanContext,
@@ -428,7 +432,10 @@ impl QpPlanner {
         command: &PlannedCommand,
         ratio: f64,
     ) {
-        if !((ratio - 1.0).abs() <= context.policy.sensitivity_reuse_tolerance) {
+        let Some(tolerance) = self.settings.sensitivity_reuse_tolerance else {
+            return;
+        };
+        if !((ratio - 1.0).abs() <= tolerance) {
             return;
         }
         let after = &command.trial.state;

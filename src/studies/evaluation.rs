@@ -32,6 +32,7 @@ use super::statistics::{mcnemar_exact_p, median, percentile, scenario_seed, wils
 use crate::control::{deploy_closed_loop, ClosedLoopSetup, Deployment};
 use crate::learn::{Case, CaseMemory};
 use crate::model::{EffectKind, Effects, ForwardModel, Structure};
+use crate::numerics::NumberRange;
 use crate::plan::{DeploymentProblem, PerMotor, PlanStatus, Policy};
 use crate::sim::{standard_sensors, EffectModel, Sensor, SensorTarget};
 
@@ -71,6 +72,33 @@ fn default_load_cell_noise() -> [f64; 2] {
 }
 fn default_fold() -> [f64; 2] {
     [0.40, 0.40]
+}
+
+impl ScenarioDistribution {
+    /// Every drawn quantity but the effects' with the range both ends of
+    /// its `[low, high]` must lie in (`None`: not drawn). An effect
+    /// parameter's range is its admissible one
+    /// ([`crate::model::effects::ParameterSpec::admissible`]).
+    pub fn ranges(&self) -> [(&'static str, Option<[f64; 2]>, NumberRange); 4] {
+        [
+            (
+                "position_noise_m",
+                Some(self.position_noise_m),
+                NumberRange::closed(0.0, 1.0),
+            ),
+            (
+                "load_cell_noise_n",
+                Some(self.load_cell_noise_n),
+                NumberRange::closed(0.0, 1e4),
+            ),
+            ("fold_m", Some(self.fold_m), NumberRange::closed(0.0, 1.0)),
+            (
+                "temperature_c",
+                self.temperature_c,
+                NumberRange::closed(-100.0, 100.0),
+            ),
+        ]
+    }
 }
 
 impl Default for ScenarioDistribution {
@@ -126,14 +154,13 @@ impl ScenarioDistribution {
     /// [−100, 100] °C); effect and parameter names known, every parameter
     /// of a listed effect given.
     pub fn validate(&self) -> Result<(), DistributionError> {
-        let range = |field: String, r: [f64; 2], lo: f64, hi: f64| {
-            let [a, b] = r;
-            if a.is_finite() && b.is_finite() && a <= b && a >= lo && b <= hi {
+        let range = |field: String, [a, b]: [f64; 2], within: NumberRange| {
+            if within.contains(a) && within.contains(b) && a <= b {
                 Ok(())
             } else {
                 Err(DistributionError {
                     field,
-                    reason: format!("[{a}, {b}] is not a range [low, high] within [{lo}, {hi}]"),
+                    reason: format!("[{a}, {b}] is not a range [low, high] within {within}"),
                 })
             }
         };
@@ -169,14 +196,17 @@ impl ScenarioDistribution {
                     field: field.clone(),
                     reason: "missing: give every parameter of a hidden effect".into(),
                 })?;
-                range(field, *r, spec.admissible.0, spec.admissible.1)?;
+                range(
+                    field,
+                    *r,
+                    NumberRange::closed(spec.admissible.0, spec.admissible.1),
+                )?;
             }
         }
-        range("position_noise_m".into(), self.position_noise_m, 0.0, 1.0)?;
-        range("load_cell_noise_n".into(), self.load_cell_noise_n, 0.0, 1e4)?;
-        range("fold_m".into(), self.fold_m, 0.0, 1.0)?;
-        if let Some(t) = self.temperature_c {
-            range("temperature_c".into(), t, -100.0, 100.0)?;
+        for (field, r, within) in self.ranges() {
+            if let Some(r) = r {
+                range(field.into(), r, within)?;
+            }
         }
         Ok(())
     }

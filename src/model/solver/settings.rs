@@ -1,5 +1,8 @@
 //! Settings of the equilibrium solver: one flat struct, every field with
-//! its meaning, default, unit and the effect of changing it.
+//! its meaning, default, unit and the effect of changing it, and its
+//! range declared beside the struct (`RelaxSettings::ranges`).
+
+use crate::numerics::{check_ranges, FieldError, NumberRange, Ranged};
 
 /// Settings of the DR solver. Defaults are what the reference bridge needs
 /// for 0.01 mm-level positions; every field says what changing it does.
@@ -96,6 +99,61 @@ pub struct RelaxSettings {
     pub tol_mapping_rel: f64,
 }
 
+impl RelaxSettings {
+    /// Every bounded setting with its admissible range (the iteration and
+    /// size limits take any count).
+    pub fn ranges(&self) -> [Ranged; 13] {
+        let unit = NumberRange::positive_up_to(1.0);
+        // A looser equilibrium tolerance is no equilibrium, and looser
+        // partial answers are poor initial guesses.
+        let tolerance = NumberRange::positive_up_to(1e-2);
+        [
+            Ranged::real("tol_force_rel", self.tol_force_rel, tolerance),
+            Ranged::real("tol_force_abs", self.tol_force_abs, unit),
+            Ranged::real("time_step", self.time_step, NumberRange::above(0.0)),
+            // Below 1 the explicit step is unstable.
+            Ranged::real("mass_factor", self.mass_factor, NumberRange::at_least(1.0)),
+            Ranged::count(
+                "mass_update_resets",
+                self.mass_update_resets,
+                NumberRange::at_least(1.0),
+            ),
+            Ranged::real(
+                "max_displacement_rel",
+                self.max_displacement_rel,
+                NumberRange::above(0.0),
+            ),
+            Ranged::real("newton_max_step_rel", self.newton_max_step_rel, unit),
+            Ranged::real(
+                "newton_max_cost_ratio",
+                self.newton_max_cost_ratio,
+                NumberRange::above(0.0),
+            ),
+            Ranged::real(
+                "newton_watchdog",
+                self.newton_watchdog,
+                NumberRange::above(1.0),
+            ),
+            Ranged::real(
+                "newton_first_continuation_step",
+                self.newton_first_continuation_step,
+                unit,
+            ),
+            Ranged::real(
+                "newton_min_continuation_step",
+                self.newton_min_continuation_step,
+                unit,
+            ),
+            Ranged::real(
+                "newton_tol_continuation_rel",
+                self.newton_tol_continuation_rel,
+                tolerance,
+            ),
+            Ranged::real("tol_mapping_rel", self.tol_mapping_rel, unit),
+        ]
+    }
+}
+
 impl Default for RelaxSettings {
     fn default() -> Self {
         RelaxSettings {
@@ -123,110 +181,69 @@ impl Default for RelaxSettings {
 
 /// A setting outside its admissible range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("solver setting `{field}` = {value}: {expected}")]
+#[error("solver setting `{field}`: {reason}")]
 pub struct SettingsError {
     /// The field, as named in [`RelaxSettings`].
-    pub field: &'static str,
-    /// Its value.
-    pub value: f64,
-    /// What it must be.
-    pub expected: &'static str,
+    pub field: String,
+    /// What is wrong, e.g. `must be a finite number in [1, ∞), got 0.5`.
+    pub reason: String,
+}
+
+impl From<FieldError> for SettingsError {
+    fn from(e: FieldError) -> Self {
+        SettingsError {
+            field: e.field,
+            reason: e.reason,
+        }
+    }
 }
 
 impl RelaxSettings {
-    /// Checks every field against its admissible range.
+    /// Checks every setting against its admissible range, and the smallest
+    /// continuation step not above the first.
     pub fn validate(&self) -> Result<(), SettingsError> {
-        let check = |field: &'static str, value: f64, ok: bool, expected: &'static str| {
-            if ok && value.is_finite() {
-                Ok(())
-            } else {
-                Err(SettingsError {
-                    field,
-                    value,
-                    expected,
-                })
-            }
-        };
-        check("max_iter", self.max_iter as f64, true, "a count")?;
-        check(
-            "tol_force_rel",
-            self.tol_force_rel,
-            self.tol_force_rel > 0.0 && self.tol_force_rel <= 1e-2,
-            "in (0, 1e-2]: a looser tolerance is no equilibrium",
-        )?;
-        check(
-            "tol_force_abs",
-            self.tol_force_abs,
-            self.tol_force_abs > 0.0 && self.tol_force_abs <= 1.0,
-            "in (0, 1] N",
-        )?;
-        check(
-            "time_step",
-            self.time_step,
-            self.time_step > 0.0,
-            "positive",
-        )?;
-        check(
-            "mass_factor",
-            self.mass_factor,
-            self.mass_factor >= 1.0,
-            "at least 1 (below 1 the explicit step is unstable)",
-        )?;
-        check(
-            "mass_update_resets",
-            self.mass_update_resets as f64,
-            self.mass_update_resets >= 1,
-            "at least 1",
-        )?;
-        check(
-            "max_displacement_rel",
-            self.max_displacement_rel,
-            self.max_displacement_rel > 0.0,
-            "positive",
-        )?;
-        check(
-            "newton_max_step_rel",
-            self.newton_max_step_rel,
-            self.newton_max_step_rel > 0.0 && self.newton_max_step_rel <= 1.0,
-            "in (0, 1]",
-        )?;
-        check(
-            "newton_max_cost_ratio",
-            self.newton_max_cost_ratio,
-            self.newton_max_cost_ratio > 0.0,
-            "positive",
-        )?;
-        check(
-            "newton_watchdog",
-            self.newton_watchdog,
-            self.newton_watchdog > 1.0,
-            "above 1",
-        )?;
-        check(
-            "newton_first_continuation_step",
-            self.newton_first_continuation_step,
-            self.newton_first_continuation_step > 0.0 && self.newton_first_continuation_step <= 1.0,
-            "in (0, 1]",
-        )?;
-        check(
-            "newton_min_continuation_step",
-            self.newton_min_continuation_step,
-            self.newton_min_continuation_step > 0.0
-                && self.newton_min_continuation_step <= self.newton_first_continuation_step,
-            "in (0, newton_first_continuation_step]",
-        )?;
-        check(
-            "newton_tol_continuation_rel",
-            self.newton_tol_continuation_rel,
-            self.newton_tol_continuation_rel > 0.0 && self.newton_tol_continuation_rel <= 1e-2,
-            "in (0, 1e-2]: looser partial answers are poor initial guesses",
-        )?;
-        check(
-            "tol_mapping_rel",
-            self.tol_mapping_rel,
-            self.tol_mapping_rel > 0.0 && self.tol_mapping_rel <= 1.0,
-            "in (0, 1]",
-        )?;
+        check_ranges(&self.ranges())?;
+        if self.newton_min_continuation_step > self.newton_first_continuation_step {
+            return Err(SettingsError {
+                field: "newton_min_continuation_step".into(),
+                reason: format!(
+                    "must be at most newton_first_continuation_step ({}), got {}",
+                    self.newton_first_continuation_step, self.newton_min_continuation_step
+                ),
+            });
+        }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_bad_settings_are_named() {
+        RelaxSettings::default().validate().unwrap();
+        let bad = |edit: fn(&mut RelaxSettings)| {
+            let mut s = RelaxSettings::default();
+            edit(&mut s);
+            s.validate().unwrap_err()
+        };
+        let e = bad(|s| s.mass_factor = 0.5);
+        assert_eq!(e.field, "mass_factor");
+        assert_eq!(
+            e.to_string(),
+            "solver setting `mass_factor`: must be a finite number in [1, ∞), got 0.5"
+        );
+        assert_eq!(bad(|s| s.newton_watchdog = 1.0).field, "newton_watchdog");
+        assert_eq!(
+            bad(|s| s.mass_update_resets = 0).field,
+            "mass_update_resets"
+        );
+        assert_eq!(bad(|s| s.tol_force_rel = 0.1).field, "tol_force_rel");
+        assert_eq!(bad(|s| s.time_step = f64::INFINITY).field, "time_step");
+        assert_eq!(
+            bad(|s| s.newton_min_continuation_step = 0.5).field,
+            "newton_min_continuation_step"
+        );
     }
 }

@@ -1,0 +1,222 @@
+//! The QP planner's settings: how it linearises the model, how long it
+//! keeps a linearisation, its trust region and the weights of its step's
+//! objective (read by `plan::search`).
+
+use serde::{Deserialize, Serialize};
+
+use super::trust_region::TrustRegion;
+use crate::numerics::{check_ranges, FieldError, NumberRange, Ranged};
+
+/// How the QP planner linearises the model at a state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensitivityKind {
+    /// Exact one-sided derivatives from the consistent tangent: one
+    /// factorisation per bridge half (~0.4 ms for all motors and both
+    /// directions). Local: where every joint sticks they describe the
+    /// first millimetre of a move, not a 5 cm move. On the reference
+    /// bridge folded 40 cm with μ = 0.2 they predict that no command
+    /// closes the gaps, and the plan stops where it starts.
+    Tangent,
+    /// One-sided secants over `sensitivity_step_m`: every motor moved both
+    /// ways through the friction model (20 forward solves per command on
+    /// the reference bridge, ~100 times the tangent's cost). Near the
+    /// designed state a single motor moved 5 cm against its neighbours
+    /// mostly stretches cables: the secants then miss how a half's cables
+    /// close the gaps together, and the superposed step slackens cables.
+    Secant,
+    /// The tangent on a frictionless model (where it is the exact
+    /// response, and the deployment experiment connects 100 % of its
+    /// scenarios against 88 % with secants), the secants on a model with
+    /// joint friction (where the open-loop plan of the μ = 0.2 model
+    /// stalls at a 128 mm gap on tangents and connects on secants).
+    Auto,
+}
+
+impl SensitivityKind {
+    /// The kind `Auto` stands for on a model with (`true`) or without
+    /// joint friction; any other kind is itself.
+    pub fn resolve(self, model_has_friction: bool) -> Self {
+        match self {
+            SensitivityKind::Auto if model_has_friction => SensitivityKind::Secant,
+            SensitivityKind::Auto => SensitivityKind::Tangent,
+            kind => kind,
+        }
+    }
+
+    /// The other concrete kind (the planner's fallback when this one gives
+    /// no confirmed step); `Auto` must be resolved first.
+    pub fn other(self) -> Self {
+        match self {
+            SensitivityKind::Tangent => SensitivityKind::Secant,
+            SensitivityKind::Secant | SensitivityKind::Auto => SensitivityKind::Tangent,
+        }
+    }
+}
+
+/// Sequential convex programming: a QP on one-sided sensitivities in a
+/// trust region, confirmed by a forward re-solve (`plan::search`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct QpPlannerSettings {
+    /// How the planner linearises first; the other kind is tried when
+    /// this one gives no confirmed step. Default `auto` (see
+    /// [`SensitivityKind::Auto`]).
+    pub sensitivities: SensitivityKind,
+    /// One-sided finite-difference (secant) step of the sensitivities, m,
+    /// in (0, 1]. Default 0.05, the largest step: with friction the local
+    /// slope is not the response to a step. At the fold (μ = 0.2) every
+    /// joint sticks for a small reel-in, and 2 mm slopes say a reel-in
+    /// *opens* the gaps (the QP then finds no descent); over 5 cm the
+    /// joints slip and the secant slopes close them, as the model does.
+    pub sensitivity_step_m: f64,
+    /// A command's responses, Broyden-updated by what it did, are kept for
+    /// the next command when its reduction ratio ρ (actual over predicted)
+    /// was within this of 1, in (0, 1]; the next command tries them first
+    /// (one trial) and linearises afresh only if the model does not
+    /// confirm it. Default 0.5; off (`None`): every command linearises
+    /// afresh.
+    #[serde(with = "super::off")]
+    pub sensitivity_reuse_tolerance: Option<f64>,
+    /// Trust region on each motor's move.
+    pub trust_region: TrustRegion,
+    /// Weights of the step's objective.
+    pub weights: Weights,
+}
+
+impl QpPlannerSettings {
+    /// Every number of the settings (outside their tables) with its
+    /// admissible range.
+    pub fn ranges(&self) -> [Ranged; 2] {
+        [
+            Ranged::real(
+                "sensitivity_step_m",
+                self.sensitivity_step_m,
+                NumberRange::positive_up_to(1.0),
+            ),
+            Ranged::optional(
+                "sensitivity_reuse_tolerance",
+                self.sensitivity_reuse_tolerance,
+                NumberRange::positive_up_to(1.0),
+            ),
+        ]
+    }
+}
+
+impl Default for QpPlannerSettings {
+    fn default() -> Self {
+        QpPlannerSettings {
+            sensitivities: SensitivityKind::Auto,
+            sensitivity_step_m: 0.05,
+            sensitivity_reuse_tolerance: Some(0.5),
+            trust_region: TrustRegion::default(),
+            weights: Weights::default(),
+        }
+    }
+}
+
+impl QpPlannerSettings {
+    /// Checks every field, the trust region's and the weights'.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        check_ranges(&self.ranges())?;
+        self.trust_region
+            .validate()
+            .map_err(|e| e.within("trust_region"))?;
+        self.weights.validate().map_err(|e| e.within("weights"))
+    }
+}
+
+/// Weights of the QP step's objective.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Weights {
+    /// Weight of each midspan pair's squared gap: one value for all or one
+    /// per pair; each at least 0, one positive. Default 1.
+    pub gap: Vec<f64>,
+    /// ρ on ‖u‖², dimensionless, in (0, 1] (positive keeps the QP
+    /// strictly convex). Default 1e-5: far below the squared gap
+    /// sensitivities (~1e-3), so it only settles motors that barely move
+    /// the gaps.
+    pub regularisation: f64,
+    /// κ on Σ(u⁺ + u⁻), m, in [0, 1]. Default 1e-6: enough to break ties
+    /// towards moving a motor one way only.
+    pub split_penalty: f64,
+    /// Cost of softening a linearised limit by one unit of its scale
+    /// (100 N, 10 mm), m², positive. Default 10: a thousand times the gap
+    /// objective of the folded bridge, so limits soften only when no
+    /// command meets them. Off (`None`): no softened fallback (an
+    /// infeasible step holds).
+    #[serde(with = "super::off")]
+    pub soft_limit_penalty: Option<f64>,
+}
+
+impl Weights {
+    /// Every number of the weights (but the gap list) with its admissible
+    /// range.
+    pub fn ranges(&self) -> [Ranged; 3] {
+        [
+            Ranged::real(
+                "regularisation",
+                self.regularisation,
+                NumberRange::positive_up_to(1.0),
+            ),
+            Ranged::real(
+                "split_penalty",
+                self.split_penalty,
+                NumberRange::non_negative_up_to(1.0),
+            ),
+            Ranged::optional(
+                "soft_limit_penalty",
+                self.soft_limit_penalty,
+                NumberRange::above(0.0),
+            ),
+        ]
+    }
+}
+
+impl Default for Weights {
+    fn default() -> Self {
+        Weights {
+            gap: vec![1.0],
+            regularisation: 1e-5,
+            split_penalty: 1e-6,
+            soft_limit_penalty: Some(10.0),
+        }
+    }
+}
+
+impl Weights {
+    /// Checks the gap list (not empty, no weight negative, one positive)
+    /// and every other weight against its range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        if self.gap.is_empty() {
+            return Err(FieldError::new(
+                "gap",
+                "an empty list; give one weight or one per midspan pair",
+            ));
+        }
+        for &g in &self.gap {
+            NumberRange::at_least(0.0)
+                .check(g)
+                .map_err(|reason| FieldError::new("gap", reason))?;
+        }
+        let total: f64 = self.gap.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return Err(FieldError::new(
+                "gap",
+                format!("needs a positive weight and a finite sum, got {total}"),
+            ));
+        }
+        check_ranges(&self.ranges())
+    }
+
+    /// Weight of each of `pairs` midspan pairs; `None` if the list has
+    /// neither one entry nor one per pair.
+    pub fn gap_weights(&self, pairs: usize) -> Option<Vec<f64>> {
+        match self.gap.len() {
+            1 => Some(vec![self.gap[0]; pairs]),
+            n if n == pairs => Some(self.gap.clone()),
+            _ => None,
+        }
+    }
+}
