@@ -21,7 +21,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::numerics::NumberRange;
+use crate::numerics::{check_ranges, FieldError, NumberRange, Ranged};
 
 /// Settings of the diagnosis (`tdeploy diagnose`; see
 /// [`super::diagnose`] for the search they tune). Defaults are what the
@@ -142,59 +142,67 @@ impl DiagnoseSettings {
     /// Range of [`Self::max_identified_std_error`].
     pub const MAX_IDENTIFIED_STD_ERROR_RANGE: NumberRange = NumberRange::positive_up_to(100.0);
 
+    /// Each field with its declared range, in declaration order.
+    pub fn ranges(&self) -> [Ranged; 11] {
+        [
+            Ranged::count("max_rounds", self.max_rounds, Self::MAX_ROUNDS_RANGE),
+            Ranged::count(
+                "held_out_period",
+                self.held_out_period,
+                Self::HELD_OUT_PERIOD_RANGE,
+            ),
+            Ranged::real(
+                "penalty_per_parameter",
+                self.penalty_per_parameter,
+                Self::PENALTY_PER_PARAMETER_RANGE,
+            ),
+            Ranged::real(
+                "penalty_per_ln_candidates",
+                self.penalty_per_ln_candidates,
+                Self::PENALTY_PER_LN_CANDIDATES_RANGE,
+            ),
+            Ranged::count(
+                "member_groups_opened",
+                self.member_groups_opened,
+                Self::MEMBER_GROUPS_OPENED_RANGE,
+            ),
+            Ranged::count(
+                "max_local_fits",
+                self.max_local_fits,
+                Self::MAX_LOCAL_FITS_RANGE,
+            ),
+            Ranged::real(
+                "explained_share",
+                self.explained_share,
+                Self::EXPLAINED_SHARE_RANGE,
+            ),
+            Ranged::real(
+                "explained_rms",
+                self.explained_rms,
+                Self::EXPLAINED_RMS_RANGE,
+            ),
+            Ranged::real("near_bound", self.near_bound, Self::NEAR_BOUND_RANGE),
+            Ranged::real(
+                "outside_plausible_std_errors",
+                self.outside_plausible_std_errors,
+                Self::OUTSIDE_PLAUSIBLE_STD_ERRORS_RANGE,
+            ),
+            Ranged::real(
+                "max_identified_std_error",
+                self.max_identified_std_error,
+                Self::MAX_IDENTIFIED_STD_ERROR_RANGE,
+            ),
+        ]
+    }
+
     /// Checks every field, the parts' too, against its range; the error
     /// names the first field out of it by its path (`fit.max_iterations`).
     pub fn validate(&self) -> Result<(), DiagnoseSettingsError> {
-        count("max_rounds", Self::MAX_ROUNDS_RANGE, self.max_rounds)?;
-        count(
-            "held_out_period",
-            Self::HELD_OUT_PERIOD_RANGE,
-            self.held_out_period,
-        )?;
-        number(
-            "penalty_per_parameter",
-            Self::PENALTY_PER_PARAMETER_RANGE,
-            self.penalty_per_parameter,
-        )?;
-        number(
-            "penalty_per_ln_candidates",
-            Self::PENALTY_PER_LN_CANDIDATES_RANGE,
-            self.penalty_per_ln_candidates,
-        )?;
-        count(
-            "member_groups_opened",
-            Self::MEMBER_GROUPS_OPENED_RANGE,
-            self.member_groups_opened,
-        )?;
-        count(
-            "max_local_fits",
-            Self::MAX_LOCAL_FITS_RANGE,
-            self.max_local_fits,
-        )?;
-        number(
-            "explained_share",
-            Self::EXPLAINED_SHARE_RANGE,
-            self.explained_share,
-        )?;
-        number(
-            "explained_rms",
-            Self::EXPLAINED_RMS_RANGE,
-            self.explained_rms,
-        )?;
-        number("near_bound", Self::NEAR_BOUND_RANGE, self.near_bound)?;
-        number(
-            "outside_plausible_std_errors",
-            Self::OUTSIDE_PLAUSIBLE_STD_ERRORS_RANGE,
-            self.outside_plausible_std_errors,
-        )?;
-        number(
-            "max_identified_std_error",
-            Self::MAX_IDENTIFIED_STD_ERROR_RANGE,
-            self.max_identified_std_error,
-        )?;
-        self.fit.validate()?;
-        self.noise.validate()?;
-        self.outliers.validate()
+        check_ranges(&self.ranges())?;
+        self.fit.validate().map_err(|e| e.within("fit"))?;
+        self.noise.validate().map_err(|e| e.within("noise"))?;
+        self.outliers.validate().map_err(|e| e.within("outliers"))?;
+        Ok(())
     }
 }
 
@@ -301,59 +309,62 @@ impl FitSettings {
     /// Range of [`Self::min_damping`].
     pub const MIN_DAMPING_RANGE: NumberRange = NumberRange::positive_up_to(1.0);
 
-    /// Checks every field against its range (named `fit.FIELD`).
-    pub fn validate(&self) -> Result<(), DiagnoseSettingsError> {
-        number(
-            "fit.search_widening",
-            Self::SEARCH_WIDENING_RANGE,
-            self.search_widening,
-        )?;
-        number(
-            "fit.start_offset",
-            Self::START_OFFSET_RANGE,
-            self.start_offset,
-        )?;
-        number(
-            "fit.difference_step",
-            Self::DIFFERENCE_STEP_RANGE,
-            self.difference_step,
-        )?;
-        count(
-            "fit.max_iterations",
-            Self::MAX_ITERATIONS_RANGE,
-            self.max_iterations,
-        )?;
-        number(
-            "fit.converged_gain_rel",
-            Self::CONVERGED_GAIN_REL_RANGE,
-            self.converged_gain_rel,
-        )?;
-        number(
-            "fit.initial_damping",
-            Self::INITIAL_DAMPING_RANGE,
-            self.initial_damping,
-        )?;
-        count(
-            "fit.damping_tries",
-            Self::DAMPING_TRIES_RANGE,
-            self.damping_tries,
-        )?;
-        number(
-            "fit.damping_raise",
-            Self::DAMPING_FACTOR_RANGE,
-            self.damping_raise,
-        )?;
-        number(
-            "fit.damping_raise_singular",
-            Self::DAMPING_FACTOR_RANGE,
-            self.damping_raise_singular,
-        )?;
-        number(
-            "fit.damping_lower",
-            Self::DAMPING_FACTOR_RANGE,
-            self.damping_lower,
-        )?;
-        number("fit.min_damping", Self::MIN_DAMPING_RANGE, self.min_damping)
+    /// Each field with its declared range, in declaration order.
+    pub fn ranges(&self) -> [Ranged; 11] {
+        [
+            Ranged::real(
+                "search_widening",
+                self.search_widening,
+                Self::SEARCH_WIDENING_RANGE,
+            ),
+            Ranged::real("start_offset", self.start_offset, Self::START_OFFSET_RANGE),
+            Ranged::real(
+                "difference_step",
+                self.difference_step,
+                Self::DIFFERENCE_STEP_RANGE,
+            ),
+            Ranged::count(
+                "max_iterations",
+                self.max_iterations,
+                Self::MAX_ITERATIONS_RANGE,
+            ),
+            Ranged::real(
+                "converged_gain_rel",
+                self.converged_gain_rel,
+                Self::CONVERGED_GAIN_REL_RANGE,
+            ),
+            Ranged::real(
+                "initial_damping",
+                self.initial_damping,
+                Self::INITIAL_DAMPING_RANGE,
+            ),
+            Ranged::count(
+                "damping_tries",
+                self.damping_tries,
+                Self::DAMPING_TRIES_RANGE,
+            ),
+            Ranged::real(
+                "damping_raise",
+                self.damping_raise,
+                Self::DAMPING_FACTOR_RANGE,
+            ),
+            Ranged::real(
+                "damping_raise_singular",
+                self.damping_raise_singular,
+                Self::DAMPING_FACTOR_RANGE,
+            ),
+            Ranged::real(
+                "damping_lower",
+                self.damping_lower,
+                Self::DAMPING_FACTOR_RANGE,
+            ),
+            Ranged::real("min_damping", self.min_damping, Self::MIN_DAMPING_RANGE),
+        ]
+    }
+
+    /// Checks every field against its range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        check_ranges(&self.ranges())
     }
 }
 
@@ -401,18 +412,21 @@ impl NoiseSettings {
     /// Range of [`Self::family_alpha`].
     pub const FAMILY_ALPHA_RANGE: NumberRange = NumberRange::positive_up_to(0.5);
 
-    /// Checks every field against its range (named `noise.FIELD`).
-    pub fn validate(&self) -> Result<(), DiagnoseSettingsError> {
-        number(
-            "noise.rms_limit_sds",
-            Self::RMS_LIMIT_SDS_RANGE,
-            self.rms_limit_sds,
-        )?;
-        number(
-            "noise.family_alpha",
-            Self::FAMILY_ALPHA_RANGE,
-            self.family_alpha,
-        )
+    /// Each field with its declared range, in declaration order.
+    pub fn ranges(&self) -> [Ranged; 2] {
+        [
+            Ranged::real(
+                "rms_limit_sds",
+                self.rms_limit_sds,
+                Self::RMS_LIMIT_SDS_RANGE,
+            ),
+            Ranged::real("family_alpha", self.family_alpha, Self::FAMILY_ALPHA_RANGE),
+        ]
+    }
+
+    /// Checks every field against its range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        check_ranges(&self.ranges())
     }
 }
 
@@ -449,14 +463,21 @@ impl OutlierSettings {
     /// Range of [`Self::max_share`].
     pub const MAX_SHARE_RANGE: NumberRange = NumberRange::closed(0.0, 1.0);
 
-    /// Checks every field against its range (named `outliers.FIELD`).
-    pub fn validate(&self) -> Result<(), DiagnoseSettingsError> {
-        number(
-            "outliers.limit_robust_sds",
-            Self::LIMIT_ROBUST_SDS_RANGE,
-            self.limit_robust_sds,
-        )?;
-        number("outliers.max_share", Self::MAX_SHARE_RANGE, self.max_share)
+    /// Each field with its declared range, in declaration order.
+    pub fn ranges(&self) -> [Ranged; 2] {
+        [
+            Ranged::real(
+                "limit_robust_sds",
+                self.limit_robust_sds,
+                Self::LIMIT_ROBUST_SDS_RANGE,
+            ),
+            Ranged::real("max_share", self.max_share, Self::MAX_SHARE_RANGE),
+        ]
+    }
+
+    /// Checks every field against its range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        check_ranges(&self.ranges())
     }
 }
 
@@ -474,29 +495,18 @@ impl Default for OutlierSettings {
 #[error("diagnose setting `{field}`: {reason}")]
 pub struct DiagnoseSettingsError {
     /// The field's path in [`DiagnoseSettings`], e.g. `fit.max_iterations`.
-    pub field: &'static str,
+    pub field: String,
     /// What is wrong, e.g. `must be a whole number in [1, 10000], got 0`.
     pub reason: String,
 }
 
-fn number(
-    field: &'static str,
-    range: NumberRange,
-    value: f64,
-) -> Result<(), DiagnoseSettingsError> {
-    range
-        .check(value)
-        .map_err(|reason| DiagnoseSettingsError { field, reason })
-}
-
-fn count(
-    field: &'static str,
-    range: NumberRange,
-    value: usize,
-) -> Result<(), DiagnoseSettingsError> {
-    range
-        .check_count(value)
-        .map_err(|reason| DiagnoseSettingsError { field, reason })
+impl From<FieldError> for DiagnoseSettingsError {
+    fn from(e: FieldError) -> Self {
+        DiagnoseSettingsError {
+            field: e.field,
+            reason: e.reason,
+        }
+    }
 }
 
 #[cfg(test)]
