@@ -175,9 +175,10 @@ impl PlanContext<'_> {
     /// a load cell) whose fall from `start_rows_n` to `rows_n` (force
     /// rows with their offsets, N) leaves less than the policy's
     /// `margins.unmeasured_force_fall` times that fall above their lower
-    /// limit (less `tolerance_n`), named; none with that margin off. The model sees such a force's
-    /// level and slope only as well as its effects match the bridge's, so
-    /// a fall it predicts to end just above the limit may end below it.
+    /// limit (less `tolerance_n`), named; none with that margin off. The
+    /// model sees such a force's level and slope only as well as its
+    /// effects match the bridge's, so a fall it predicts to end just above
+    /// the limit may end below it.
     pub fn unmeasured_fall_violations(
         &self,
         start_rows_n: &[f64],
