@@ -310,12 +310,17 @@ mod tests {
         policy.margins.unmeasured_force_fall = None;
         let text = policy_to_toml(&policy);
         assert_eq!(parse_policy(&text, Path::new("p.toml")).unwrap(), policy);
-        let greedy = Policy {
-            planner: PlannerSettings::GreedyTree(GreedyTreeSettings::default()),
-            ..Policy::default()
-        };
-        let text = policy_to_toml(&greedy);
-        assert_eq!(parse_policy(&text, Path::new("p.toml")).unwrap(), greedy);
+        for planner in [
+            PlannerSettings::GreedyTree(GreedyTreeSettings::default()),
+            PlannerSettings::Nominal(NominalSettings {}),
+        ] {
+            let other = Policy {
+                planner,
+                ..Policy::default()
+            };
+            let text = policy_to_toml(&other);
+            assert_eq!(parse_policy(&text, Path::new("p.toml")).unwrap(), other);
+        }
     }
 
     #[test]

@@ -177,9 +177,9 @@ impl PlanContext<'_> {
     /// rows with their offsets, N) leaves less than the policy's
     /// `margins.unmeasured_force_fall` times that fall above their lower
     /// limit (less `tolerance_n`); none with that margin off. The model
-    /// sees such a force's
-    /// level and slope only as well as its effects match the bridge's, so
-    /// a fall it predicts to end just above the limit may end below it.
+    /// sees such a force's level and slope only as well as its effects
+    /// match the bridge's, so a fall it predicts to end just above the
+    /// limit may end below it.
     pub fn unmeasured_fall_violations(
         &self,
         start_rows_n: &[f64],
