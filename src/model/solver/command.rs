@@ -4,12 +4,23 @@
 //! for each continuous cable) is applied in equal increments, each no larger
 //! than `max_increment_m`, and each relaxed to equilibrium from the previous
 //! one. Results converge as the increment shrinks (see the tests).
+//!
+//! Each increment is a backward-Euler step of the friction law (sliding
+//! mapped once, from the material at its start to its end geometry), exact
+//! while every joint keeps its state through the increment. Where a joint
+//! that was sliding at an increment's start ends it stuck or sliding the
+//! other way (a *slip event*: the command reversed, or a joint re-gripped),
+//! the event happened somewhere inside; the increment is solved again in
+//! two halves, recursively, until the sub-step holding the event is no
+//! larger than `RelaxSettings::slip_event_min_substep_m`. The event is so
+//! located to the same sub-step whatever the increment size, and the path
+//! no longer depends on it.
 
 use thiserror::Error;
 
 use super::relax::SolveMode;
 use super::{ForwardModel, RelaxReport, RelaxStatus, Workspace};
-use crate::model::state::DeploymentState;
+use crate::model::state::{DeploymentState, JointSlip};
 
 /// A command the model cannot apply.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -180,19 +191,9 @@ impl ForwardModel {
         ws.continuation_step = 0.0;
         ws.drop_kept_tangent();
         for k in 0..count {
-            let newton = self.newton_increment(state, ws, &increment);
-            out.newton_iterations += newton.iterations;
-            let r = self.relax_with(state, ws, SolveMode::DrOnly);
-            if !newton.converged {
-                ws.counters.dr_iterations_after_newton += r.iterations;
-            }
+            let r = self.increment_locating_slip_events(state, ws, &increment, false, &mut out);
             observer.on_increment(k, count, &r, state);
             out.increments += 1;
-            out.iterations += r.iterations;
-            out.newton_iterations += r.newton_iterations;
-            out.max_residual_n = out.max_residual_n.max(r.max_residual_n);
-            out.max_friction_residual_n =
-                out.max_friction_residual_n.max(r.max_friction_residual_n);
             if !r.status.is_converged() {
                 out.status = r.status;
                 break;
@@ -200,6 +201,91 @@ impl ForwardModel {
         }
         Ok(out)
     }
+
+    /// One increment (Newton, then DR for what Newton leaves), its work
+    /// added to `out`.
+    fn solve_increment(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        increment: &[f64],
+        out: &mut CommandReport,
+    ) -> RelaxReport {
+        let newton = self.newton_increment(state, ws, increment);
+        out.newton_iterations += newton.iterations;
+        let r = self.relax_with(state, ws, SolveMode::DrOnly);
+        if !newton.converged {
+            ws.counters.dr_iterations_after_newton += r.iterations;
+        }
+        out.iterations += r.iterations;
+        out.newton_iterations += r.newton_iterations;
+        out.max_residual_n = out.max_residual_n.max(r.max_residual_n);
+        out.max_friction_residual_n = out.max_friction_residual_n.max(r.max_friction_residual_n);
+        r
+    }
+
+    /// [`Self::solve_increment`], solved again in two halves (each handled
+    /// the same way) where a slip event happened in it, down to the
+    /// smallest sub-step (see the module notes). The report is that of the
+    /// last (sub-)step; the work of every solve is in `out`.
+    fn increment_locating_slip_events(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        increment: &[f64],
+        locating: bool,
+        out: &mut CommandReport,
+    ) -> RelaxReport {
+        let largest = increment.iter().fold(0.0f64, |a, d| a.max(d.abs()));
+        // Without friction the answer is path independent: a joint's
+        // sliding direction is no state to locate.
+        let splittable = self.settings.slip_event_substeps_enable
+            && !self.friction.static_mu.is_zero()
+            && 0.5 * largest >= self.settings.slip_event_min_substep_m;
+        let start = splittable.then(|| state.clone());
+        let r = self.solve_increment(state, ws, increment, out);
+        let Some(start) = start else { return r };
+        let event = if locating {
+            slip_event(&start.joint_slip, &state.joint_slip)
+        } else {
+            slip_reversal(&start.joint_slip, &state.joint_slip)
+        };
+        if !(r.status.is_converged() && event) {
+            return r;
+        }
+        *state = start;
+        // The tangent kept from the discarded solve belongs to its end.
+        ws.drop_kept_tangent();
+        ws.counters.slip_event_splits += 1;
+        let half: Vec<f64> = increment.iter().map(|d| 0.5 * d).collect();
+        let first = self.increment_locating_slip_events(state, ws, &half, true, out);
+        if !first.status.is_converged() {
+            return first;
+        }
+        self.increment_locating_slip_events(state, ws, &half, true, out)
+    }
+}
+
+/// Whether a joint sliding at the start (`before`) ends sliding the other
+/// way (`after`).
+fn slip_reversal(before: &[JointSlip], after: &[JointSlip]) -> bool {
+    before.iter().zip(after).any(|(b, a)| {
+        matches!(
+            (b, a),
+            (JointSlip::TowardsMotor, JointSlip::TowardsEnd)
+                | (JointSlip::TowardsEnd, JointSlip::TowardsMotor)
+        )
+    })
+}
+
+/// Whether a joint sliding at the start (`before`) ends stuck or sliding
+/// the other way (`after`). A stuck joint starting to slide is no event:
+/// every increment starts stuck and maps the onset exactly.
+fn slip_event(before: &[JointSlip], after: &[JointSlip]) -> bool {
+    before
+        .iter()
+        .zip(after)
+        .any(|(b, a)| *b != JointSlip::Stuck && a != b)
 }
 
 #[cfg(test)]

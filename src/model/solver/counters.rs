@@ -55,6 +55,10 @@ pub struct NewtonCounters {
     /// Tangent factorisations (predictors and Newton steps; a chord step
     /// reuses one).
     pub factorisations: usize,
+    /// Payout increments (or sub-steps) re-solved in two halves because a
+    /// joint that was sliding at their start stopped or reversed in them
+    /// (see `RelaxSettings::slip_event_substeps_enable`).
+    pub slip_event_splits: usize,
 }
 
 impl NewtonCounters {
