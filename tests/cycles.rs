@@ -1,62 +1,56 @@
 //! The learning curve: deployment-fold cycles on a fixed truth, with and
 //! without the case memory (`studies::cycles`, `tdeploy cycles`).
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
+use std::path::Path;
+use std::process::Output;
+
+use common::cli::{stderr, succeeded, tdeploy};
+use common::fixtures::{frictionless_reference_model, reference_structure};
+use common::{repo_path, repo_root};
 use tensegrity_deploy::control::ClosedLoopSetup;
-use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::memory_file::read_memory;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::CaseMemory;
-use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Structure};
+use tensegrity_deploy::model::{ForwardModel, Structure};
 use tensegrity_deploy::plan::{DeploymentProblem, MemorySettings, Policy};
 use tensegrity_deploy::sim::{default_truth, standard_sensors, EffectModel, Sensor};
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleResult};
 use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
 
-fn tdeploy(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(args)
-        .output()
-        .expect("tdeploy runs")
-}
-
 /// `tdeploy cycles --cycles N --memory MEMORY -o OUT`.
 fn cycles_command(cycles: &str, memory: &Path, out: &Path) -> Output {
-    tdeploy(&[
-        "cycles",
-        "--cycles",
-        cycles,
-        "--memory",
-        memory.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ])
+    tdeploy(
+        &[
+            "cycles",
+            "--cycles",
+            cycles,
+            "--memory",
+            memory.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        repo_root(),
+    )
 }
 
 /// The reference bridge, the controller's frictionless model of it and
 /// its standard sensors.
 fn bridge() -> (Structure, ForwardModel, Vec<Sensor>) {
-    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
-    let model = ForwardModel::new(
-        structure.clone(),
-        JointFriction::frictionless(),
-        RelaxSettings::default(),
-    )
-    .unwrap();
+    let structure = reference_structure();
+    let model = frictionless_reference_model();
     let sensors = standard_sensors(&structure);
     (structure, model, sensors)
 }
 
 fn cycles(policy: &str, n: usize) -> Vec<CycleResult> {
-    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
-    cycles_on(policy, n, default_truth(structure))
+    cycles_on(policy, n, default_truth(reference_structure()))
 }
 
 fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
     let (_, model, sensors) = bridge();
-    let policy = read_policy(Path::new(policy)).unwrap();
+    let policy = read_policy(&repo_path(policy)).unwrap();
     let problem = DeploymentProblem::default();
     let setup = ClosedLoopSetup {
         model: &model,
@@ -127,8 +121,7 @@ fn the_cycles_command_writes_the_curve_and_appends_to_the_memory() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let memory = dir.path().join("bridge.tdm");
-    let o = cycles_command("2", &memory, &out);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    succeeded(&cycles_command("2", &memory, &out));
     let table = std::fs::read_to_string(out.join("cycles.csv")).unwrap();
     assert_eq!(table.lines().count(), 3, "{table}");
     assert!(std::fs::read_to_string(out.join("cycles.svg"))
@@ -137,8 +130,7 @@ fn the_cycles_command_writes_the_curve_and_appends_to_the_memory() {
     assert_eq!(read_memory(&memory).unwrap().cases.len(), 2);
     // A second run learns from the two stored cases and adds one.
     let again = dir.path().join("again");
-    let o = cycles_command("1", &memory, &again);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    succeeded(&cycles_command("1", &memory, &again));
     let row = std::fs::read_to_string(again.join("cycles.csv")).unwrap();
     assert!(row.lines().nth(1).unwrap().contains(",1,"), "{row}");
     assert_eq!(read_memory(&memory).unwrap().cases.len(), 3);
@@ -149,7 +141,7 @@ fn the_cycles_command_writes_the_curve_and_appends_to_the_memory() {
     std::fs::write(&memory, &bytes).unwrap();
     let o = cycles_command("1", &memory, &dir.path().join("bad"));
     assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = stderr(&o);
     assert!(err.contains("bridge.tdm"), "{err}");
     assert_eq!(std::fs::read(&memory).unwrap(), bytes);
 }
@@ -162,7 +154,7 @@ fn the_cycles_command_writes_the_curve_and_appends_to_the_memory() {
 /// discordant count "only memoryless" is 0).
 #[test]
 fn the_memory_policy_is_never_worse_than_the_memoryless_one_on_paired_scenarios() {
-    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let structure = reference_structure();
     let distribution = ScenarioDistribution::default();
     let ok = |c: &CycleResult| c.status == "connected" && c.truth_limit_violations == 0;
     let mut only_memoryless = Vec::new();
@@ -267,8 +259,8 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
     use tensegrity_deploy::studies::evaluation::{evaluate, EvaluationSetup};
     let (_, model, _) = bridge();
     let policies = [
-        read_policy(Path::new("policies/qp.toml")).unwrap(),
-        read_policy(Path::new("policies/memory.toml")).unwrap(),
+        read_policy(&repo_path("policies/qp.toml")).unwrap(),
+        read_policy(&repo_path("policies/memory.toml")).unwrap(),
     ];
     let distribution = ScenarioDistribution::default();
     let problem = DeploymentProblem::default();
@@ -333,7 +325,7 @@ fn scenario_cycles(policy: &Policy, seed: u64, index: usize) -> Vec<CycleResult>
 /// is off for these two and on for the default policy's check.
 #[test]
 fn keeping_a_halfs_motors_together_keeps_the_unmeasured_axial_cables_taut() {
-    let bounded = read_policy(Path::new("policies/memory.toml")).unwrap();
+    let bounded = read_policy(&repo_path("policies/memory.toml")).unwrap();
     let settings = bounded.memory.unwrap();
     assert_eq!(settings.ilc_max_spread_m, 0.001);
     // The planner's margin on the unmeasured tensions' fall guards the
