@@ -1,10 +1,12 @@
 //! The deployment planner: the QP step's formulation on hand-made data,
 //! the sequence search on the reference bridge, and its files.
 
+mod common;
+
 use std::path::Path;
 
+use common::fixtures::reference_structure;
 use nalgebra::{DMatrix, Vector3};
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::policy_file::parse_policy;
 use tensegrity_deploy::io::problem_file::parse_problem;
 use tensegrity_deploy::io::FileError;
@@ -187,7 +189,7 @@ fn stroke_limits_contradicting_a_member_limit_are_infeasible() {
 
 fn bridge(mu: f64) -> ForwardModel {
     ForwardModel::new(
-        reference_bridge(&BridgeParameters::default()).unwrap(),
+        reference_structure(),
         JointFriction::constant(mu).unwrap(),
         RelaxSettings::default(),
     )
@@ -303,6 +305,10 @@ fn qp_planner_connects_with_friction_open_loop_within_every_limit() {
     connects(0.2);
 }
 
+/// "Quickly" is counted in commands: the planner gives up within five.
+/// How long that takes is not checked here (a wall-clock bound was); the
+/// bench `planner`, `open_loop_not_reachable_short_stroke_mu0`, times this
+/// same plan.
 #[test]
 fn a_stroke_too_short_ends_not_reachable_quickly() {
     // Motors may not reel in below 0.30 m of payout: 10 cm of the 40 cm
@@ -314,7 +320,6 @@ fn a_stroke_too_short_ends_not_reachable_quickly() {
     };
     let policy = Policy::default();
     let start = folded_start(&model, &problem, policy.increment_m).unwrap();
-    let clock = std::time::Instant::now();
     let plan = plan_open_loop(&model, &problem, &policy, &start).unwrap();
     // The stroke's lower end binds: some motor's `stroke min` constraint
     // is active in the step that found no reduction.
@@ -337,7 +342,6 @@ fn a_stroke_too_short_ends_not_reachable_quickly() {
         s => panic!("{s:?}"),
     }
     assert!(plan.records.len() <= 5, "{} commands", plan.records.len());
-    assert!(clock.elapsed().as_secs() < 20);
     for p in &plan.final_state.payout_m {
         assert!(*p >= 0.30 - 1e-12);
     }
