@@ -398,10 +398,15 @@ fn broken_limits(d: &Deployment) -> usize {
 
 /// Scenario 9 of `experiments/deployment.toml`: drums that reel 4.3 % more
 /// than commanded and cables 19 % softer. Without the payout-scale
-/// estimate the controller's model stayed where its commands put it, the
-/// truth was reeled past its designed state and its axial cables went
-/// slack (8 limits broken on the 8th command); with it, the commands are
-/// scaled down to what the measured motion says the cables do.
+/// estimate the controller's model stayed where its commands put it (11 mm
+/// of payout short of the design) while the truth was reeled past its
+/// designed state (6 mm beyond), and its axial cables went slack (8 limits
+/// broken on the 8th command). The fix moves the model to where the
+/// measured motion says the cables went, and scales the commands to suit:
+/// checked here directly, the controller's model ends within 3 mm of the
+/// truth's payout on every motor (the slip alone is 17 mm over the
+/// deployment's 40 cm). The estimator itself is unit-tested on known
+/// slips (`control::estimation`).
 #[test]
 fn negative_drum_slip_does_not_reel_the_truth_past_its_design() {
     let effects: [(EffectKind, &[f64]); 4] = [
@@ -414,11 +419,14 @@ fn negative_drum_slip_does_not_reel_the_truth_past_its_design() {
     assert_eq!(d.status, PlanStatus::Connected, "{}", d.status.describe());
     assert_eq!(broken_limits(&d), 0);
     assert!(d.final_true_gap_m().unwrap() <= 0.030);
-    // The same truth without the estimate breaks limits: the test sees
-    // the difference it is named after.
-    let mut blind = Policy::default();
-    blind.control.payout_scale_prior_sd = None;
-    assert!(broken_limits(&deploy_hidden(&effects, &blind)) > 0);
+    let model = &d.final_model_state.payout_m;
+    let truth = &d.final_true_state.payout_m;
+    for (m, (believed, actual)) in model.iter().zip(truth).enumerate() {
+        assert!(
+            (believed - actual).abs() < 0.003,
+            "motor {m}: the model at {believed} m of payout, the truth at {actual} m"
+        );
+    }
 }
 
 /// Scenario 26: drums that reel 4.2 % less than commanded and cables 32 %
@@ -507,8 +515,10 @@ fn scenario_904(policy: &Policy) -> Deployment {
 /// springs 19 % softer) the unmeasured axial cables start the last
 /// approach command ~28 % below the model's tension and lose ~400 N in it
 /// on the model; without a margin on that fall the truth's went to 0 N.
-/// The default policy's margin (0.4 × the fall) keeps every truth limit,
-/// and the same policy without it breaks some: the margin is what fixes it.
+/// With the default policy's margin (0.4 × the fall) the deployment
+/// connects and keeps every truth limit. The margin's rule itself is
+/// checked on the model alone in `tests/planner.rs`
+/// (`a_command_leaving_an_unmeasured_tension_within_its_fall_margin_is_refused`).
 #[test]
 fn unmeasured_axial_cables_keep_their_tension_on_scenario_904() {
     let with_margin = scenario_904(&Policy::default());
@@ -518,11 +528,4 @@ fn unmeasured_axial_cables_keep_their_tension_on_scenario_904() {
         with_margin.status
     );
     assert_eq!(broken_limits(&with_margin), 0);
-    let mut no_margin = Policy::default();
-    no_margin.margins.unmeasured_force_fall = None;
-    let without = scenario_904(&no_margin);
-    assert!(
-        broken_limits(&without) > 0,
-        "the bug no longer shows without the margin"
-    );
 }
