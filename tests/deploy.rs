@@ -1,4 +1,4 @@
-//! The closed-loop deployment (`plan::closed_loop`) and `tdeploy deploy`:
+//! The closed-loop deployment (`control::closed_loop`) and `tdeploy deploy`:
 //! the default truth (μ = 0.2 and 3 mm backlash) deployed by a
 //! frictionless controller connects without breaking a limit of the truth
 //! at any increment; measurements reach the controller as they should;
