@@ -9,7 +9,10 @@
 //!   plan.csv);
 //! - a whole closed-loop deployment of the default truth (μ = 0.2, 3 mm
 //!   backlash) by the frictionless controller, folded to connected (what
-//!   `tdeploy deploy` runs, without its files).
+//!   `tdeploy deploy` runs, without its files);
+//! - an open-loop plan that ends "not reachable": the frictionless bridge
+//!   with motors that may not reel in below 0.30 m of payout (the plan of
+//!   `tests/planner.rs`, `a_stroke_too_short_ends_not_reachable_quickly`).
 //!
 //!     cargo bench --bench planner
 
@@ -23,8 +26,8 @@ use tensegrity_deploy::model::{
 use tensegrity_deploy::plan::qp_step::step_solver_settings;
 use tensegrity_deploy::plan::search::{step_data, step_weights};
 use tensegrity_deploy::plan::{
-    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PlanContext,
-    PlannerSettings, Policy, QpPlannerSettings,
+    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PerMotor,
+    PlanContext, PlannerSettings, Policy, QpPlannerSettings,
 };
 use tensegrity_deploy::sim::{default_truth, standard_sensors};
 
@@ -101,6 +104,16 @@ fn bench(c: &mut Criterion) {
     };
     group.bench_function("closed_loop_deployment_default_truth", |b| {
         b.iter(|| deploy_closed_loop(&setup, &mut ()).expect("deployment"))
+    });
+    let short_stroke = DeploymentProblem {
+        min_payout_m: PerMotor::All(0.30),
+        ..DeploymentProblem::default()
+    };
+    let short_start = folded_start(&controller, &short_stroke, full.increment_m).expect("fold");
+    group.bench_function("open_loop_not_reachable_short_stroke_mu0", |b| {
+        b.iter(|| {
+            tensegrity_deploy::plan::plan_open_loop(&controller, &short_stroke, &full, &short_start)
+        })
     });
     group.finish();
 }

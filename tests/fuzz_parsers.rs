@@ -9,13 +9,15 @@
 //! duplicated, or a numeric field replaced by NaN, ±inf, ±1e308, -0, a
 //! subnormal, or an integer too large for any type. Every parse must
 //! return: no panic (proptest reports one as a failure, with the input),
-//! no hang (each parse must finish within [`PARSE_DEADLINE`]), and an
-//! error must be one line naming the file.
+//! no hang (each parse must finish within the hang guard
+//! [`PARSE_DEADLINE`]), and an error must be one line naming the file.
 //!
 //! `cargo test --release --test fuzz_parsers` runs a smoke run of
 //! [`SMOKE_CASES`] inputs per target from a fixed seed (a few seconds in
 //! all). A longer run: `FUZZ_CASES=100000 cargo test --release --test
 //! fuzz_parsers` (and `FUZZ_SEED=N` for other inputs); see docs/hardening.md.
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -23,7 +25,8 @@ use std::time::{Duration, Instant};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use common::fixtures::reference_structure;
+use common::repo_text;
 use tensegrity_deploy::io::bridge_params::parse_bridge_parameters;
 use tensegrity_deploy::io::commands::parse_commands;
 use tensegrity_deploy::io::evaluation_files::parse_distribution;
@@ -37,12 +40,13 @@ use tensegrity_deploy::io::problem_file::parse_problem;
 use tensegrity_deploy::io::structure_file::{parse_structure, structure_to_json};
 use tensegrity_deploy::io::FileError;
 use tensegrity_deploy::learn::{Case, CaseConditions, CaseOutcome};
-use tensegrity_deploy::model::Structure;
 
 /// Inputs per target in the smoke run.
 const SMOKE_CASES: u32 = 48;
-/// Longest a single parse may take before it counts as a hang (a parse of
-/// the largest example takes about a millisecond).
+/// Hang guard: a parse that takes longer than this counts as a hang (an
+/// infinite loop on some input). Not a speed check: a parse of the largest
+/// example takes about a millisecond, so the guard is thousands of times
+/// the normal time and stays quiet on any loaded machine.
 const PARSE_DEADLINE: Duration = Duration::from_secs(5);
 
 /// Inputs per target: `FUZZ_CASES`, else the smoke run's.
@@ -206,8 +210,8 @@ fn input(seeds: usize) -> impl Strategy<Value = (usize, Vec<Mutation>)> {
     (0..seeds, prop::collection::vec(mutation(), 1..=3))
 }
 
-/// Checks how a parse of `path` ended: fast, and an error is one line
-/// naming a file of the input (`names`).
+/// Checks how a parse of `path` ended: within the hang guard, and an
+/// error is one line naming a file of the input (`names`).
 fn check_outcome<T>(
     result: Result<T, FileError>,
     elapsed: Duration,
@@ -255,14 +259,6 @@ fn fuzz_text<T>(name: &str, seeds: &[String], parse: impl Fn(&str, &Path) -> Res
         .unwrap_or_else(|e| panic!("{name}: {e}"));
 }
 
-fn repo(path: &str) -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(path)).unwrap()
-}
-
-fn reference() -> Structure {
-    reference_bridge(&BridgeParameters::default()).unwrap()
-}
-
 const SMALL: &str = r#"{
   "format": "tensegrity-deploy/structure/1",
   "name": "two cables",
@@ -288,14 +284,14 @@ const SMALL: &str = r#"{
 fn structure_files() {
     fuzz_text(
         "structure.json",
-        &[SMALL.to_string(), structure_to_json(&reference())],
+        &[SMALL.to_string(), structure_to_json(&reference_structure())],
         parse_structure,
     );
 }
 
 #[test]
 fn command_files() {
-    let s = reference();
+    let s = reference_structure();
     let (a, b) = (&s.continuous_cables[0].id, &s.continuous_cables[9].id);
     let seeds = [format!(
         "step,cable,payout_change_m\n1,{a},-0.01\n1,{b},0.02\n2,{a},0.005\n7,{b},-1e-3\n"
@@ -322,8 +318,8 @@ fn bridge_parameter_files() {
 #[test]
 fn model_files() {
     let seeds = [
-        repo("experiments/lab/truth-friction.toml"),
-        repo("experiments/lab/baseline.toml"),
+        repo_text("experiments/lab/truth-friction.toml"),
+        repo_text("experiments/lab/baseline.toml"),
         "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n[effects.thermal]\nexpansion_per_k = 1.2e-5\nreference_temperature_c = 20\n[effects.motor]\nslip_fraction = 0.01\nbacklash_m = 0.002\n[effects.support_flexibility]\ncompliance_m_per_n = 1e-6\n".to_string(),
     ];
     fuzz_text("model.toml", &seeds, parse_model);
@@ -332,10 +328,10 @@ fn model_files() {
 #[test]
 fn experiment_files() {
     let seeds = [
-        repo("experiments/friction-rig.toml"),
-        repo("experiments/friction-effect.toml"),
-        repo("experiments/friction-vs-measurement.toml"),
-        repo("experiments/deployment.toml"),
+        repo_text("experiments/friction-rig.toml"),
+        repo_text("experiments/friction-effect.toml"),
+        repo_text("experiments/friction-vs-measurement.toml"),
+        repo_text("experiments/deployment.toml"),
     ];
     fuzz_text("experiment.toml", &seeds, parse_experiment);
 }
@@ -343,16 +339,16 @@ fn experiment_files() {
 #[test]
 fn policy_files() {
     let seeds = [
-        repo("policies/qp.toml"),
-        repo("policies/nominal.toml"),
-        repo("policies/greedy-tree.toml"),
+        repo_text("policies/qp.toml"),
+        repo_text("policies/nominal.toml"),
+        repo_text("policies/greedy-tree.toml"),
     ];
     fuzz_text("policy.toml", &seeds, parse_policy);
 }
 
 #[test]
 fn scenario_distribution_files() {
-    let seeds = [repo("scenarios/default.toml")];
+    let seeds = [repo_text("scenarios/default.toml")];
     fuzz_text("scenarios.toml", &seeds, parse_distribution);
 }
 

@@ -26,7 +26,9 @@
 //! Floors for entries that are zero (fixed nodes, slack members): 1e-9 m/m
 //! and 1e-6 N/m.
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+mod common;
+
+use common::fixtures::reference_structure;
 use tensegrity_deploy::model::{
     DeploymentState, ForwardModel, JointFriction, MotorDirection, MotorResponse,
     PayoutSensitivities, RelaxSettings, SensitivityError, Workspace,
@@ -41,7 +43,7 @@ fn model(mu: f64) -> ForwardModel {
         ..RelaxSettings::default()
     };
     ForwardModel::new(
-        reference_bridge(&BridgeParameters::default()).unwrap(),
+        reference_structure(),
         JointFriction::constant(mu).unwrap(),
         settings,
     )
