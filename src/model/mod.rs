@@ -5,8 +5,10 @@
 
 pub mod cable_seats;
 pub mod effects;
+pub mod faults;
 pub mod flexible_supports;
 pub mod friction;
+pub mod parameter_spec;
 pub mod sliding;
 pub mod solver;
 pub mod state;
@@ -14,6 +16,7 @@ pub mod stiffness;
 pub mod structure;
 
 pub use effects::{EffectKind, Effects, MotorModel};
+pub use faults::{FaultKind, Faults, Half};
 pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFriction};
 pub use solver::{
     CommandError, CommandReport, ForwardModel, IncrementObserver, MemberForces, MotorDirection,
