@@ -8,7 +8,9 @@ use std::path::Path;
 use anyhow::{Context, Result};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
+use tensegrity_deploy::io::model_file::{
+    read_model, ModelFile, StructureSource, REFERENCE_TEMPERATURE_RANGE_C,
+};
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::problem_file::read_problem;
 use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction, RelaxSettings};
@@ -67,6 +69,31 @@ pub fn absolute(file: ModelFile) -> Result<ModelFile> {
         },
         _ => file,
     })
+}
+
+/// The air temperature of a deployment, °C, from `--temperature`,
+/// checked against the truth it acts on. A thermal truth needs one: its
+/// effect is the members' expansion from the reference temperature, and
+/// taking that reference for the air temperature would silently switch
+/// the effect off. Without a thermal effect the temperature changes
+/// nothing, and may be left out.
+pub fn deployment_temperature(
+    flag: Option<f64>,
+    truth: &Effects,
+    truth_words: &str,
+) -> Result<Option<f64>> {
+    if let Some(t) = flag {
+        if let Err(m) = REFERENCE_TEMPERATURE_RANGE_C.check(t) {
+            anyhow::bail!("--temperature: {m}");
+        }
+    }
+    match (&truth.thermal, flag) {
+        (Some(th), None) => anyhow::bail!(
+            "the truth {truth_words} has a thermal effect (reference {} °C): give the air temperature with --temperature °C",
+            th.reference_temperature_c
+        ),
+        _ => Ok(flag),
+    }
 }
 
 /// The policy file's policy, or the built-in default.
