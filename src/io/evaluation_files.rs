@@ -11,10 +11,16 @@
 //! load_cell_noise_n = [7.0, 7.0]
 //! fold_m = [0.35, 0.45]
 //! temperature_c = [5.0, 35.0]      # optional
+//! fold_difference_m = [-0.1, 0.1] # optional: half B folds fold_m + d
 //! [effects.motor]
 //! slip_fraction = [-0.05, 0.05]
 //! backlash_m = [0.0, 0.005]
+//! [faults.drum_zero_error]         # optional: a local fault
+//! probability = 0.3                # that a scenario has it
+//! offset_m = [-0.015, 0.015]
 //! ```
+//! A hidden `thermal` effect needs `temperature_c`. `scenarios/wide.toml`
+//! uses every key.
 //!
 //! **`evaluation.toml`**: what was run (format
 //! `tensegrity-deploy/evaluation/2`): seed, scenario count, cycles per
@@ -439,6 +445,51 @@ mod tests {
         )
         .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(d, ScenarioDistribution::default());
+    }
+
+    /// `scenarios/wide.toml` hides every effect of the library and every
+    /// local fault, and folds unevenly.
+    #[test]
+    fn the_wide_distribution_draws_every_effect_and_fault() {
+        use crate::model::{EffectKind, FaultKind};
+        let text = include_str!("../../scenarios/wide.toml");
+        let d = parse_distribution(text, Path::new("scenarios/wide.toml"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        for kind in EffectKind::ALL {
+            assert!(d.effects.contains_key(kind.name()), "{}", kind.name());
+        }
+        for kind in FaultKind::ALL {
+            assert!(d.faults[kind.name()].probability > 0.0, "{}", kind.name());
+        }
+        assert_eq!(d.fold_m, [0.10, 0.60]);
+        assert!(d.fold_difference_m.is_some() && d.temperature_c.is_some());
+        // A thermal effect without a temperature is refused, naming it.
+        let no_temperature = text.replace("temperature_c = [0.0, 40.0]", "");
+        let e = parse_distribution(&no_temperature, Path::new("w.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("w.toml: field `temperature_c`: missing"),
+            "{e}"
+        );
+        let bad = text.replace("probability = 0.3\noffset_m", "probability = 1.3\noffset_m");
+        let e = parse_distribution(&bad, Path::new("w.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("w.toml: line 57, field `faults.drum_zero_error.probability`"),
+            "{e}"
+        );
+        let bad = text.replace("offset_m = [-0.015, 0.015]", "offset = [-0.015, 0.015]");
+        let e = parse_distribution(&bad, Path::new("w.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with(
+                "w.toml: line 58, field `faults.drum_zero_error.offset`: unknown parameter"
+            ),
+            "{e}"
+        );
     }
 
     #[test]
