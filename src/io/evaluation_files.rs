@@ -477,7 +477,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.starts_with("w.toml: line 57, field `faults.drum_zero_error.probability`"),
+            e.starts_with("w.toml: line 62, field `faults.drum_zero_error.probability`"),
             "{e}"
         );
         let bad = text.replace("offset_m = [-0.015, 0.015]", "offset = [-0.015, 0.015]");
@@ -486,7 +486,7 @@ mod tests {
             .to_string();
         assert!(
             e.starts_with(
-                "w.toml: line 58, field `faults.drum_zero_error.offset`: unknown parameter"
+                "w.toml: line 63, field `faults.drum_zero_error.offset`: unknown parameter"
             ),
             "{e}"
         );
