@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use super::limits::force_rows;
 use crate::model::{
     CommandError, DeploymentState, ForwardModel, MotorResponse, RelaxStatus, SensitivityError,
-    Workspace,
+    SlipOnset, Workspace,
 };
 
 /// The response of the state to one motor moving in one direction,
@@ -274,7 +274,17 @@ impl PayoutResponse {
         model: &ForwardModel,
         state: &DeploymentState,
     ) -> Result<Self, SensitivityError> {
-        let s = model.payout_sensitivities(state, &mut Workspace::default())?;
+        Self::tangent_with(model, state, SlipOnset::AtState)
+    }
+
+    /// Responses from the tangent of `state` with the joints that may
+    /// slide chosen by `onset` ([`ForwardModel::payout_sensitivities_with`]).
+    pub fn tangent_with(
+        model: &ForwardModel,
+        state: &DeploymentState,
+        onset: SlipOnset,
+    ) -> Result<Self, SensitivityError> {
+        let s = model.payout_sensitivities_with(state, &mut Workspace::default(), onset)?;
         let effect = |r: MotorResponse| MotorEffect {
             positions_m_per_m: r.positions_m_per_m,
             force_n_per_m: r
