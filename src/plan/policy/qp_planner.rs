@@ -246,3 +246,34 @@ impl Weights {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whatever kind a planner starts from, its fallbacks reach the
+    /// secants (the model's own moves) and a tangent, never repeat the
+    /// first kind, and never hold `Auto`: a linearisation that cannot be
+    /// computed or confirmed leaves another to try.
+    #[test]
+    fn every_kind_falls_back_to_the_secants_and_a_tangent_without_repeating_itself() {
+        use SensitivityKind::*;
+        for friction in [false, true] {
+            for kind in [Tangent, SlipOnset, SlidingTangent, Secant, Auto] {
+                let first = kind.resolve(friction);
+                assert_ne!(first, Auto);
+                let rest = first.fallbacks();
+                assert!(!rest.contains(&first) && !rest.contains(&Auto), "{first:?}");
+                let all: Vec<_> = std::iter::once(first).chain(rest.iter().copied()).collect();
+                assert!(all.contains(&Secant), "{all:?}");
+                assert!(
+                    all.iter()
+                        .any(|k| matches!(k, Tangent | SlipOnset | SlidingTangent)),
+                    "{all:?}"
+                );
+            }
+        }
+        assert_eq!(Auto.resolve(false), Tangent);
+        assert_eq!(Auto.resolve(true), SlidingTangent);
+    }
+}
