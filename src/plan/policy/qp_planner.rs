@@ -26,8 +26,12 @@ pub enum SensitivityKind {
     /// deployment (`examples/friction_responses.rs`) it predicts the
     /// model's own 1–5 cm trials with a median gap error of 24 % (worst
     /// 60 %) and a reduction ratio of 0.75–1.3, where single-motor 5 cm
-    /// secants give 57 % (worst 136 %) and ratios of 0.42–0.72, so the
-    /// trust region grows back.
+    /// secants give 57 % (worst 136 %) and ratios of 0.42–0.72. But it
+    /// decides each joint's slide per motor, and a command mixing motors
+    /// that load a joint opposite ways is not the sum of their columns: in
+    /// closed loop on the default truth (controller's model μ = 0.2) its
+    /// per-motor differences led the QP to spread commands that stalled at
+    /// a 121 mm gap with 22 truth limits broken. Not what `Auto` uses.
     SlipOnset,
     /// The tangent of the model with its friction removed, at the
     /// equilibrium it relaxes the state to (`PayoutResponse::sliding_tangent`):
