@@ -21,7 +21,7 @@ pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFri
 pub use solver::{
     CommandError, CommandReport, ForwardModel, IncrementObserver, MemberForces, MotorDirection,
     MotorResponse, PayoutSensitivities, RelaxReport, RelaxSettings, RelaxStatus, SensitivityError,
-    SettingsError, SolveMode, Workspace,
+    SettingsError, SlipOnset, SolveMode, Workspace,
 };
 pub use state::{DeploymentState, JointSlip};
 pub use stiffness::{min_stiffness_eigenvalue, tangent_stiffness, JointMode};

@@ -22,7 +22,7 @@ use super::qp_step::{
     solve_step, step_solver_settings, LinearLimit, QpStep, QpStepStatus, StepData, StepWeights,
 };
 use super::response::PayoutResponse;
-use crate::model::DeploymentState;
+use crate::model::{DeploymentState, SlipOnset};
 
 /// Scale of force rows in the QP, N.
 const FORCE_SCALE_N: f64 = 100.0;
@@ -243,6 +243,12 @@ fn responses(
             context.policy.increment_m,
         )
         .map_err(SolverFailure::SecantSensitivities),
+        SensitivityKind::SlidingTangent => PayoutResponse::sliding_tangent(context.model, state)
+            .map_err(SolverFailure::TangentSensitivities),
+        SensitivityKind::SlipOnset => {
+            PayoutResponse::tangent_with(context.model, state, SlipOnset::Loaded)
+                .map_err(SolverFailure::TangentSensitivities)
+        }
         SensitivityKind::Tangent | SensitivityKind::Auto => {
             PayoutResponse::tangent(context.model, state)
                 .map_err(SolverFailure::TangentSensitivities)
@@ -283,11 +289,12 @@ impl CommandPlanner for QpPlanner {
             .sensitivities
             .resolve(!context.model.friction().static_mu.is_zero());
         order.push(Linearisation::Fresh(first));
-        // The other kind is the last resort: the tangent sees nothing at a
-        // fold where every joint sticks, secants over 5 cm of single
+        // The other kinds are the last resort: the tangent sees nothing at
+        // a fold where every joint sticks, secants over 5 cm of single
         // motors miss how the cables of a half act together near the
-        // design; where one kind gives no confirmed step the other may.
-        order.push(Linearisation::Fresh(first.other()));
+        // design; where one kind gives no confirmed step, or cannot be
+        // computed (a singular or unstable tangent), another may.
+        order.extend(first.fallbacks().iter().map(|&k| Linearisation::Fresh(k)));
         let radius = self.trust_region_m;
         let mut kept = kept.map(|k| k.response);
         let mut last = None;
@@ -300,7 +307,12 @@ impl CommandPlanner for QpPlanner {
                 Linearisation::Fresh(kind) => {
                     match responses(context, state, kind, self.settings.sensitivity_step_m) {
                         Ok(r) => Some(r),
-                        Err(cause) => return Decision::Stop(PlanStatus::SolverFailure { cause }),
+                        // Another kind may still linearise here; the
+                        // failure is the status only if none does.
+                        Err(cause) => {
+                            last = Some(PlanStatus::SolverFailure { cause });
+                            None
+                        }
                     }
                 }
             };
