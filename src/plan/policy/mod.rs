@@ -39,13 +39,15 @@ pub use trust_region::TrustRegion;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::numerics::{check_ranges, FieldError, NumberRange, Ranged};
+use crate::numerics::{check_label, check_ranges, FieldError, NumberRange, Ranged};
 
 /// A control policy.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Policy {
-    /// Name for reports.
+    /// Name for reports: one printable line of 1 to 64 characters
+    /// ([`crate::numerics::check_label`]), since it is a column of
+    /// `runs.csv` and of the printed tables. Default `qp`.
     pub name: String,
     /// Largest number of commands, 1 to 10 000. Default 40: five times the
     /// nominal sequence's 8 steps for a 40 cm fold.
@@ -118,6 +120,7 @@ impl From<FieldError> for PolicyError {
 impl Policy {
     /// Checks every field: finite and in range, section by section.
     pub fn validate(&self) -> Result<(), PolicyError> {
+        check_label("name", &self.name)?;
         check_ranges(&self.ranges())?;
         self.planner.validate().map_err(|e| e.within("planner"))?;
         self.margins.validate().map_err(|e| e.within("margins"))?;
