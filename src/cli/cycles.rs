@@ -1,5 +1,5 @@
 //! `tdeploy cycles [--truth T] [--model M] [--policy P] [--problem F]
-//! [--cycles N] [--memory FILE] [--seed S] [-o DIR] [--force]`: repeated
+//! [--cycles N] [--memory FILE] [--seed S] [--threads N] [-o DIR] [--force]`: repeated
 //! deployment-fold cycles on one truth, learning into a case memory
 //! ([`tensegrity_deploy::studies::cycles`]).
 //!
@@ -23,7 +23,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
-use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::control::{ClosedLoopSetup, Deployment};
 use tensegrity_deploy::io::cycles_files::write_cycles;
@@ -42,7 +42,7 @@ use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult}
 
 use super::inputs::{planning_model, problem_or_default};
 use super::words::mm;
-use super::{value, Outcome};
+use super::{value, with_threads, Outcome};
 
 /// The built-in default policy of `cycles`: `policies/memory.toml`.
 const MEMORY_POLICY: &str = include_str!("../../policies/memory.toml");
@@ -62,7 +62,8 @@ pub fn command() -> Command {
         .arg(Arg::new("memory").long("memory").value_parser(value_parser!(PathBuf)).help("Memory file to learn from and append each cycle's case to (created if missing). Default: a new memory, written to DIR/memory.tdm"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise (cycle k uses a seed derived from it)"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/cycles").value_parser(value_parser!(PathBuf)).help("Folder for cycles.csv, cycles.svg, timing.csv (and memory.tdm without --memory)"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files this command did not write"))
+        .arg(super::threads_arg())
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy cycles`.
@@ -82,9 +83,11 @@ pub struct Options {
     pub memory: Option<PathBuf>,
     /// Seed of the sensor noise.
     pub seed: u64,
+    /// Worker threads; `None`: rayon's default.
+    pub threads: Option<usize>,
     /// Results folder.
     pub out: PathBuf,
-    /// Replace a folder of other files.
+    /// Replace an existing results folder.
     pub force: bool,
 }
 
@@ -103,6 +106,7 @@ impl Options {
             cycles,
             memory: m.get_one::<PathBuf>("memory").cloned(),
             seed: value(m, "seed")?,
+            threads: super::threads_option(m)?,
             out: value(m, "out")?,
             force: m.get_flag("force"),
         })
@@ -146,9 +150,16 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Some(p) => read_model(p)?.measurement_model()?,
         None => default_truth(model.structure().clone()),
     };
-    let problem = problem_or_default(o.problem.as_deref())?;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
     let mut memory = match &o.memory {
-        Some(p) => read_memory_or_empty(p)?,
+        Some(p) => read_memory_or_empty(
+            p,
+            model.structure().continuous_cables.len(),
+            model.structure().midspan_pairs.len(),
+        )?,
         None => CaseMemory::default(),
     };
     let stored_before = memory.cases.len();
@@ -186,7 +197,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         path: &memory_path,
         failure: None,
     };
-    let end = run_cycles(&setup, o.cycles, &mut memory, &mut writer)?;
+    let end = with_threads(o.threads, || {
+        run_cycles(&setup, o.cycles, &mut memory, &mut writer)
+    })??;
     if let Some(e) = writer.failure {
         return Err(e.into());
     }
