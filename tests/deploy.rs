@@ -284,9 +284,22 @@ fn the_same_seed_gives_the_same_bytes_at_any_thread_count() {
     );
     assert_eq!(s.status.code(), Some(0), "{}", stderr(&s));
 
-    // Writing again into a deployment's folder is fine; into someone
-    // else's non-empty folder is not.
-    run("one", "1", &[], inherited);
+    // Issue 25: `deploy -o D` over an earlier result (here of another
+    // seed) replaced it silently. Now refused, naming the flag, the
+    // earlier result kept byte for byte; with --force replaced whole.
+    let before = files(&dir.path().join("one"));
+    let e = failed_with(
+        &tdeploy(&["deploy", "-o", "one", "--seed", "2"], dir.path()),
+        2,
+    );
+    assert!(
+        e.contains("earlier run of `tdeploy deploy`") && e.contains("--force"),
+        "{e}"
+    );
+    assert_eq!(files(&dir.path().join("one")), before);
+    run("one", "2", &["--force"], inherited);
+    assert_eq!(measurements("one").unwrap(), measurements("other").unwrap());
+    // Someone else's non-empty folder is refused too.
     std::fs::create_dir(dir.path().join("mine")).unwrap();
     std::fs::write(dir.path().join("mine/notes.txt"), "keep").unwrap();
     let e = failed_with(&tdeploy(&["deploy", "-o", "mine"], dir.path()), 2);

@@ -65,7 +65,7 @@ fn a_sensor_with_zero_noise_is_refused() {
     std::fs::write(&p, text.replacen(second, &zeroed, 1)).unwrap();
     let e = both_refuse(dir.path(), "sensors.csv");
     assert!(
-        e.contains("line 2, field `noise_sd`: 0e0 must be positive"),
+        e.contains("line 2, field `noise_sd`: must be a finite number in (0, 10000], got 0"),
         "{e}"
     );
 }

@@ -139,9 +139,53 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
             "-o",
             o.to_str().unwrap(),
         ],
-        "not shards of the same sweep",
+        "not shards of the same sweep: their evaluation.toml differ in seed",
     );
-    let _ = s3;
+
+    // Issue 25: shard rows were merged unchecked. Each of these edits of
+    // shard 1's runs.csv is refused, naming the file, the line and the
+    // column, and nothing is written.
+    let runs = std::fs::read_to_string(Path::new(s1).join("runs.csv")).unwrap();
+    let header: Vec<&str> = runs.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for (name, value) in [
+        ("load_cell_noise_n", "-1e308"),
+        ("motor.slip_fraction", "0.5"),
+        ("status", "bogus"),
+        ("corrective_commands", "18446744073709551615"),
+        ("cable_travel_m", "-5"),
+        ("final_true_gap_m", "inf"),
+    ] {
+        let bad = dir(&format!("bad-{name}"));
+        std::fs::create_dir(&bad).unwrap();
+        for f in ["evaluation.toml", "summary.json"] {
+            let from = Path::new(s1).join(f);
+            if from.exists() {
+                std::fs::copy(&from, bad.join(f)).unwrap();
+            }
+        }
+        let mut lines: Vec<String> = runs.lines().map(str::to_string).collect();
+        let mut cells: Vec<&str> = lines[1].split(',').collect();
+        cells[column(name)] = value;
+        lines[1] = cells.join(",");
+        std::fs::write(bad.join("runs.csv"), lines.join("\n") + "\n").unwrap();
+        let e = failed_with(
+            &tdeploy_in_repo(&[
+                "merge",
+                bad.to_str().unwrap(),
+                s2,
+                s3,
+                "-o",
+                o.to_str().unwrap(),
+            ]),
+            2,
+        );
+        assert!(
+            e.contains("runs.csv") && e.contains("line 2") && e.contains(&format!("`{name}`")),
+            "{name} = {value}: {e}"
+        );
+        assert!(!o.exists(), "{name}: nothing written");
+    }
 }
 
 #[test]

@@ -1,5 +1,6 @@
 //! `tdeploy cycles [--truth T] [--model M] [--policy P] [--problem F]
-//! [--cycles N] [--memory FILE] [--temperature °C] [--seed S] [-o DIR] [--force]`: repeated
+//! [--cycles N] [--memory FILE] [--temperature °C] [--seed S] [--threads N]
+//! [-o DIR] [--force]`: repeated
 //! deployment-fold cycles on one truth, learning into a case memory
 //! ([`tensegrity_deploy::studies::cycles`]).
 //!
@@ -24,7 +25,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
-use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::control::{ClosedLoopSetup, Deployment};
 use tensegrity_deploy::io::cycles_files::write_cycles;
@@ -43,7 +44,7 @@ use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult}
 
 use super::inputs::{deployment_temperature, planning_model, problem_or_default};
 use super::words::mm;
-use super::{value, Outcome};
+use super::{value, with_threads, Outcome};
 
 /// The built-in default policy of `cycles`: `policies/memory.toml`.
 const MEMORY_POLICY: &str = include_str!("../../policies/memory.toml");
@@ -64,7 +65,8 @@ pub fn command() -> Command {
         .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature during the deployment, °C (held throughout); needed by a truth with a thermal effect, which expands its members from their reference temperature"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise (cycle k uses a seed derived from it)"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/cycles").value_parser(value_parser!(PathBuf)).help("Folder for cycles.csv, cycles.svg, timing.csv (and memory.tdm without --memory)"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files this command did not write"))
+        .arg(super::threads_arg())
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy cycles`.
@@ -87,9 +89,11 @@ pub struct Options {
     pub temperature_c: Option<f64>,
     /// Seed of the sensor noise.
     pub seed: u64,
+    /// Worker threads; `None`: rayon's default.
+    pub threads: Option<usize>,
     /// Results folder.
     pub out: PathBuf,
-    /// Replace a folder of other files.
+    /// Replace an existing results folder.
     pub force: bool,
 }
 
@@ -109,6 +113,7 @@ impl Options {
             memory: m.get_one::<PathBuf>("memory").cloned(),
             temperature_c: m.get_one::<f64>("temperature").copied(),
             seed: value(m, "seed")?,
+            threads: super::threads_option(m)?,
             out: value(m, "out")?,
             force: m.get_flag("force"),
         })
@@ -157,9 +162,16 @@ pub fn run(o: &Options) -> Result<Outcome> {
         .as_ref()
         .map_or("default".to_string(), |p| p.display().to_string());
     let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &truth_words)?;
-    let problem = problem_or_default(o.problem.as_deref())?;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
     let mut memory = match &o.memory {
-        Some(p) => read_memory_or_empty(p)?,
+        Some(p) => read_memory_or_empty(
+            p,
+            model.structure().continuous_cables.len(),
+            model.structure().midspan_pairs.len(),
+        )?,
         None => CaseMemory::default(),
     };
     let stored_before = memory.cases.len();
@@ -197,7 +209,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         path: &memory_path,
         failure: None,
     };
-    let end = run_cycles(&setup, o.cycles, &mut memory, &mut writer)?;
+    let end = with_threads(o.threads, || {
+        run_cycles(&setup, o.cycles, &mut memory, &mut writer)
+    })??;
     if let Some(e) = writer.failure {
         return Err(e.into());
     }

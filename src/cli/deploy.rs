@@ -28,7 +28,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
 use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup, DeployError, Deployment};
@@ -63,9 +63,9 @@ pub fn command() -> Command {
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (default: fold 0.40 m, 30 mm connection, documented limits)"))
         .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature during the deployment, °C (held throughout); needed by a truth with a thermal effect, which expands its members from their reference temperature"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
-        .arg(Arg::new("threads").long("threads").value_parser(value_parser!(usize)).help("Worker threads, at least 1 (default: one per core); the results do not depend on it"))
+        .arg(super::threads_arg())
         .arg(Arg::new("out").long("out").short('o').default_value("out/deploy").value_parser(value_parser!(PathBuf)).help("Folder for commands.csv, log/, deployment.csv, summary.json, deployment.svg, timing.csv, truth.toml and model.toml"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files tdeploy did not write"))
+        .arg(super::force_arg())
         .arg(Arg::new("json").long("json").action(ArgAction::SetTrue).help("Print summary.json on stdout instead of the per-command lines and verdict (no progress bar)"))
 }
 
@@ -98,10 +98,7 @@ pub struct Options {
 impl Options {
     /// The options of the parsed subcommand.
     pub fn from_matches(m: &ArgMatches) -> Result<Options> {
-        let threads = m.get_one::<usize>("threads").copied();
-        if threads == Some(0) {
-            bail!("--threads: must be at least 1");
-        }
+        let threads = super::threads_option(m)?;
         Ok(Options {
             truth: m.get_one::<PathBuf>("truth").cloned(),
             model: m.get_one::<PathBuf>("model").cloned(),
@@ -171,7 +168,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let model_file = absolute(model_file)?;
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
     let policy = policy_or_default(o.policy.as_deref())?;
-    let problem = problem_or_default(o.problem.as_deref())?;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
     let sensors = standard_sensors(&truth.structure);
     let setup = ClosedLoopSetup {
         model: &model,

@@ -12,7 +12,7 @@ use tensegrity_deploy::io::model_file::{
     read_model, ModelFile, StructureSource, REFERENCE_TEMPERATURE_RANGE_C,
 };
 use tensegrity_deploy::io::policy_file::read_policy;
-use tensegrity_deploy::io::problem_file::read_problem;
+use tensegrity_deploy::io::problem_file::read_problem_for;
 use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::{DeploymentProblem, Policy};
 use tensegrity_deploy::sim::EffectModel;
@@ -104,10 +104,11 @@ pub fn policy_or_default(path: Option<&Path>) -> Result<Policy> {
     })
 }
 
-/// The problem file's problem, or the documented default.
-pub fn problem_or_default(path: Option<&Path>) -> Result<DeploymentProblem> {
+/// The problem file's problem, its per-motor lists checked for a
+/// structure of `motors` motors, or the documented default.
+pub fn problem_or_default(path: Option<&Path>, motors: usize) -> Result<DeploymentProblem> {
     Ok(match path {
-        Some(p) => read_problem(p)?,
+        Some(p) => read_problem_for(p, motors)?,
         None => DeploymentProblem::default(),
     })
 }

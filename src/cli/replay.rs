@@ -29,7 +29,7 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
-use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::control::DeployError;
 use tensegrity_deploy::io::log::read_log;
@@ -63,7 +63,7 @@ pub fn command() -> Command {
         .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects the diagnosis looks for at most (1 to the number of effects)"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the counterfactual's sensor noise"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/replay").value_parser(value_parser!(PathBuf)).help("Folder for replay.csv, counterfactual.csv, summary.json, replay.svg and timing.csv"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files tdeploy did not write"))
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy replay`.
@@ -159,7 +159,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let base = model_file.measurement_model()?;
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
     let policy = policy_or_default(o.policy.as_deref())?;
-    let problem = problem_or_default(o.problem.as_deref())?;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
     let log = read_log(&o.log, &base.structure)?;
     let cycle = match o.cycle.or_else(|| default_cycle(&log)) {
         Some(c) => c,

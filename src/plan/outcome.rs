@@ -33,6 +33,14 @@ pub enum PlanStatus {
 }
 
 impl PlanStatus {
+    /// Every [`Self::label`], in declaration order.
+    pub const LABELS: [&'static str; 4] = [
+        "connected",
+        "not_reachable",
+        "command_limit",
+        "solver_failure",
+    ];
+
     /// `true` for [`PlanStatus::Connected`].
     pub fn is_connected(&self) -> bool {
         matches!(self, PlanStatus::Connected)
@@ -165,7 +173,7 @@ mod tests {
 
     #[test]
     fn status_labels_are_the_json_tags() {
-        for s in [
+        let all = [
             PlanStatus::Connected,
             PlanStatus::NotReachable {
                 cause: NotReachable::QpInfeasible,
@@ -174,10 +182,12 @@ mod tests {
             PlanStatus::SolverFailure {
                 cause: SolverFailure::QpNumericalTrouble,
             },
-        ] {
-            let json = serde_json::to_value(&s).unwrap();
+        ];
+        for s in &all {
+            let json = serde_json::to_value(s).unwrap();
             assert_eq!(json["status"], s.label(), "{s:?}");
         }
+        assert_eq!(all.map(|s| s.label()), PlanStatus::LABELS);
     }
 
     #[test]

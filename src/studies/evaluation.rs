@@ -609,6 +609,10 @@ impl Shard {
     }
 }
 
+/// [`RunResult::status`] of a run that never started (its truth or setup
+/// failed).
+pub const NOT_STARTED: &str = "not_started";
+
 /// One policy on one scenario, reduced to plain numbers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunResult {
@@ -684,7 +688,7 @@ impl RunResult {
             None => RunResult {
                 scenario,
                 policy,
-                status: "not_started".into(),
+                status: NOT_STARTED.into(),
                 succeeded: false,
                 commands: 0,
                 corrective_commands: None,
@@ -797,7 +801,7 @@ pub fn summarise_results(results: &[RunResult], policy: usize) -> PolicySummary 
     let started: Vec<&RunResult> = mine
         .iter()
         .copied()
-        .filter(|r| r.status != "not_started")
+        .filter(|r| r.status != NOT_STARTED)
         .collect();
     let ok: Vec<&RunResult> = mine.iter().copied().filter(|r| r.succeeded).collect();
     let commands = || ok.iter().map(|r| r.commands as f64).collect::<Vec<_>>();
