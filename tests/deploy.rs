@@ -224,10 +224,12 @@ fn the_same_seed_gives_the_same_bytes_at_any_thread_count() {
     let command_lines = text.lines().filter(|l| l.contains(": command ")).count();
     assert_eq!(command_lines, commands, "{text}");
     assert!(
-        text.contains(&format!("connected after {commands} commands")),
+        text.contains("connected: largest gap")
+            && text.contains(&format!("after {commands} commands")),
         "{text}"
     );
     assert_eq!(summary["connected"], true);
+    assert_eq!(summary["outcome"], "connected");
     assert_eq!(summary["truth_limit_violations"], 0);
     // --json prints summary.json itself.
     let printed: serde_json::Value = serde_json::from_slice(&other.stdout).unwrap();
@@ -320,6 +322,7 @@ fn a_fold_the_motors_cannot_reel_in_is_not_reachable_and_exits_1() {
         status == "not_reachable" || status == "command_limit",
         "{status}"
     );
+    assert_eq!(summary["outcome"], status);
     assert!(summary["largest_final_true_gap_m"].as_f64().unwrap() > 0.06);
     assert_eq!(summary["truth_limit_violations"], 0);
     // The output records the problem it solved: the file given, its
@@ -528,4 +531,99 @@ fn unmeasured_axial_cables_keep_their_tension_on_scenario_904() {
         with_margin.status
     );
     assert_eq!(broken_limits(&with_margin), 0);
+}
+
+/// Issue 22, item 1: scenario 904 without the margin on unmeasured force
+/// falls is the run of issue 10 whose unmeasured axial cables went to 0 N
+/// on the truth while the controller, which cannot see them, stopped as
+/// connected. That run is not connected: its verdict (what `deploy`,
+/// `evaluate`, `cycles` and the experiment report) is `limits_broken`,
+/// and its words name each broken limit with the command and increment
+/// that first broke it.
+#[test]
+fn a_run_that_broke_limits_is_not_connected() {
+    use tensegrity_deploy::studies::evaluation::RunResult;
+    let mut policy = Policy::default();
+    policy.margins.unmeasured_force_fall = None;
+    let d = scenario_904(&policy);
+    let tolerance_m = DeploymentProblem::default().connection_tolerance_m;
+    assert!(broken_limits(&d) > 0, "{}", d.status.describe());
+    let v = d.verdict(tolerance_m);
+    assert!(!v.is_connected());
+    assert_eq!(v.label(), "limits_broken");
+    assert_eq!(v.violations, broken_limits(&d));
+    assert_eq!(
+        v.broken.iter().map(|b| b.increments).sum::<usize>(),
+        v.violations
+    );
+    let words = v.describe();
+    if d.status.is_connected() && d.final_true_gap_m().is_some_and(|g| g <= tolerance_m) {
+        assert!(words.starts_with("connected, but "), "{words}");
+    }
+    for b in v.broken.iter().take(5) {
+        let record = &d.records[b.command - 1];
+        assert!(b.increment >= 1 && b.increment <= record.truth_increments);
+        assert!(record.truth_violations.contains(&b.violation));
+        assert!(
+            words.contains(&format!(
+                "in command {} (increment {}",
+                b.command, b.increment
+            )),
+            "{words}"
+        );
+    }
+    let r = RunResult::of(0, 0, Some(&d), tolerance_m);
+    assert_eq!((r.status.as_str(), r.succeeded), ("limits_broken", false));
+}
+
+/// Issue 22, item 1: a limit the truth's start already breaks is not
+/// widened away. With a 10 N minimum tension the folded default truth has
+/// members below it; each is listed with its start and end force and
+/// restored only where the end meets the 10 N; until restored it is held
+/// to its start value, and the verdict is connected only if every one was
+/// restored.
+#[test]
+fn a_limit_broken_at_the_start_is_reported_with_whether_the_run_restored_it() {
+    let model = frictionless_reference_model();
+    let truth = default_truth(reference_structure());
+    let sensors = standard_sensors(&truth.structure);
+    let problem = DeploymentProblem {
+        min_tension_n: 10.0,
+        ..DeploymentProblem::default()
+    };
+    let policy = Policy::default();
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy: &policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: 1,
+    };
+    let d = deploy_closed_loop(&setup, &mut ()).unwrap();
+    assert!(!d.truth_start_broken.is_empty());
+    let end = tensegrity_deploy::plan::limits::force_rows(
+        &truth.forward_model().unwrap(),
+        &d.final_true_state,
+    );
+    let s = &truth.structure;
+    for l in &d.truth_start_broken {
+        assert!(l.lower && l.start_n < 10.0 && l.limit_n == 10.0, "{l:?}");
+        let r = (0..end.len())
+            .find(|&r| tensegrity_deploy::plan::limits::force_row_name(s, r) == l.member)
+            .unwrap();
+        assert_eq!(l.end_n, end[r]);
+        assert_eq!(l.restored, end[r] >= 10.0 - 1e-3, "{l:?}");
+    }
+    let v = d.verdict(problem.connection_tolerance_m);
+    let all_restored = d.truth_start_broken.iter().all(|l| l.restored);
+    if v.broken.is_empty() && v.status.is_connected() && v.gap_within_tolerance() {
+        assert_eq!(v.is_connected(), all_restored, "{}", v.describe());
+    }
+    if all_restored {
+        assert!(v.describe().contains("broken at the start, all restored"));
+    } else {
+        assert!(v.describe().contains("broken at the start not restored"));
+    }
 }
