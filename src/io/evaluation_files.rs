@@ -29,8 +29,11 @@
 //! final_measured_gap_m,final_true_gap_m,cable_travel_m,
 //! truth_worst_utilisation,truth_violations,approach_gap_m` (SI units;
 //! empty = none; with several cycles per scenario, the last cycle's,
-//! violations and utilisation over all cycles). Format 1 had neither the
-//! cycles nor the approach gap.
+//! violations and utilisation over all cycles). `status` is the run's
+//! verdict label ([`crate::plan::RunVerdict::label`]: what the truth did;
+//! `limits_broken` if any cycle broke a limit) and `succeeded` is `true`
+//! exactly for `connected`. Format 1 had neither the cycles nor the
+//! approach gap.
 //! Numbers are written as the shortest text that reads back to the same
 //! value, so a merge re-writes the rows of its shards byte for byte.
 //!
