@@ -323,6 +323,14 @@ fn a_fold_the_motors_cannot_reel_in_is_not_reachable_and_exits_1() {
         "{status}"
     );
     assert_eq!(summary["outcome"], status);
+    // Issue 22, item 8: a stop because motors or limits bind says so and
+    // names them (here the motors' strokes).
+    if status == "not_reachable" {
+        assert!(
+            e.contains("not reachable safely: ") && e.contains(" stroke min"),
+            "{e}"
+        );
+    }
     assert!(summary["largest_final_true_gap_m"].as_f64().unwrap() > 0.06);
     assert_eq!(summary["truth_limit_violations"], 0);
     // The output records the problem it solved: the file given, its

@@ -21,7 +21,9 @@
 //!   then on the supervisor holds it to its required bound like any other:
 //!   falling back is a violation;
 //! - a deployment that ends with a start-broken limit not restored is not
-//!   connected, whatever its gaps.
+//!   connected, whatever its gaps. A continuous cable the fold left slack
+//!   is taken up by its motor before the QP plans on it
+//!   ([`super::take_up`]): its tangent response is zero until it is taut.
 //!
 //! # Which limits matter
 //! Every upper (overload) limit is a deployment limit, wherever the member

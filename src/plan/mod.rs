@@ -7,6 +7,7 @@
 //! - [`response`]: one-sided responses to each motor's payout;
 //! - [`qp_step`]: one step as a QP on those responses;
 //! - [`search`]: sequential convex programming with a trust region;
+//!   [`take_up`]: a slack continuous cable reeled in until taut first;
 //! - [`baselines`]: nominal even actuation and the greedy tree;
 //! - [`policy`]: policies as data, one section per concern (planner,
 //!   margins, control, memory);
@@ -35,6 +36,7 @@ pub mod problem;
 pub mod qp_step;
 pub mod response;
 pub mod search;
+pub mod take_up;
 pub mod verdict;
 
 pub use causes::{ControllerError, NotReachable, SolverFailure, TrialFailure, TrialRejection};

@@ -203,10 +203,7 @@ impl RunVerdict {
                     named.join("; ")
                 )
             }
-            RunOutcome::Stopped => format!(
-                "not connected: {} (largest gap {gap})",
-                self.status.describe()
-            ),
+            RunOutcome::Stopped => format!("not connected: {}", self.status.describe()),
             RunOutcome::GapOutOfTolerance => format!(
                 "not connected: the controller stopped as connected, but the largest gap is {gap}, beyond the {tol} tolerance"
             ),
@@ -342,12 +339,18 @@ mod tests {
         assert!(!v.is_connected());
         let v = verdict(
             PlanStatus::NotReachable {
-                cause: NotReachable::QpInfeasible,
+                cause: NotReachable::QpInfeasible {
+                    binding: vec!["segment A_cc1[2] min".into()],
+                },
             },
             0.2,
         );
         assert_eq!(v.label(), "not_reachable");
         assert_eq!(v.outcome(), RunOutcome::Stopped);
+        assert_eq!(
+            v.describe(),
+            "not connected: not reachable safely: segment A_cc1[2] min binds (no command meets the linearised limits (QP infeasible))"
+        );
     }
 
     #[test]
