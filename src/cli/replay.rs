@@ -321,7 +321,8 @@ fn verdict(r: &Replay, m: Option<&Margins>, failed: Option<&String>) -> String {
                 format!("counterfactual on the calibrated model: connected after {} commands ({margins})", m.commands)
             } else {
                 format!(
-                    "counterfactual on the calibrated model: not connected: {} after {} commands ({margins})",
+                    "counterfactual on the calibrated model: not connected ({}; the controller: {}) after {} commands ({margins})",
+                    m.outcome,
                     m.status.describe(),
                     m.commands
                 )

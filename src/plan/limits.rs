@@ -737,6 +737,47 @@ mod tests {
         }
     }
 
+    /// A start-broken row is held to its start value until a command
+    /// restores it, then to its required bound; a row the start meets is
+    /// held to its bound throughout, and breaking a start value is named
+    /// as such.
+    #[test]
+    fn a_start_broken_row_is_held_to_its_start_value_until_restored() {
+        let b = |lower_n, upper_n| ForceBounds { lower_n, upper_n };
+        let limits = Limits {
+            force: vec![b(2.0, 100.0), b(5.0, 100.0)],
+            required: vec![b(5.0, 100.0), b(5.0, 100.0)],
+            start_n: vec![2.0, 50.0],
+            start_broken: vec![true, false],
+            fixed_length: vec![false, false],
+            euler_n: vec![None, None],
+            strut_pairs: Vec::new(),
+            min_clearance_m: Vec::new(),
+            max_tension_n: 100.0,
+            max_buckling_utilisation: 1.0,
+        };
+        assert_eq!(limits.held_bounds(&[]), vec![b(2.0, 100.0), b(5.0, 100.0)]);
+        assert_eq!(
+            limits.held_bounds(&[true, false]),
+            vec![b(5.0, 100.0), b(5.0, 100.0)]
+        );
+        assert_eq!(limits.meets_required(&[4.0, 50.0], 1e-6), vec![false, true]);
+        assert_eq!(limits.meets_required(&[5.0, 4.0], 1e-6), vec![true, false]);
+        let v = LimitViolation::WorseThanStart {
+            member: "segment A_cc1[2]".into(),
+            force_n: 1.0,
+            start_n: 2.0,
+            limit_n: 5.0,
+            lower: true,
+        };
+        assert_eq!(
+            v.describe(),
+            "segment A_cc1[2] at 1.0 N, below its start value 2.0 N (its 5.0 N minimum broken since the start)"
+        );
+        assert_eq!(v.limit(), "segment A_cc1[2] min");
+        assert!((v.excess() - 1.0).abs() < 1e-12);
+    }
+
     #[test]
     fn segment_distance_matches_hand_cases() {
         let v = |x, y, z| Vector3::new(x, y, z);
