@@ -18,8 +18,10 @@
 //!   ([`Limits::held_bounds`]); falling below the start value is a
 //!   violation ([`LimitViolation::WorseThanStart`]);
 //! - once a command ends with the limit met, it is *restored*, and from
-//!   then on the supervisor holds it to its required bound like any other:
-//!   falling back is a violation;
+//!   then on it is held to its required bound like any other, by the
+//!   supervisor on the truth's forces and by the planner on its model's
+//!   (with the measured offsets, [`Limits::hold_restored`]): falling back
+//!   is a violation;
 //! - a deployment that ends with a start-broken limit not restored is not
 //!   connected, whatever its gaps. A continuous cable the fold left slack
 //!   is taken up by its motor before the QP plans on it
@@ -554,6 +556,18 @@ impl Limits {
                 }
             })
             .collect()
+    }
+
+    /// Holds every start-broken row that `rows_n` (N, at the end of a
+    /// command) meet to its required bound from now on ([`Self::force`]):
+    /// the planner's side of *restored* (see the module notes).
+    pub fn hold_restored(&mut self, rows_n: &[f64]) {
+        let meets = self.meets_required(rows_n, 0.0);
+        for (r, ok) in meets.into_iter().enumerate() {
+            if ok && self.start_broken[r] {
+                self.force[r] = self.required[r];
+            }
+        }
     }
 
     /// Per force row, whether `rows_n` (N) meet the required bounds
