@@ -776,6 +776,13 @@ mod tests {
             vec![b(5.0, 100.0), b(5.0, 100.0)]
         );
         assert_eq!(limits.meets_required(&[4.0, 50.0], 1e-6), vec![false, true]);
+        // The planner's side: held to the start value until a state meets
+        // the bound, then to the bound.
+        let mut planner = limits.clone();
+        planner.hold_restored(&[4.0, 50.0]);
+        assert_eq!(planner.force, limits.force);
+        planner.hold_restored(&[5.5, 50.0]);
+        assert_eq!(planner.force, limits.required);
         assert_eq!(limits.meets_required(&[5.0, 4.0], 1e-6), vec![true, false]);
         let v = LimitViolation::WorseThanStart {
             member: "segment A_cc1[2]".into(),
