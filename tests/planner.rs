@@ -487,3 +487,69 @@ fn bad_policy_and_problem_files_are_rejected_naming_file_line_and_field() {
         (2, "max_step_m".to_string())
     );
 }
+
+/// Issue 22, item 3: a 50 cm fold leaves both `cc1` cables of the
+/// frictionless reference model slack (every segment shorter than its
+/// rest length, 0 N), and a slack cable's tangent response is zero. The
+/// QP planner's first command takes the slack up: only the slack cables'
+/// motors move, each reels in at least its slack, and after it no cable
+/// is slack and every limit held on the model.
+#[test]
+fn a_slack_cable_is_taken_up_before_the_qp_plans_on_it() {
+    use tensegrity_deploy::plan::take_up::{slack_per_cable_m, take_up};
+    use tensegrity_deploy::plan::{planner_for, Decision};
+    let model = ForwardModel::new(
+        reference_structure(),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .unwrap();
+    let problem = DeploymentProblem {
+        start_payout_m: PerMotor::All(0.5),
+        max_payout_m: PerMotor::All(0.7),
+        ..DeploymentProblem::default()
+    };
+    let policy = Policy::default();
+    let start = folded_start(&model, &problem, policy.increment_m).unwrap();
+    let context = PlanContext::new(&model, &problem, &policy, &start).unwrap();
+    let cables = &model.structure().continuous_cables;
+    let slack = slack_per_cable_m(&context, &start);
+    for (c, cable) in cables.iter().enumerate() {
+        // More than a millimetre of slack on cc1, none elsewhere.
+        assert_eq!(
+            slack[c] > 1e-3,
+            cable.id.ends_with("cc1"),
+            "{}: {}",
+            cable.id,
+            slack[c]
+        );
+        assert_eq!(
+            slack[c] > 1e-6,
+            cable.id.ends_with("cc1"),
+            "{}: {}",
+            cable.id,
+            slack[c]
+        );
+    }
+    let command = take_up(&context, &start).expect("an admissible take-up");
+    for (c, u) in command.command_m.iter().enumerate() {
+        if slack[c] > 0.0 {
+            assert!(
+                *u <= -slack[c],
+                "{}: {u} m for {} m of slack",
+                cables[c].id,
+                slack[c]
+            );
+        } else {
+            assert_eq!(*u, 0.0, "{}", cables[c].id);
+        }
+    }
+    assert!(command.trial.admissible());
+    let after = slack_per_cable_m(&context, &command.trial.state);
+    assert!(after.iter().all(|&l| l <= 1e-6), "{after:?}");
+    let mut planner = planner_for(&context, &start);
+    match planner.next_command(&context, &start) {
+        Decision::Command(first) => assert_eq!(first.command_m, command.command_m),
+        Decision::Stop(s) => panic!("{}", s.describe()),
+    }
+}

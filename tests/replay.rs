@@ -99,7 +99,7 @@ fn a_deploy_log_replayed_with_its_policy_gives_its_commands_back_and_the_counter
         }
     }
     let s = read_json(&dir.path().join("r/summary.json"));
-    assert_eq!(s["format"], "tensegrity-deploy/replay/1");
+    assert_eq!(s["format"], "tensegrity-deploy/replay/2");
     assert_eq!(s["start"]["layout"], "deploy");
     assert_eq!(s["same_as_policy"], deployed.len());
     // The deployment ended connected: the policy would stop there.

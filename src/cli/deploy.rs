@@ -40,7 +40,7 @@ use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::model::JointFriction;
-use tensegrity_deploy::plan::PlanStatus;
+use tensegrity_deploy::plan::RunVerdict;
 use tensegrity_deploy::report::deployment_figure::deployment_svg;
 use tensegrity_deploy::sim::default_truth::{default_truth, default_truth_effects};
 use tensegrity_deploy::sim::{standard_sensors, EffectModel, PlantError};
@@ -144,17 +144,14 @@ fn truth(o: &Options) -> Result<(ModelFile, EffectModel, String)> {
 }
 
 /// The verdict line.
-fn verdict(d: &Deployment) -> String {
-    let gaps = format!(
-        "largest measured gap {} mm, true {} mm",
+fn verdict(v: &RunVerdict, d: &Deployment) -> String {
+    format!(
+        "{} (after {}; largest measured gap {} mm, true {} mm)",
+        v.describe(),
+        commands_count(d.records.len()),
         mm(d.final_measured_gap_m()),
         mm(d.final_true_gap_m())
-    );
-    let n = commands_count(d.records.len());
-    match &d.status {
-        PlanStatus::Connected => format!("connected after {n} ({gaps})"),
-        other => format!("not connected: {} (after {n}; {gaps})", other.describe()),
-    }
+    )
 }
 
 /// Runs `tdeploy deploy`.
@@ -209,7 +206,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Err(e) => return Err(e.into()),
     };
 
-    let verdict = verdict(&d);
+    let run_verdict = d.verdict(problem.connection_tolerance_m);
+    let verdict = verdict(&run_verdict, &d);
     let sources = DeploymentSources {
         truth: truth_words,
         model: model_words,
@@ -219,7 +217,14 @@ pub fn run(o: &Options) -> Result<Outcome> {
         ),
         seed: o.seed,
     };
-    let summary = DeploymentSummary::new(&d, &policy, &problem, sources, verdict.clone());
+    let summary = DeploymentSummary::new(
+        &d,
+        &run_verdict,
+        &policy,
+        &problem,
+        sources,
+        verdict.clone(),
+    );
     let out = folder.path();
     write_deployment(
         out,
@@ -273,7 +278,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             o.out.display()
         );
     }
-    Ok(if d.status.is_connected() {
+    Ok(if run_verdict.is_connected() {
         Outcome::GoalReached
     } else {
         Outcome::GoalMissed(verdict)

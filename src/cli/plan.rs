@@ -110,7 +110,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
     )?;
     folder.commit()?;
     let out = &o.out;
-    say!("{}", plan.status.describe());
+    let verdict = plan.verdict(&model, &problem, &start);
+    say!("{}", verdict.describe());
     say!(
         "{} commands; final gaps {} mm; commands in {}, per-command table in {}",
         plan.records.len(),
@@ -118,12 +119,12 @@ pub fn run(o: &Options) -> Result<Outcome> {
         out.join("commands.csv").display(),
         out.join("plan.csv").display()
     );
-    Ok(if plan.status.is_connected() {
+    Ok(if verdict.is_connected() {
         Outcome::GoalReached
     } else {
         Outcome::GoalMissed(format!(
             "the plan does not connect the halves: {}",
-            plan.status.describe()
+            verdict.describe()
         ))
     })
 }

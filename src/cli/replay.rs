@@ -235,7 +235,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
         }
         Err(why) => Err(format!("no calibrated model ({why})")),
     };
-    let margins = cf.as_ref().ok().map(Margins::of);
+    let tolerance_m = problem.connection_tolerance_m;
+    let margins = cf.as_ref().ok().map(|d| Margins::of(d, tolerance_m));
     let verdict = verdict(&replay, margins.as_ref(), cf.as_ref().err());
 
     let s = model.structure();
@@ -250,7 +251,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
             seed: o.seed,
         },
         calibration.as_ref().map_err(Clone::clone),
-        cf.as_ref().map(Margins::of).map_err(Clone::clone),
+        cf.as_ref()
+            .map(|d| Margins::of(d, tolerance_m))
+            .map_err(Clone::clone),
         verdict.clone(),
     );
     let out = folder.path();
@@ -321,7 +324,8 @@ fn verdict(r: &Replay, m: Option<&Margins>, failed: Option<&String>) -> String {
                 format!("counterfactual on the calibrated model: connected after {} commands ({margins})", m.commands)
             } else {
                 format!(
-                    "counterfactual on the calibrated model: not connected: {} after {} commands ({margins})",
+                    "counterfactual on the calibrated model: not connected ({}; the controller: {}) after {} commands ({margins})",
+                    m.outcome,
                     m.status.describe(),
                     m.commands
                 )

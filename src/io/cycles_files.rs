@@ -3,7 +3,9 @@
 //! as the shortest text that reads back to the same value.
 //!
 //! - `cycles.csv`: one row per cycle. Columns: `cycle` (1 for the first),
-//!   `status` (the deployment's status label, `connected`, …), `commands`,
+//!   `status` (the deployment's verdict label,
+//!   [`crate::plan::RunVerdict::label`]: `connected`, `limits_broken`, …),
+//!   `commands`,
 //!   `corrective_commands` (commands after the one that brought the
 //!   largest measured gap below 60 mm), `approach_commands` (commands of
 //!   the first approach), `approach_gap_m` (largest measured gap after

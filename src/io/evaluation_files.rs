@@ -35,8 +35,11 @@
 //! final_measured_gap_m,final_true_gap_m,cable_travel_m,
 //! truth_worst_utilisation,truth_violations,approach_gap_m` (SI units;
 //! empty = none; with several cycles per scenario, the last cycle's,
-//! violations and utilisation over all cycles). Format 1 had neither the
-//! cycles nor the approach gap.
+//! violations and utilisation over all cycles). `status` is the run's
+//! verdict label ([`crate::plan::RunVerdict::label`]: what the truth did;
+//! `limits_broken` if any cycle broke a limit) and `succeeded` is `true`
+//! exactly for `connected`. Format 1 had neither the cycles nor the
+//! approach gap.
 //! Numbers are written as the shortest text that reads back to the same
 //! value, so a merge re-writes the rows of its shards byte for byte.
 //!
@@ -56,7 +59,7 @@ use super::toml_text::{field_error, parse_toml};
 use super::{csv_records, csv_with_header, read_text, CsvTable, FileError};
 use crate::numerics::NumberRange;
 use crate::plan::policy::MAX_COMMANDS;
-use crate::plan::{PlanStatus, Policy};
+use crate::plan::{Policy, RunVerdict};
 use crate::studies::evaluation::{RunResult, Scenario, ScenarioDistribution, Shard, NOT_STARTED};
 
 /// The `format` of a scenario-distribution file.
@@ -80,9 +83,9 @@ const RESULT_COLUMNS: [&str; 11] = [
 ];
 
 /// Whether `status` is one a run of `runs.csv` may have: a deployment's
-/// ([`PlanStatus::LABELS`]) or [`NOT_STARTED`].
+/// verdict ([`RunVerdict::LABELS`]) or [`NOT_STARTED`].
 fn is_run_status(status: &str) -> bool {
-    PlanStatus::LABELS.contains(&status) || status == NOT_STARTED
+    RunVerdict::LABELS.contains(&status) || status == NOT_STARTED
 }
 
 /// Range of the non-negative results of `runs.csv` (gaps, cable travel,
@@ -447,7 +450,7 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
                 at + 1,
                 &format!(
                     "a run status ({}, {NOT_STARTED})",
-                    PlanStatus::LABELS.join(", ")
+                    RunVerdict::LABELS.join(", ")
                 ),
             ));
         }

@@ -18,7 +18,10 @@ pub enum PlanStatus {
     /// policy's margin.
     Connected,
     /// No admissible command brings the bridge closer, or the planner's
-    /// own sequence is spent; the cause says which limit or why.
+    /// own sequence is spent; the cause says which limit or why. Where
+    /// limits or motors bind ([`NotReachable::binding`]) its words are
+    /// `not reachable safely: …` naming them: the controller stopped
+    /// rather than break them.
     NotReachable {
         /// Why.
         cause: NotReachable,
@@ -61,7 +64,19 @@ impl PlanStatus {
     pub fn describe(&self) -> String {
         match self {
             PlanStatus::Connected => "connected: every midspan pair within tolerance".into(),
-            PlanStatus::NotReachable { cause } => format!("not reachable: {}", cause.describe()),
+            PlanStatus::NotReachable { cause } => {
+                let binding = cause.binding();
+                if binding.is_empty() {
+                    format!("not reachable: {}", cause.describe())
+                } else {
+                    format!(
+                        "not reachable safely: {} bind{} ({})",
+                        binding.join(", "),
+                        if binding.len() == 1 { "s" } else { "" },
+                        cause.describe()
+                    )
+                }
+            }
             PlanStatus::CommandLimit => {
                 "command limit: the policy's largest number of commands is spent".into()
             }
@@ -176,7 +191,9 @@ mod tests {
         let all = [
             PlanStatus::Connected,
             PlanStatus::NotReachable {
-                cause: NotReachable::QpInfeasible,
+                cause: NotReachable::QpInfeasible {
+                    binding: Vec::new(),
+                },
             },
             PlanStatus::CommandLimit,
             PlanStatus::SolverFailure {

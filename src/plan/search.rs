@@ -22,6 +22,7 @@ use super::qp_step::{
     solve_step, step_solver_settings, LinearLimit, QpStep, QpStepStatus, StepData, StepWeights,
 };
 use super::response::PayoutResponse;
+use super::take_up::take_up;
 use crate::model::{DeploymentState, SlipOnset};
 
 /// Scale of force rows in the QP, N.
@@ -276,6 +277,12 @@ enum Linearisation {
 
 impl CommandPlanner for QpPlanner {
     fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
+        // A slack cable's tangent response is zero: take its slack up
+        // first (see `take_up`).
+        if let Some(command) = take_up(context, state) {
+            self.kept = None;
+            return Decision::Command(Box::new(command));
+        }
         let kept = self
             .kept
             .take()
@@ -336,6 +343,23 @@ impl CommandPlanner for QpPlanner {
     }
 }
 
+/// The limits of `data` whose current value already lies beyond their
+/// bound, as the QP names its rows (`segment A_cc1[2] min`).
+fn beyond_bounds(data: &StepData) -> Vec<String> {
+    data.limits
+        .iter()
+        .filter_map(|l| {
+            if l.value < l.lower {
+                Some(format!("{} min", l.name))
+            } else if l.value > l.upper {
+                Some(format!("{} max", l.name))
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
 impl QpPlanner {
     /// One command from the linearisation `kind` at `state`, shrinking the
     /// trust region until the model confirms a step.
@@ -358,7 +382,9 @@ impl QpPlanner {
             match step.status {
                 QpStepStatus::Infeasible => {
                     return Err(StepFailure::Stop(PlanStatus::NotReachable {
-                        cause: NotReachable::QpInfeasible,
+                        cause: NotReachable::QpInfeasible {
+                            binding: beyond_bounds(&data),
+                        },
                     }))
                 }
                 // Degenerate responses (a tangent where every joint

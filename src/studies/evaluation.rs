@@ -43,7 +43,7 @@ use crate::learn::{Case, CaseMemory};
 use crate::model::faults::node_halves;
 use crate::model::{EffectKind, Effects, FaultKind, Faults, ForwardModel, Half, Structure};
 use crate::numerics::NumberRange;
-use crate::plan::{DeploymentProblem, PerMotor, PlanStatus, Policy};
+use crate::plan::{DeploymentProblem, PerMotor, Policy};
 use crate::sim::{standard_sensors, EffectModel, Sensor, SensorTarget};
 
 /// Where the scenarios come from: a range per drawn quantity.
@@ -620,10 +620,14 @@ pub struct RunResult {
     pub scenario: usize,
     /// Policy index.
     pub policy: usize,
-    /// The final status's label ([`PlanStatus::label`]), or `not_started`.
+    /// The run's verdict label ([`crate::plan::RunVerdict::label`]:
+    /// `connected`, `limits_broken`, `not_reachable`, `command_limit`,
+    /// `solver_failure`, `gap_out_of_tolerance`, `limits_not_restored`),
+    /// `cycles_stopped` or `not_started`: what the truth did.
     pub status: String,
-    /// Connected by the controller, every true gap within the tolerance and
-    /// no truth limit broken.
+    /// The verdict is `connected`: connected by the controller, every true
+    /// gap within the tolerance, no truth limit broken and every limit the
+    /// start broke restored.
     pub succeeded: bool,
     /// Commands sent.
     pub commands: usize,
@@ -660,10 +664,8 @@ impl RunResult {
             Some(d) => RunResult {
                 scenario,
                 policy,
-                status: d.status.label().to_string(),
-                succeeded: matches!(d.status, PlanStatus::Connected)
-                    && d.final_true_gap_m().is_some_and(|g| g <= tolerance_m)
-                    && d.truth_limit_violations == 0,
+                status: d.verdict(tolerance_m).label().to_string(),
+                succeeded: d.verdict(tolerance_m).is_connected(),
                 commands: d.records.len(),
                 corrective_commands: d.corrective_commands,
                 final_measured_gap_m: d.final_measured_gap_m(),
@@ -729,8 +731,9 @@ impl RunResult {
     /// start, `not_started`): the last cycle's figures, since the cycles
     /// before it are the learning, except that limits broken in any cycle
     /// count (`truth_violations` summed, `worst_utilisation` the largest)
-    /// and fail the run. A run whose truth could not be folded back before
-    /// the last cycle has the status `cycles_stopped` and did not succeed.
+    /// and fail the run (its status is then `limits_broken`). A run whose
+    /// truth could not be folded back before the last cycle has the status
+    /// `cycles_stopped` and did not succeed.
     pub fn of_cycles(
         scenario: usize,
         policy: usize,
@@ -746,7 +749,9 @@ impl RunResult {
         let Some(mut last) = per_cycle.into_iter().last() else {
             return RunResult::of(scenario, policy, None, 0.0);
         };
-        if ran < cycles {
+        if violations > 0 {
+            last.status = "limits_broken".into();
+        } else if ran < cycles {
             last.status = "cycles_stopped".into();
         }
         last.succeeded &= ran == cycles && violations == 0;
@@ -1005,7 +1010,7 @@ mod tests {
         assert_eq!(whole.truth_violations, 2);
         assert_eq!(whole.worst_utilisation, 0.9);
         assert!(!whole.succeeded);
-        assert_eq!(whole.status, "connected");
+        assert_eq!(whole.status, "limits_broken");
 
         let clean = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4), cycle(8, 0, 0.5)], 2);
         assert!(clean.succeeded);
