@@ -478,13 +478,19 @@ fn outputs_refuse_to_overwrite_a_users_files_without_force() {
         std::fs::read_to_string(dir.path().join("bridge.json")).unwrap(),
         "my bridge"
     );
-    // A re-run into tdeploy's own output replaces it whole; --force
-    // replaces a user's.
+    // --force replaces a user's folder whole; a re-run into tdeploy's own
+    // output is refused too (issue 25: an earlier result is never lost by
+    // accident), naming the command that wrote it, and --force replaces it.
     let mut forced = simulate.to_vec();
     forced.push("--force");
     assert!(guarded(&forced, dir.path()).status.success());
     assert!(!mine.join("notes.txt").exists() && mine.join("steps.csv").is_file());
-    assert!(guarded(&simulate, dir.path()).status.success());
+    let e = failed_with(&guarded(&simulate, dir.path()), 2);
+    assert!(
+        e.contains("earlier run of `tdeploy simulate`") && e.contains("--force"),
+        "{e}"
+    );
+    assert!(guarded(&forced, dir.path()).status.success());
     let out = guarded(&["structure", "-o", "bridge.json", "--force"], dir.path());
     assert!(out.status.success());
     // The same bytes again need no --force.
