@@ -370,7 +370,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let good = consistent_case();
         good.validate(10, 5).unwrap();
-        let edits: Vec<(&str, fn(&mut Case))> = vec![
+        /// A field path and the edit that breaks it.
+        type Edit = (&'static str, fn(&mut Case));
+        let edits: Vec<Edit> = vec![
             ("case.conditions.fold_m", |c| {
                 c.conditions.fold_m = vec![0.4; 1000]
             }),
