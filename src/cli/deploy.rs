@@ -5,7 +5,7 @@
 //! [`tensegrity_deploy::control::closed_loop`]).
 //!
 //! Defaults: the truth is the reference bridge with
-//! [`tensegrity_deploy::sim::default_truth`]'s effects (μ = 0.2, 3 mm motor
+//! [`tensegrity_deploy::sim::default_truth()`]'s effects (μ = 0.2, 3 mm motor
 //! backlash); the controller plans on the same bridge without friction;
 //! the policy is `policies/qp.toml`'s (built in); the problem is the
 //! default 40 cm fold; seed 1. A truth with a thermal effect needs
