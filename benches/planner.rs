@@ -1,7 +1,11 @@
 //! Speed of the QP planner on the full reference bridge with μ = 0.2:
-//! - one planned command from a fresh planner (fresh secant
-//!   sensitivities, QP and confirming re-solve) at the third command of
-//!   the plan from the 40 cm fold, joints sticking and slipping;
+//! - one planned command from a fresh planner (fresh sensitivities, QP
+//!   and confirming re-solve) at the third command of the plan from the
+//!   40 cm fold, joints sticking and slipping
+//!   (`one_command_friction_aware`: the planner's model has μ = 0.2), and
+//!   the same on the frictionless model at the third command of its own
+//!   plan (`one_command_frictionless`), in the same run: issue 22 asks
+//!   the first to be at most 3 times the second;
 //! - the QP alone;
 //! - the whole open-loop plan from the fold to the connection, in which
 //!   most commands reuse the previous command's Broyden-updated responses
@@ -9,7 +13,10 @@
 //!   plan.csv);
 //! - a whole closed-loop deployment of the default truth (μ = 0.2, 3 mm
 //!   backlash) by the frictionless controller, folded to connected (what
-//!   `tdeploy deploy` runs, without its files).
+//!   `tdeploy deploy` runs, without its files);
+//! - an open-loop plan that ends "not reachable": the frictionless bridge
+//!   with motors that may not reel in below 0.30 m of payout (the plan of
+//!   `tests/planner.rs`, `a_stroke_too_short_ends_not_reachable_quickly`).
 //!
 //!     cargo bench --bench planner
 
@@ -23,8 +30,8 @@ use tensegrity_deploy::model::{
 use tensegrity_deploy::plan::qp_step::step_solver_settings;
 use tensegrity_deploy::plan::search::{step_data, step_weights};
 use tensegrity_deploy::plan::{
-    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PlanContext,
-    PlannerSettings, Policy, QpPlannerSettings,
+    folded_start, planner_for, solve_step, DeploymentProblem, PayoutResponse, PerMotor,
+    PlanContext, PlannerSettings, Policy, QpPlannerSettings,
 };
 use tensegrity_deploy::sim::{default_truth, standard_sensors};
 
@@ -56,10 +63,29 @@ fn bench(c: &mut Criterion) {
     probe_counters(&model, &state, &policy);
     let mut group = c.benchmark_group("planner");
     group.sample_size(10);
-    group.bench_function("one_command_mu0.2", |b| {
+    group.bench_function("one_command_friction_aware", |b| {
         b.iter(|| {
             let mut planner = planner_for(&context, &start);
             planner.next_command(&context, &state)
+        })
+    });
+    let frictionless = ForwardModel::new(
+        reference_bridge(&BridgeParameters::default()).expect("reference bridge"),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .expect("default settings");
+    let free_start = folded_start(&frictionless, &problem, policy.increment_m).expect("fold");
+    let free_state =
+        tensegrity_deploy::plan::plan_open_loop(&frictionless, &problem, &policy, &free_start)
+            .expect("plan")
+            .final_state;
+    let free_context =
+        PlanContext::new(&frictionless, &problem, &policy, &free_start).expect("context");
+    group.bench_function("one_command_frictionless", |b| {
+        b.iter(|| {
+            let mut planner = planner_for(&free_context, &free_start);
+            planner.next_command(&free_context, &free_state)
         })
     });
     let qp = qp_settings(&policy);
@@ -101,6 +127,16 @@ fn bench(c: &mut Criterion) {
     };
     group.bench_function("closed_loop_deployment_default_truth", |b| {
         b.iter(|| deploy_closed_loop(&setup, &mut ()).expect("deployment"))
+    });
+    let short_stroke = DeploymentProblem {
+        min_payout_m: PerMotor::All(0.30),
+        ..DeploymentProblem::default()
+    };
+    let short_start = folded_start(&controller, &short_stroke, full.increment_m).expect("fold");
+    group.bench_function("open_loop_not_reachable_short_stroke_mu0", |b| {
+        b.iter(|| {
+            tensegrity_deploy::plan::plan_open_loop(&controller, &short_stroke, &full, &short_start)
+        })
     });
     group.finish();
 }

@@ -2,30 +2,14 @@
 //! field (CSV) or the entry (JSON); the CLI exits 2 (bad input) without a
 //! panic.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use std::path::Path;
+
+use common::cli::{stderr, tdeploy};
+use common::fixtures::{reference_structure, TWO_CABLES};
 use tensegrity_deploy::io::commands::parse_commands;
 use tensegrity_deploy::io::structure_file::{parse_structure, structure_to_json};
-
-const GOOD: &str = r#"{
-  "format": "tensegrity-deploy/structure/1",
-  "name": "two cables",
-  "gravity_m_per_s2": [0, 0, -9.81],
-  "nodes": [
-    {"id": "a", "position_m": [0, 0, 0], "mass_kg": 0, "fixed": [true, true, true]},
-    {"id": "b", "position_m": [1, 0, 0], "mass_kg": 1},
-    {"id": "c", "position_m": [2, 0, 0], "mass_kg": 0, "fixed": [true, true, true]}
-  ],
-  "cables": [
-    {"id": "c0", "nodes": ["a", "b"], "ea_n": 1e5, "rest_length_m": 0.99},
-    {"id": "c1", "nodes": ["b", "c"], "ea_n": 1e5, "rest_length_m": 0.99}
-  ],
-  "continuous_cables": [
-    {"id": "cc", "path": ["a", "b", "c"], "ea_n": 1e5, "segment_rest_lengths_m": [0.99, 0.99]}
-  ]
-}"#;
 
 fn structure_error(text: &str) -> String {
     parse_structure(text, Path::new("bridge.json"))
@@ -35,18 +19,18 @@ fn structure_error(text: &str) -> String {
 
 #[test]
 fn good_structure_parses() {
-    parse_structure(GOOD, Path::new("bridge.json")).unwrap();
+    parse_structure(TWO_CABLES, Path::new("bridge.json")).unwrap();
 }
 
 #[test]
 fn unknown_node_id_names_file_entry_and_id() {
-    let e = structure_error(&GOOD.replace(r#"["b", "c"], "ea_n""#, r#"["b", "zz"], "ea_n""#));
+    let e = structure_error(&TWO_CABLES.replace(r#"["b", "c"], "ea_n""#, r#"["b", "zz"], "ea_n""#));
     assert_eq!(e, "bridge.json: cables[1] (\"c1\"): unknown node id \"zz\"");
 }
 
 #[test]
 fn zero_length_member_is_rejected() {
-    let e = structure_error(&GOOD.replace(r#"["a", "b"], "ea_n""#, r#"["b", "b"], "ea_n""#));
+    let e = structure_error(&TWO_CABLES.replace(r#"["a", "b"], "ea_n""#, r#"["b", "b"], "ea_n""#));
     assert!(
         e.starts_with("bridge.json: cables[0] (\"c0\"): zero-length"),
         "{e}"
@@ -55,7 +39,7 @@ fn zero_length_member_is_rejected() {
 
 #[test]
 fn repeated_path_node_is_rejected() {
-    let e = structure_error(&GOOD.replace(r#"["a", "b", "c"]"#, r#"["a", "b", "a"]"#));
+    let e = structure_error(&TWO_CABLES.replace(r#"["a", "b", "c"]"#, r#"["a", "b", "a"]"#));
     assert!(
         e.contains("continuous_cables[0] (\"cc\"): path repeats node \"a\""),
         "{e}"
@@ -64,7 +48,7 @@ fn repeated_path_node_is_rejected() {
 
 #[test]
 fn non_positive_stiffness_is_rejected() {
-    let e = structure_error(&GOOD.replace(
+    let e = structure_error(&TWO_CABLES.replace(
         r#""ea_n": 1e5, "rest_length_m": 0.99}"#,
         r#""ea_n": 0, "rest_length_m": 0.99}"#,
     ));
@@ -76,13 +60,13 @@ fn non_positive_stiffness_is_rejected() {
 
 #[test]
 fn nan_is_a_syntax_error_with_line_and_column() {
-    let e = structure_error(&GOOD.replace(r#""mass_kg": 1}"#, r#""mass_kg": NaN}"#));
+    let e = structure_error(&TWO_CABLES.replace(r#""mass_kg": 1}"#, r#""mass_kg": NaN}"#));
     assert!(e.starts_with("bridge.json:7:"), "{e}");
 }
 
 #[test]
 fn unconnected_free_node_is_rejected() {
-    let text = GOOD.replace(
+    let text = TWO_CABLES.replace(
         r#"{"id": "c", "position_m": [2, 0, 0], "mass_kg": 0, "fixed": [true, true, true]}"#,
         r#"{"id": "c", "position_m": [2, 0, 0], "mass_kg": 0, "fixed": [true, true, true]},
     {"id": "d", "position_m": [3, 0, 0], "mass_kg": 1}"#,
@@ -96,7 +80,7 @@ fn unconnected_free_node_is_rejected() {
 
 #[test]
 fn misspelt_field_is_rejected_not_ignored() {
-    let e = structure_error(&GOOD.replace(
+    let e = structure_error(&TWO_CABLES.replace(
         r#""mass_kg": 1}"#,
         r#""mass_kg": 1, "fixd": [true, true, true]}"#,
     ));
@@ -105,13 +89,13 @@ fn misspelt_field_is_rejected_not_ignored() {
 
 #[test]
 fn reference_bridge_round_trips_through_its_file() {
-    let s = reference_bridge(&BridgeParameters::default()).unwrap();
+    let s = reference_structure();
     let back = parse_structure(&structure_to_json(&s), Path::new("rb.json")).unwrap();
     assert_eq!(s, back);
 }
 
 fn command_error(text: &str) -> String {
-    let s = parse_structure(GOOD, Path::new("bridge.json")).unwrap();
+    let s = parse_structure(TWO_CABLES, Path::new("bridge.json")).unwrap();
     parse_commands(text, Path::new("cmd.csv"), &s)
         .unwrap_err()
         .to_string()
@@ -147,18 +131,23 @@ fn cli_exits_non_zero_with_one_clear_line_on_a_bad_file() {
     let bad = dir.path().join("bad.json");
     std::fs::write(
         &bad,
-        GOOD.replace(r#"["b", "c"], "ea_n""#, r#"["b", "zz"], "ea_n""#),
+        TWO_CABLES.replace(r#"["b", "c"], "ea_n""#, r#"["b", "zz"], "ea_n""#),
     )
     .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(["simulate", "-q", "--structure"])
-        .arg(&bad)
-        .arg("--out")
-        .arg(dir.path().join("out"))
-        .output()
-        .unwrap();
+    let out_dir = dir.path().join("out");
+    let out = tdeploy(
+        &[
+            "simulate",
+            "-q",
+            "--structure",
+            bad.to_str().unwrap(),
+            "--out",
+            out_dir.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
     assert_eq!(out.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = stderr(&out);
     assert!(
         stderr.contains("bad.json: cables[1] (\"c1\"): unknown node id \"zz\""),
         "{stderr}"

@@ -2,41 +2,16 @@
 //! (`compare`, `diagnose`, `calibrate`): one clear error line naming file,
 //! line and field, exit status 2 (bad input), never a panic, nothing written.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-const BASELINE: &str = "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n";
-
-fn tdeploy(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
+use common::cli::{failed_with, stderr, succeeded, tdeploy};
+use common::fixtures::{lab_log_folder, REFERENCE_MODEL};
 
 /// A tiny good log (one 1 cm cycle, one step each way) and a baseline model.
 fn fixture() -> (tempfile::TempDir, PathBuf) {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("model.toml"), BASELINE).unwrap();
-    let out = tdeploy(
-        &[
-            "lab",
-            "model.toml",
-            "-o",
-            "log",
-            "--amplitudes",
-            "0.01",
-            "--steps",
-            "1",
-        ],
-        dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let dir = lab_log_folder("0.01");
     let log = dir.path().join("log");
     (dir, log)
 }
@@ -45,12 +20,9 @@ fn fixture() -> (tempfile::TempDir, PathBuf) {
 /// after checking it failed cleanly.
 fn compare_fails(dir: &Path, model: &str) -> String {
     let out = tdeploy(&["compare", model, "log", "-o", "report"], dir);
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    assert_eq!(stderr.trim().lines().count(), 1, "one line: {stderr}");
+    let e = failed_with(&out, 2);
     assert!(!dir.join("report").exists(), "nothing written on bad input");
-    stderr
+    e
 }
 
 fn edit_log(log: &Path, file: &str, from: &str, to: &str) -> String {
@@ -64,15 +36,10 @@ fn edit_log(log: &Path, file: &str, from: &str, to: &str) -> String {
 #[test]
 fn the_fixture_log_compares_cleanly() {
     let (dir, _) = fixture();
-    let out = tdeploy(
+    succeeded(&tdeploy(
         &["compare", "model.toml", "log", "-o", "report"],
         dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ));
 }
 
 #[test]
@@ -163,13 +130,17 @@ fn bad_model_files_are_named_with_line_and_field() {
         ),
     ];
     for (tail, want) in cases {
-        std::fs::write(dir.path().join("bad.toml"), format!("{BASELINE}{tail}")).unwrap();
+        std::fs::write(
+            dir.path().join("bad.toml"),
+            format!("{REFERENCE_MODEL}{tail}"),
+        )
+        .unwrap();
         let e = compare_fails(dir.path(), "bad.toml");
         assert!(e.contains("bad.toml") && e.contains(want), "{tail}: {e}");
     }
     std::fs::write(
         dir.path().join("bad.toml"),
-        BASELINE.replace("model/1", "model/9"),
+        REFERENCE_MODEL.replace("model/1", "model/9"),
     )
     .unwrap();
     let e = compare_fails(dir.path(), "bad.toml");
@@ -193,7 +164,7 @@ fn calibrate_never_overwrites_a_model_file() {
             ],
             dir.path(),
         );
-        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = stderr(&out);
         assert_eq!(out.status.code(), Some(2), "{stderr}");
         assert!(!stderr.contains("panicked"), "{stderr}");
     }
@@ -203,7 +174,7 @@ fn calibrate_never_overwrites_a_model_file() {
     );
     assert_eq!(
         std::fs::read_to_string(dir.path().join("model.toml")).unwrap(),
-        BASELINE
+        REFERENCE_MODEL
     );
     let out = tdeploy(
         &[
@@ -217,7 +188,7 @@ fn calibrate_never_overwrites_a_model_file() {
         ],
         dir.path(),
     );
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = stderr(&out);
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr.contains("unknown effect \"flux\""), "{stderr}");
 }

@@ -6,12 +6,11 @@
 //! within 1e-4 relative. The solver runs to a force tolerance far below what
 //! those need (1e-9 of the largest tension ≈ 1e-5 N).
 
+mod common;
+
+use common::cable_net::load;
 use nalgebra::Vector3;
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Workspace};
-
-#[path = "common/cable_net.rs"]
-mod cable_net;
-use cable_net::load;
 
 #[test]
 fn cable_net_matches_independent_newton_solution() {

@@ -3,63 +3,17 @@
 //! field, and its JSON reports, which must agree with what it prints and
 //! with their own residuals.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-const MODEL: &str = "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n";
+use common::cli::{failed_with, stderr, stdout, succeeded, tdeploy};
+use common::files::read_json;
+use common::fixtures::{dir_with, lab_log_folder, TWO_CABLES, TWO_STEP_COMMANDS};
 
 const FRICTION_EFFECT: &str = "kind = \"friction-effect\"\nmu = 0.2\nfold_m = 0.05\ndeploy_m = 0.05\nincrement_m = 0.005\nforce_floor_n = 50\nout = \"out\"\n";
 
-/// Two free nodes on three cables between two supports, and one
-/// continuous cable over them: small enough to solve in milliseconds.
-const SMALL_STRUCTURE: &str = r#"{
-  "format": "tensegrity-deploy/structure/1",
-  "name": "two cables",
-  "gravity_m_per_s2": [0, 0, -9.81],
-  "nodes": [
-    {"id": "a", "position_m": [0, 0, 0], "mass_kg": 0, "fixed": [true, true, true]},
-    {"id": "b", "position_m": [1, 0, 0], "mass_kg": 1},
-    {"id": "c", "position_m": [2, 0, 0], "mass_kg": 0, "fixed": [true, true, true]}
-  ],
-  "cables": [
-    {"id": "c0", "nodes": ["a", "b"], "ea_n": 1e5, "rest_length_m": 0.99},
-    {"id": "c1", "nodes": ["b", "c"], "ea_n": 1e5, "rest_length_m": 0.99}
-  ],
-  "continuous_cables": [
-    {"id": "cc", "path": ["a", "b", "c"], "ea_n": 1e5, "segment_rest_lengths_m": [0.99, 0.99]}
-  ]
-}"#;
-
-fn tdeploy(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).to_string()
-}
-
-/// Checks `out` failed with `code` and one line on stderr; returns it.
-fn failed_with(out: &Output, code: i32) -> String {
-    let e = stderr(out);
-    assert_eq!(out.status.code(), Some(code), "{e}");
-    assert!(!e.contains("panicked"), "{e}");
-    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
-    e
-}
-
 #[test]
 fn a_simulation_that_converges_exits_0_and_one_that_does_not_exits_1() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("s.json"), SMALL_STRUCTURE).unwrap();
-    std::fs::write(
-        dir.path().join("c.csv"),
-        "step,cable,payout_change_m\n1,cc,0.001\n2,cc,-0.001\n",
-    )
-    .unwrap();
+    let dir = dir_with(&[("s.json", TWO_CABLES), ("c.csv", TWO_STEP_COMMANDS)]);
     let base = ["simulate", "-q", "-s", "s.json", "-c", "c.csv", "-o", "run"];
     let out = tdeploy(&base, dir.path());
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
@@ -174,23 +128,7 @@ fn rms_of_residuals(comparison: &serde_json::Value) -> (f64, usize) {
 
 #[test]
 fn json_reports_parse_back_with_the_overall_rms() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("model.toml"), MODEL).unwrap();
-    let out = tdeploy(
-        &[
-            "lab",
-            "model.toml",
-            "-o",
-            "log",
-            "--amplitudes",
-            "0.01,0.01",
-            "--steps",
-            "1",
-        ],
-        dir.path(),
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
-
+    let dir = lab_log_folder("0.01,0.01");
     let out = tdeploy(
         &[
             "compare",
@@ -203,9 +141,8 @@ fn json_reports_parse_back_with_the_overall_rms() {
         ],
         dir.path(),
     );
-    assert!(out.status.success(), "{}", stderr(&out));
-    let text = std::fs::read_to_string(dir.path().join("report.json")).unwrap();
-    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    succeeded(&out);
+    let v = read_json(&dir.path().join("report.json"));
     let comparison: tensegrity_deploy::measure::compare::Comparison =
         serde_json::from_value(v["comparison"].clone()).unwrap();
     // The overall RMS is that of the residuals it summarises (the same
@@ -213,7 +150,7 @@ fn json_reports_parse_back_with_the_overall_rms() {
     let (rms, n) = rms_of_residuals(&v["comparison"]);
     assert_eq!(comparison.overall.count, n);
     assert!((comparison.overall.rms - rms).abs() < 1e-12 * rms);
-    let printed = String::from_utf8_lossy(&out.stdout);
+    let printed = stdout(&out);
     assert!(
         printed.contains(&format!("overall: rms {:.2} noise SDs", rms)),
         "{printed}"
@@ -229,9 +166,8 @@ fn json_reports_parse_back_with_the_overall_rms() {
         &["diagnose", "model.toml", "log", "--json", "diagnosis.json"],
         dir.path(),
     );
-    assert!(out.status.success(), "{}", stderr(&out));
-    let text = std::fs::read_to_string(dir.path().join("diagnosis.json")).unwrap();
-    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    succeeded(&out);
+    let v = read_json(&dir.path().join("diagnosis.json"));
     let final_comparison = &v["diagnosis"]["final_comparison"];
     let (rms, _) = rms_of_residuals(final_comparison);
     let overall = final_comparison["overall"]["rms"].as_f64().unwrap();

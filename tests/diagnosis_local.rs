@@ -14,44 +14,34 @@
 //! each sensor case edits a copy's readings, as the faulty sensor would
 //! have.
 
+mod common;
+
 use std::sync::OnceLock;
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use common::fixtures::{reference_structure, standard_lab_log};
 use tensegrity_deploy::measure::compare::compare;
 use tensegrity_deploy::measure::comparison_verdict::where_it_fails;
 use tensegrity_deploy::measure::diagnose::{
     diagnose, Candidate, DiagnoseSettings, Diagnosis, Verdict,
 };
 use tensegrity_deploy::measure::evidence::{evidence, Subject};
-use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
+use tensegrity_deploy::measure::lab::DAILY_SWING_K;
 use tensegrity_deploy::measure::local::{LocalKind, Term};
 use tensegrity_deploy::measure::log::MeasurementLog;
-use tensegrity_deploy::model::{Effects, MemberKind, RelaxSettings, Structure};
-use tensegrity_deploy::sim::{standard_sensors, EffectModel, SensorTarget};
+use tensegrity_deploy::model::{Effects, MemberKind, Structure};
+use tensegrity_deploy::sim::{EffectModel, SensorTarget};
 
 fn model(structure: Structure) -> EffectModel {
-    EffectModel {
-        structure,
-        effects: Effects::default(),
-        settings: RelaxSettings::default(),
-        increment_m: 0.01,
-    }
+    EffectModel::for_measurement(structure, Effects::default())
 }
 
 fn baseline() -> EffectModel {
-    model(reference_bridge(&BridgeParameters::default()).unwrap())
+    model(reference_structure())
 }
 
 /// Four cycles (5, 20, 10, 20 cm in four steps each way), standard sensors.
 fn lab_log(truth: &EffectModel, seed: u64) -> MeasurementLog {
-    let sensors = standard_sensors(&truth.structure);
-    let cycles = standard_cycles(
-        truth.structure.continuous_cables.len(),
-        &[0.05, 0.2, 0.1, 0.2],
-        4,
-        DAILY_SWING_K,
-    );
-    run_lab(truth, &sensors, &cycles, seed).unwrap()
+    standard_lab_log(truth, seed, DAILY_SWING_K)
 }
 
 fn clean_log() -> &'static MeasurementLog {
@@ -167,7 +157,7 @@ fn one_soft_spring_is_named_as_that_member() {
     // The first spring of half A at 80 % of its design stiffness: its
     // force, and the geometry around it, change; no library effect scales
     // one member.
-    let mut soft = reference_bridge(&BridgeParameters::default()).unwrap();
+    let mut soft = reference_structure();
     let spring = soft
         .members
         .iter()

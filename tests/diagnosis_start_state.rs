@@ -7,13 +7,15 @@
 //! equilibrium): step 0 must read what a zero command leaves, and differ
 //! from the unsettled as-built geometry.
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+mod common;
+
+use common::fixtures::reference_structure;
 use tensegrity_deploy::model::{EffectKind, Effects};
 use tensegrity_deploy::sim::{standard_sensors, CycleSchedule, EffectModel, SensorTarget};
 
 #[test]
 fn step_zero_is_the_models_own_equilibrium_not_the_as_built_geometry() {
-    let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+    let structure = reference_structure();
     let heavy = EffectModel::for_measurement(
         structure.clone(),
         Effects::default().with_parameters(EffectKind::JointMassError, &[1.4]),

@@ -3,14 +3,18 @@
 //! byte; merge refuses shards that do not make one sweep; a bad
 //! distribution file exits 2 naming file, line and field.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn tdeploy(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(args)
-        .output()
-        .expect("tdeploy runs")
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::cli::{failed_with, stderr, tdeploy};
+use common::repo_root;
+
+/// Runs `tdeploy args` in the repository (the policies are named relative
+/// to it).
+fn tdeploy_in_repo(args: &[&str]) -> Output {
+    tdeploy(args, repo_root())
 }
 
 /// Ran to its end: exit 0, or 1 where a run broke a truth limit (the
@@ -20,7 +24,7 @@ fn ok(out: &Output) {
         matches!(out.status.code(), Some(0 | 1)),
         "exit {:?}: {}",
         out.status.code(),
-        String::from_utf8_lossy(&out.stderr)
+        stderr(out)
     );
 }
 
@@ -60,7 +64,7 @@ fn evaluate(dir: &Path, extra: &[&str]) -> Output {
     args.extend(POLICIES);
     args.extend(extra);
     args.extend(["-o", dir.to_str().unwrap()]);
-    tdeploy(&args)
+    tdeploy_in_repo(&args)
 }
 
 #[test]
@@ -79,7 +83,7 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
         ok(&evaluate(&dir(&format!("s{k}")), &["--shard", &shard]));
     }
     let merged = dir("merged");
-    ok(&tdeploy(&[
+    ok(&tdeploy_in_repo(&[
         "merge",
         dir("s3").to_str().unwrap(),
         dir("s1").to_str().unwrap(),
@@ -92,11 +96,8 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
     // A missing shard, a repeated one, and a shard of another sweep are
     // refused, naming what is wrong.
     let refuse = |args: &[&str], says: &str| {
-        let out = tdeploy(args);
-        assert_eq!(out.status.code(), Some(2));
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = failed_with(&tdeploy_in_repo(args), 2);
         assert!(err.contains(says), "{err}");
-        assert_eq!(err.trim().lines().count(), 1, "{err}");
     };
     let o = dir("refused");
     let (s1, s2, s3) = (dir("s1"), dir("s2"), dir("s3"));
@@ -113,7 +114,7 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
         &["merge", s1, s1, s2, "-o", o.to_str().unwrap()],
         "given twice",
     );
-    ok(&tdeploy(&[
+    ok(&tdeploy_in_repo(&[
         "evaluate",
         "--scenarios",
         "4",
@@ -138,9 +139,53 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
             "-o",
             o.to_str().unwrap(),
         ],
-        "not shards of the same sweep",
+        "not shards of the same sweep: their evaluation.toml differ in seed",
     );
-    let _ = s3;
+
+    // Issue 25: shard rows were merged unchecked. Each of these edits of
+    // shard 1's runs.csv is refused, naming the file, the line and the
+    // column, and nothing is written.
+    let runs = std::fs::read_to_string(Path::new(s1).join("runs.csv")).unwrap();
+    let header: Vec<&str> = runs.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for (name, value) in [
+        ("load_cell_noise_n", "-1e308"),
+        ("motor.slip_fraction", "0.5"),
+        ("status", "bogus"),
+        ("corrective_commands", "18446744073709551615"),
+        ("cable_travel_m", "-5"),
+        ("final_true_gap_m", "inf"),
+    ] {
+        let bad = dir(&format!("bad-{name}"));
+        std::fs::create_dir(&bad).unwrap();
+        for f in ["evaluation.toml", "summary.json"] {
+            let from = Path::new(s1).join(f);
+            if from.exists() {
+                std::fs::copy(&from, bad.join(f)).unwrap();
+            }
+        }
+        let mut lines: Vec<String> = runs.lines().map(str::to_string).collect();
+        let mut cells: Vec<&str> = lines[1].split(',').collect();
+        cells[column(name)] = value;
+        lines[1] = cells.join(",");
+        std::fs::write(bad.join("runs.csv"), lines.join("\n") + "\n").unwrap();
+        let e = failed_with(
+            &tdeploy_in_repo(&[
+                "merge",
+                bad.to_str().unwrap(),
+                s2,
+                s3,
+                "-o",
+                o.to_str().unwrap(),
+            ]),
+            2,
+        );
+        assert!(
+            e.contains("runs.csv") && e.contains("line 2") && e.contains(&format!("`{name}`")),
+            "{name} = {value}: {e}"
+        );
+        assert!(!o.exists(), "{name}: nothing written");
+    }
 }
 
 #[test]
@@ -149,7 +194,7 @@ fn cycles_out_of_range_exit_2_naming_the_flag() {
     for bad in ["0", "101"] {
         let out = evaluate(&tmp.path().join("c"), &["--cycles", bad]);
         assert_eq!(out.status.code(), Some(2));
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = stderr(&out);
         assert!(err.contains("--cycles"), "{err}");
     }
 }
@@ -163,7 +208,7 @@ fn a_bad_distribution_file_exits_2_naming_file_line_and_field() {
         "format = \"tensegrity-deploy/scenarios/1\"\n[effects.motor]\nslip_fraction = [0.1, -0.1]\nbacklash_m = [0.0, 0.005]\n",
     )
     .unwrap();
-    let out = tdeploy(&[
+    let out = tdeploy_in_repo(&[
         "evaluate",
         "--distribution",
         file.to_str().unwrap(),
@@ -171,7 +216,7 @@ fn a_bad_distribution_file_exits_2_naming_file_line_and_field() {
         tmp.path().join("o").to_str().unwrap(),
     ]);
     assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     assert!(
         err.contains("d.toml")
             && err.contains("line 3")

@@ -9,13 +9,23 @@
 //! duplicated, or a numeric field replaced by NaN, ±inf, ±1e308, -0, a
 //! subnormal, or an integer too large for any type. Every parse must
 //! return: no panic (proptest reports one as a failure, with the input),
-//! no hang (each parse must finish within [`PARSE_DEADLINE`]), and an
-//! error must be one line naming the file.
+//! no hang (each parse must finish within the hang guard
+//! [`PARSE_DEADLINE`]), and an error must be one line naming the file.
+//!
+//! Two targets mutate *contents* rather than bytes: `memory_contents`
+//! edits one value of a stored case (a number made hostile, a list grown
+//! or shortened, the status replaced) and writes the case back with a
+//! valid checksum, so that only the semantic checks stand between it and
+//! the controller; `shard_contents` does the same to one cell of a real
+//! evaluation shard's `runs.csv`. Each must be refused in one line naming
+//! the file, or load with every value inside its documented range.
 //!
 //! `cargo test --release --test fuzz_parsers` runs a smoke run of
 //! [`SMOKE_CASES`] inputs per target from a fixed seed (a few seconds in
 //! all). A longer run: `FUZZ_CASES=100000 cargo test --release --test
 //! fuzz_parsers` (and `FUZZ_SEED=N` for other inputs); see docs/hardening.md.
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -23,26 +33,30 @@ use std::time::{Duration, Instant};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use common::fixtures::reference_structure;
+use common::repo_text;
 use tensegrity_deploy::io::bridge_params::parse_bridge_parameters;
 use tensegrity_deploy::io::commands::parse_commands;
-use tensegrity_deploy::io::evaluation_files::parse_distribution;
+use tensegrity_deploy::io::evaluation_files::{
+    fingerprint, parse_distribution, read_evaluation_record, read_runs,
+};
 use tensegrity_deploy::io::experiment_file::parse_experiment;
 use tensegrity_deploy::io::friction_table::parse_friction_table;
 use tensegrity_deploy::io::log::read_log;
-use tensegrity_deploy::io::memory_file::{append_case, parse_memory};
+use tensegrity_deploy::io::memory_file::{append_case, parse_memory, read_memory_or_empty};
 use tensegrity_deploy::io::model_file::parse_model;
 use tensegrity_deploy::io::policy_file::parse_policy;
 use tensegrity_deploy::io::problem_file::parse_problem;
 use tensegrity_deploy::io::structure_file::{parse_structure, structure_to_json};
 use tensegrity_deploy::io::FileError;
 use tensegrity_deploy::learn::{Case, CaseConditions, CaseOutcome};
-use tensegrity_deploy::model::Structure;
 
 /// Inputs per target in the smoke run.
 const SMOKE_CASES: u32 = 48;
-/// Longest a single parse may take before it counts as a hang (a parse of
-/// the largest example takes about a millisecond).
+/// Hang guard: a parse that takes longer than this counts as a hang (an
+/// infinite loop on some input). Not a speed check: a parse of the largest
+/// example takes about a millisecond, so the guard is thousands of times
+/// the normal time and stays quiet on any loaded machine.
 const PARSE_DEADLINE: Duration = Duration::from_secs(5);
 
 /// Inputs per target: `FUZZ_CASES`, else the smoke run's.
@@ -206,8 +220,8 @@ fn input(seeds: usize) -> impl Strategy<Value = (usize, Vec<Mutation>)> {
     (0..seeds, prop::collection::vec(mutation(), 1..=3))
 }
 
-/// Checks how a parse of `path` ended: fast, and an error is one line
-/// naming a file of the input (`names`).
+/// Checks how a parse of `path` ended: within the hang guard, and an
+/// error is one line naming a file of the input (`names`).
 fn check_outcome<T>(
     result: Result<T, FileError>,
     elapsed: Duration,
@@ -255,14 +269,6 @@ fn fuzz_text<T>(name: &str, seeds: &[String], parse: impl Fn(&str, &Path) -> Res
         .unwrap_or_else(|e| panic!("{name}: {e}"));
 }
 
-fn repo(path: &str) -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(path)).unwrap()
-}
-
-fn reference() -> Structure {
-    reference_bridge(&BridgeParameters::default()).unwrap()
-}
-
 const SMALL: &str = r#"{
   "format": "tensegrity-deploy/structure/1",
   "name": "two cables",
@@ -288,14 +294,14 @@ const SMALL: &str = r#"{
 fn structure_files() {
     fuzz_text(
         "structure.json",
-        &[SMALL.to_string(), structure_to_json(&reference())],
+        &[SMALL.to_string(), structure_to_json(&reference_structure())],
         parse_structure,
     );
 }
 
 #[test]
 fn command_files() {
-    let s = reference();
+    let s = reference_structure();
     let (a, b) = (&s.continuous_cables[0].id, &s.continuous_cables[9].id);
     let seeds = [format!(
         "step,cable,payout_change_m\n1,{a},-0.01\n1,{b},0.02\n2,{a},0.005\n7,{b},-1e-3\n"
@@ -322,8 +328,8 @@ fn bridge_parameter_files() {
 #[test]
 fn model_files() {
     let seeds = [
-        repo("experiments/lab/truth-friction.toml"),
-        repo("experiments/lab/baseline.toml"),
+        repo_text("experiments/lab/truth-friction.toml"),
+        repo_text("experiments/lab/baseline.toml"),
         "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n[effects.thermal]\nexpansion_per_k = 1.2e-5\nreference_temperature_c = 20\n[effects.motor]\nslip_fraction = 0.01\nbacklash_m = 0.002\n[effects.support_flexibility]\ncompliance_m_per_n = 1e-6\n".to_string(),
     ];
     fuzz_text("model.toml", &seeds, parse_model);
@@ -332,10 +338,10 @@ fn model_files() {
 #[test]
 fn experiment_files() {
     let seeds = [
-        repo("experiments/friction-rig.toml"),
-        repo("experiments/friction-effect.toml"),
-        repo("experiments/friction-vs-measurement.toml"),
-        repo("experiments/deployment.toml"),
+        repo_text("experiments/friction-rig.toml"),
+        repo_text("experiments/friction-effect.toml"),
+        repo_text("experiments/friction-vs-measurement.toml"),
+        repo_text("experiments/deployment.toml"),
     ];
     fuzz_text("experiment.toml", &seeds, parse_experiment);
 }
@@ -343,16 +349,16 @@ fn experiment_files() {
 #[test]
 fn policy_files() {
     let seeds = [
-        repo("policies/qp.toml"),
-        repo("policies/nominal.toml"),
-        repo("policies/greedy-tree.toml"),
+        repo_text("policies/qp.toml"),
+        repo_text("policies/nominal.toml"),
+        repo_text("policies/greedy-tree.toml"),
     ];
     fuzz_text("policy.toml", &seeds, parse_policy);
 }
 
 #[test]
 fn scenario_distribution_files() {
-    let seeds = [repo("scenarios/default.toml")];
+    let seeds = [repo_text("scenarios/default.toml")];
     fuzz_text("scenarios.toml", &seeds, parse_distribution);
 }
 
@@ -458,4 +464,271 @@ fn mutations_change_what_they_say() {
         apply(text, &Mutation::DuplicateLine(1)),
         b"a = 1.5e-3\nb = -2\nb = -2\n"
     );
+}
+
+/// One semantic edit of a JSON value or a CSV cell.
+#[derive(Debug, Clone)]
+enum ContentEdit {
+    /// The (k mod count)-th number replaced by a hostile one.
+    Number(usize, usize),
+    /// The (k mod count)-th list grown by a copy of its last element.
+    Grow(usize),
+    /// The (k mod count)-th list shortened by one.
+    Shrink(usize),
+    /// The (k mod count)-th string replaced.
+    Text(usize, usize),
+}
+
+/// Strings a hostile file puts where a status or name belongs.
+const HOSTILE_TEXTS: [&str; 5] = [
+    "bogus",
+    "",
+    "connected\nconnected",
+    "CONNECTED",
+    "not_started ",
+];
+
+fn content_edit() -> impl Strategy<Value = ContentEdit> {
+    prop_oneof![
+        (any::<usize>(), 0..HOSTILE_NUMBERS.len()).prop_map(|(k, h)| ContentEdit::Number(k, h)),
+        (any::<usize>(), 0..HOSTILE_NUMBERS.len()).prop_map(|(k, h)| ContentEdit::Number(k, h)),
+        any::<usize>().prop_map(ContentEdit::Grow),
+        any::<usize>().prop_map(ContentEdit::Shrink),
+        (any::<usize>(), 0..HOSTILE_TEXTS.len()).prop_map(|(k, t)| ContentEdit::Text(k, t)),
+    ]
+}
+
+/// Applies `edit` to a JSON value: numbers, lists and strings counted in
+/// document order. A hostile number JSON cannot hold (NaN, inf) becomes
+/// the largest finite one of its sign; an integer too large stays a float.
+fn edit_json(value: &mut serde_json::Value, edit: &ContentEdit) {
+    // Leaves and lists, in document order, by path.
+    fn paths(
+        v: &serde_json::Value,
+        at: &mut Vec<String>,
+        leaves: &mut Vec<String>,
+        lists: &mut Vec<String>,
+    ) {
+        match v {
+            serde_json::Value::Array(items) => {
+                lists.push(at.join("/"));
+                for (i, item) in items.iter().enumerate() {
+                    at.push(i.to_string());
+                    paths(item, at, leaves, lists);
+                    at.pop();
+                }
+            }
+            serde_json::Value::Object(map) => {
+                for (k, item) in map {
+                    at.push(k.clone());
+                    paths(item, at, leaves, lists);
+                    at.pop();
+                }
+            }
+            _ => leaves.push(at.join("/")),
+        }
+    }
+    let (mut leaves, mut lists) = (Vec::new(), Vec::new());
+    paths(value, &mut Vec::new(), &mut leaves, &mut lists);
+    let pointer = |p: &str| {
+        if p.is_empty() {
+            String::new()
+        } else {
+            format!("/{p}")
+        }
+    };
+    match edit {
+        ContentEdit::Number(k, h) => {
+            let numbers: Vec<&String> = leaves
+                .iter()
+                .filter(|p| value.pointer(&pointer(p)).is_some_and(|v| v.is_number()))
+                .collect();
+            if numbers.is_empty() {
+                return;
+            }
+            let at = pointer(numbers[k % numbers.len()]);
+            let x: f64 = match HOSTILE_NUMBERS[*h] {
+                "NaN" | "nan" | "inf" | "" => f64::MAX,
+                "-inf" => f64::MIN,
+                text => text.parse().unwrap_or(f64::MAX),
+            };
+            *value.pointer_mut(&at).unwrap() = serde_json::json!(x);
+        }
+        ContentEdit::Grow(k) | ContentEdit::Shrink(k) => {
+            if lists.is_empty() {
+                return;
+            }
+            let at = pointer(&lists[k % lists.len()]);
+            if let Some(serde_json::Value::Array(items)) = value.pointer_mut(&at) {
+                if matches!(edit, ContentEdit::Grow(_)) {
+                    if let Some(last) = items.last().cloned() {
+                        items.push(last);
+                    }
+                } else {
+                    items.pop();
+                }
+            }
+        }
+        ContentEdit::Text(k, t) => {
+            let texts: Vec<&String> = leaves
+                .iter()
+                .filter(|p| value.pointer(&pointer(p)).is_some_and(|v| v.is_string()))
+                .collect();
+            if texts.is_empty() {
+                return;
+            }
+            let at = pointer(texts[k % texts.len()]);
+            *value.pointer_mut(&at).unwrap() = serde_json::json!(HOSTILE_TEXTS[*t]);
+        }
+    }
+}
+
+/// A memory of cases as the tools write them for the reference bridge
+/// (10 motors, 5 midspan pairs).
+fn consistent_memory_lines() -> Vec<serde_json::Value> {
+    (0..2)
+        .map(|k| {
+            let case = Case {
+                conditions: CaseConditions {
+                    temperature_c: Some(10.0 + k as f64),
+                    fold_m: vec![0.4; 10],
+                    start_gap_m: Some(0.142),
+                    payout_scale: vec![1.01, 0.99],
+                },
+                commands_m: vec![vec![-0.05; 10], vec![-0.01; 10]],
+                measured_gaps_m: vec![
+                    vec![Some(0.1); 5],
+                    vec![Some(0.01), None, Some(0.02), Some(0.0), Some(0.01)],
+                ],
+                final_gap_vectors_m: vec![Some([0.01, 0.0, 0.0]), None, None, None, None],
+                prediction_error_m: vec![Some(1e-3), None],
+                outcome: CaseOutcome {
+                    status: "connected".into(),
+                    commands: 2,
+                    corrective_commands: Some(1),
+                    final_gap_m: Some(0.008),
+                },
+            };
+            serde_json::to_value(case).unwrap()
+        })
+        .collect()
+}
+
+/// Issue 25: memory cases with a valid checksum but impossible contents
+/// loaded and were used. Each semantically mutated case, written back with
+/// its checksum, is refused naming the file, or loads with every number
+/// finite and every list of the bridge's length.
+#[test]
+fn memory_contents() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("memory.tdm");
+    let cases = consistent_memory_lines();
+    let mut runner = runner();
+    runner
+        .run(
+            &(0..cases.len(), prop::collection::vec(content_edit(), 1..=2)),
+            |(which, edits)| {
+                let mut text = String::from("tensegrity-deploy/memory/1\n");
+                for (k, case) in cases.iter().enumerate() {
+                    let mut case = case.clone();
+                    if k == which {
+                        for e in &edits {
+                            edit_json(&mut case, e);
+                        }
+                    }
+                    let json = serde_json::to_string(&case).unwrap();
+                    text.push_str(&format!("fnv1a:{} {json}\n", fingerprint(json.as_bytes())));
+                }
+                std::fs::write(&path, &text).unwrap();
+                let start = Instant::now();
+                let result = read_memory_or_empty(&path, 10, 5);
+                if let Ok(memory) = &result {
+                    for case in &memory.cases {
+                        prop_assert_eq!(case.conditions.fold_m.len(), 10);
+                        prop_assert!(case.commands_m.iter().all(|r| r.len() == 10));
+                        prop_assert!(case.commands_m.iter().flatten().all(|x| x.is_finite()));
+                        prop_assert!(case
+                            .outcome
+                            .final_gap_m
+                            .is_none_or(|g| (0.0..=10.0).contains(&g)));
+                    }
+                }
+                check_outcome(result, start.elapsed(), &[&path])?;
+                prop_assert_eq!(
+                    std::fs::read_to_string(&path).unwrap(),
+                    text,
+                    "file changed"
+                );
+                Ok(())
+            },
+        )
+        .unwrap_or_else(|e| panic!("memory contents: {e}"));
+}
+
+/// Issue 25: shard rows were merged unchecked. One cell of a real shard's
+/// `runs.csv` (from `tdeploy evaluate`, 2 scenarios) replaced by a hostile
+/// number or text: `read_runs` refuses it naming the file, or reads values
+/// that are finite and non-negative where the column is.
+#[test]
+fn shard_contents() {
+    let dir = tempfile::tempdir().unwrap();
+    let shard = dir.path().join("shard");
+    let out = common::cli::tdeploy(
+        &[
+            "evaluate",
+            "--scenarios",
+            "2",
+            "--seed",
+            "3",
+            "--threads",
+            "1",
+            "-o",
+            shard.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", common::cli::stderr(&out));
+    let record = read_evaluation_record(&shard.join("evaluation.toml")).unwrap();
+    let runs_path = shard.join("runs.csv");
+    let original = std::fs::read_to_string(&runs_path).unwrap();
+    read_runs(&shard, &record).unwrap();
+    let rows: Vec<Vec<String>> = original
+        .lines()
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let cells = (rows.len() - 1) * rows[0].len();
+    let mut runner = runner();
+    runner
+        .run(
+            &(0..cells, 0..HOSTILE_NUMBERS.len() + HOSTILE_TEXTS.len()),
+            |(cell, hostile)| {
+                let mut rows = rows.clone();
+                let width = rows[0].len();
+                let value = if hostile < HOSTILE_NUMBERS.len() {
+                    HOSTILE_NUMBERS[hostile].to_string()
+                } else {
+                    HOSTILE_TEXTS[hostile - HOSTILE_NUMBERS.len()].replace('\n', " ")
+                };
+                rows[1 + cell / width][cell % width] = value;
+                let text: String = rows.iter().map(|r| r.join(",") + "\n").collect();
+                std::fs::write(&runs_path, &text).unwrap();
+                let start = Instant::now();
+                let result = read_runs(&shard, &record);
+                if let Ok(runs) = &result {
+                    for r in &runs.results {
+                        prop_assert!(r.cable_travel_m.is_finite() && r.cable_travel_m >= 0.0);
+                        prop_assert!(r.worst_utilisation.is_finite() && r.worst_utilisation >= 0.0);
+                        prop_assert!(r.corrective_commands.is_none_or(|k| k <= r.commands));
+                        for g in [r.final_measured_gap_m, r.final_true_gap_m, r.approach_gap_m]
+                            .into_iter()
+                            .flatten()
+                        {
+                            prop_assert!(g.is_finite() && g >= 0.0, "gap {g}");
+                        }
+                    }
+                }
+                check_outcome(result, start.elapsed(), &[&runs_path])
+            },
+        )
+        .unwrap_or_else(|e| panic!("shard contents: {e}"));
 }

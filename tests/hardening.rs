@@ -1,12 +1,18 @@
 //! Issue 13: every panic, hang and NaN-passed-off-as-a-result a hostile
 //! user found, one test each, named after it. Each drives the `tdeploy`
-//! binary (with a deadline, so that a hang fails instead of stalling the
-//! suite) or the library, and checks the clear one-line error or the plain
+//! binary (under the hang guard [`common::cli::HANG_GUARD`], so that a
+//! hang fails instead of stalling the suite; not a speed check) or the
+//! library, and checks the clear one-line error or the plain
 //! non-converged status with its exit code.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Output;
+
+use common::cli::{failed_with, tdeploy_with, RunOptions};
+use common::fixtures::{dir_with, lab_log_folder, TWO_CABLES, TWO_STEP_COMMANDS};
+use common::repo_arg;
 
 use nalgebra::Vector3;
 use tensegrity_deploy::design::friction_rig::{friction_rig, modelled_slip_ratio, RigError};
@@ -17,68 +23,9 @@ use tensegrity_deploy::model::{
     Workspace,
 };
 
-/// Two free-standing supports and one free node on two cables, with one
-/// continuous cable over it (as tests/cli_exit_codes.rs).
-const SMALL: &str = r#"{
-  "format": "tensegrity-deploy/structure/1",
-  "name": "two cables",
-  "gravity_m_per_s2": [0, 0, -9.81],
-  "nodes": [
-    {"id": "a", "position_m": [0, 0, 0], "mass_kg": 0, "fixed": [true, true, true]},
-    {"id": "b", "position_m": [1, 0, 0], "mass_kg": 1},
-    {"id": "c", "position_m": [2, 0, 0], "mass_kg": 0, "fixed": [true, true, true]}
-  ],
-  "cables": [
-    {"id": "c0", "nodes": ["a", "b"], "ea_n": 1e5, "rest_length_m": 0.99},
-    {"id": "c1", "nodes": ["b", "c"], "ea_n": 1e5, "rest_length_m": 0.99}
-  ],
-  "continuous_cables": [
-    {"id": "cc", "path": ["a", "b", "c"], "ea_n": 1e5, "segment_rest_lengths_m": [0.99, 0.99]}
-  ]
-}"#;
-
-const COMMANDS: &str = "step,cable,payout_change_m\n1,cc,0.001\n2,cc,-0.001\n";
-
-/// A hang fails the test after this long (the issue's hangs ran past 60 s;
-/// every case here answers in well under a second, the lab fixture in a few).
-const DEADLINE: Duration = Duration::from_secs(120);
-
-/// Runs `tdeploy args` in `dir`, killing it (and failing) past [`DEADLINE`].
-fn tdeploy(args: &[&str], dir: &Path) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(args)
-        .current_dir(dir)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > DEADLINE {
-            let _ = child.kill();
-            panic!("tdeploy {args:?} still running after {DEADLINE:?}: a hang");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
-}
-
-/// Checks `out` ended with `code` and exactly one line on stderr, no
-/// panic; returns that line.
-fn failed_with(out: &Output, code: i32) -> String {
-    let e = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(code), "{e}");
-    assert!(!e.contains("panicked"), "{e}");
-    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
-    e.trim_end().to_string()
-}
-
-fn dir_with(files: &[(&str, &str)]) -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    for (name, text) in files {
-        std::fs::write(dir.path().join(name), text).unwrap();
-    }
-    dir
+/// Runs `tdeploy args` in `dir` under the hang guard.
+fn guarded(args: &[&str], dir: &Path) -> Output {
+    tdeploy_with(args, dir, RunOptions::hang_guarded())
 }
 
 // ---- the panic ----------------------------------------------------------
@@ -97,7 +44,7 @@ fn a_friction_rig_with_a_non_finite_or_extreme_tension_or_angle_is_an_error_not_
         ("[146]", "[-5]", "interior_angles_deg[0]"),
     ] {
         let dir = dir_with(&[("e.toml", &rig.replace(from, to))]);
-        let e = failed_with(&tdeploy(&["experiment", "e.toml"], dir.path()), 2);
+        let e = failed_with(&guarded(&["experiment", "e.toml"], dir.path()), 2);
         assert!(
             e.starts_with("error: e.toml: line ") && e.contains(&format!("`{field}`")),
             "{to}: {e}"
@@ -140,11 +87,11 @@ fn a_friction_rig_with_a_non_finite_or_extreme_tension_or_angle_is_an_error_not_
 #[test]
 fn a_payout_of_1e3_m_is_refused_not_a_hang() {
     let dir = dir_with(&[
-        ("s.json", SMALL),
+        ("s.json", TWO_CABLES),
         ("c.csv", "step,cable,payout_change_m\n1,cc,1000\n"),
     ]);
     let e = failed_with(
-        &tdeploy(
+        &guarded(
             &["simulate", "-q", "-s", "s.json", "-c", "c.csv"],
             dir.path(),
         ),
@@ -159,9 +106,9 @@ fn a_payout_of_1e3_m_is_refused_not_a_hang() {
 
 #[test]
 fn an_increment_of_1e_9_m_is_refused_not_a_hang() {
-    let dir = dir_with(&[("s.json", SMALL), ("c.csv", COMMANDS)]);
+    let dir = dir_with(&[("s.json", TWO_CABLES), ("c.csv", TWO_STEP_COMMANDS)]);
     let e = failed_with(
-        &tdeploy(
+        &guarded(
             &[
                 "simulate",
                 "-q",
@@ -183,7 +130,7 @@ fn an_increment_of_1e_9_m_is_refused_not_a_hang() {
     // Through an experiment file the solver's own limit stops it.
     let effect = "kind = \"friction-effect\"\nmu = 0.2\nfold_m = 1\ndeploy_m = 1\nincrement_m = 1e-9\nforce_floor_n = 50\nout = \"o\"\n";
     let dir = dir_with(&[("e.toml", effect)]);
-    let e = failed_with(&tdeploy(&["experiment", "e.toml"], dir.path()), 2);
+    let e = failed_with(&guarded(&["experiment", "e.toml"], dir.path()), 2);
     assert!(e.contains("the limit per command"), "{e}");
 }
 
@@ -193,12 +140,12 @@ fn a_fixed_node_near_1e308_is_refused_not_a_hang() {
         let dir = dir_with(&[
             (
                 "s.json",
-                &SMALL.replace("[2, 0, 0]", &format!("[{coordinate}, 0, 0]")),
+                &TWO_CABLES.replace("[2, 0, 0]", &format!("[{coordinate}, 0, 0]")),
             ),
-            ("c.csv", COMMANDS),
+            ("c.csv", TWO_STEP_COMMANDS),
         ]);
         let e = failed_with(
-            &tdeploy(
+            &guarded(
                 &["simulate", "-q", "-s", "s.json", "-c", "c.csv"],
                 dir.path(),
             ),
@@ -215,7 +162,7 @@ fn a_fixed_node_near_1e308_is_refused_not_a_hang() {
 fn modules_per_half_64_is_refused_before_any_work() {
     let dir = dir_with(&[("p.toml", "modules_per_half = 64\n")]);
     let e = failed_with(
-        &tdeploy(&["structure", "--params", "p.toml"], dir.path()),
+        &guarded(&["structure", "--params", "p.toml"], dir.path()),
         2,
     );
     assert_eq!(
@@ -232,28 +179,7 @@ fn modules_per_half_64_is_refused_before_any_work() {
 
 #[test]
 fn a_measurement_of_1e308_is_refused_with_its_file_and_line() {
-    let dir = dir_with(&[(
-        "m.toml",
-        "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n",
-    )]);
-    let out = tdeploy(
-        &[
-            "lab",
-            "m.toml",
-            "-o",
-            "log",
-            "--amplitudes",
-            "0.01",
-            "--steps",
-            "1",
-        ],
-        dir.path(),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let dir = lab_log_folder("0.01");
     let path = dir.path().join("log/measurements.csv");
     let text = std::fs::read_to_string(&path).unwrap();
     // The second line's value becomes 1e308.
@@ -262,7 +188,10 @@ fn a_measurement_of_1e308_is_refused_with_its_file_and_line() {
     lines[1] = format!("{head},1e308");
     std::fs::write(&path, lines.join("\n") + "\n").unwrap();
     let e = failed_with(
-        &tdeploy(&["compare", "m.toml", "log", "-o", "report"], dir.path()),
+        &guarded(
+            &["compare", "model.toml", "log", "-o", "report"],
+            dir.path(),
+        ),
         2,
     );
     assert!(
@@ -346,7 +275,7 @@ fn a_strut_with_a_tiny_ei_or_rest_length_is_refused() {
         ("2.3e3", "1e-9", "rest_length_m"),
     ] {
         let dir = dir_with(&[("s.json", &strut.replace("EI", ei).replace("REST", rest))]);
-        let e = failed_with(&tdeploy(&["simulate", "-q", "-s", "s.json"], dir.path()), 2);
+        let e = failed_with(&guarded(&["simulate", "-q", "-s", "s.json"], dir.path()), 2);
         assert!(
             e.starts_with(&format!(
                 "error: s.json: struts[0] (\"s0\"): field `{field}` must be a finite number in"
@@ -359,7 +288,7 @@ fn a_strut_with_a_tiny_ei_or_rest_length_is_refused() {
 #[test]
 fn tol_1e300_is_refused_not_converged_in_0_iterations() {
     let dir = tempfile::tempdir().unwrap();
-    let e = failed_with(&tdeploy(&["simulate", "--tol", "1e300"], dir.path()), 2);
+    let e = failed_with(&guarded(&["simulate", "--tol", "1e300"], dir.path()), 2);
     assert_eq!(
         e,
         "error: --tol: must be a finite number in (0, 0.01], got 1e300"
@@ -419,7 +348,7 @@ fn a_member_strained_beyond_the_plausible_limit_is_not_converged() {
       "struts": [{"id": "s0", "nodes": ["a", "b"], "ea_n": 2.6e7, "ei_nm2": 2.3e3, "rest_length_m": 2}]}"#;
     let dir = dir_with(&[("s.json", file)]);
     let e = failed_with(
-        &tdeploy(&["simulate", "-q", "-s", "s.json", "-o", "r"], dir.path()),
+        &guarded(&["simulate", "-q", "-s", "s.json", "-o", "r"], dir.path()),
         1,
     );
     assert!(
@@ -434,7 +363,7 @@ fn a_member_strained_beyond_the_plausible_limit_is_not_converged() {
 fn reference_temperature_nan_is_refused() {
     let model = "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n[effects.thermal]\nexpansion_per_k = 1.2e-5\nreference_temperature_c = nan\n";
     let dir = dir_with(&[("m.toml", model)]);
-    let e = failed_with(&tdeploy(&["lab", "m.toml", "-o", "log"], dir.path()), 2);
+    let e = failed_with(&guarded(&["lab", "m.toml", "-o", "log"], dir.path()), 2);
     assert_eq!(
         e,
         "error: m.toml: line 5, field `effects.thermal.reference_temperature_c`: must be a finite number in [-100, 100], got NaN"
@@ -472,28 +401,32 @@ fn nan_bridge_parameters_are_refused_before_form_finding() {
 fn structure_validation_and_os_errors_print_once() {
     let dir = dir_with(&[(
         "s.json",
-        &SMALL
+        &TWO_CABLES
             .replace(
                 "\"mass_kg\": 1}",
                 "\"mass_kg\": 1, \"fixed\": [false, false, false]}",
             )
             .replace("[\"a\", \"b\", \"c\"]", "[\"a\", \"b\", \"a\"]"),
     )]);
-    let e = failed_with(&tdeploy(&["simulate", "-q", "-s", "s.json"], dir.path()), 2);
+    let e = failed_with(&guarded(&["simulate", "-q", "-s", "s.json"], dir.path()), 2);
     assert_eq!(e.matches("repeats node").count(), 1, "{e}");
-    let e = failed_with(&tdeploy(&["simulate", "-s", "missing.json"], dir.path()), 2);
+    let e = failed_with(&guarded(&["simulate", "-s", "missing.json"], dir.path()), 2);
     assert_eq!(e.matches("No such file").count(), 1, "{e}");
 }
 
 #[test]
 fn invalid_utf8_names_its_line_and_column() {
     let dir = tempfile::tempdir().unwrap();
-    let mut bytes = SMALL.as_bytes().to_vec();
+    let mut bytes = TWO_CABLES.as_bytes().to_vec();
     // Line 3 is `  "name": "two cables",`; its 12th byte becomes 0xff.
-    let line3 = SMALL.lines().take(2).map(|l| l.len() + 1).sum::<usize>();
+    let line3 = TWO_CABLES
+        .lines()
+        .take(2)
+        .map(|l| l.len() + 1)
+        .sum::<usize>();
     bytes[line3 + 11] = 0xff;
     std::fs::write(dir.path().join("s.json"), bytes).unwrap();
-    let e = failed_with(&tdeploy(&["simulate", "-q", "-s", "s.json"], dir.path()), 2);
+    let e = failed_with(&guarded(&["simulate", "-q", "-s", "s.json"], dir.path()), 2);
     assert_eq!(
         e,
         "error: s.json:3:12: invalid UTF-8 (files must be UTF-8 text)"
@@ -504,7 +437,7 @@ fn invalid_utf8_names_its_line_and_column() {
 
 #[test]
 fn outputs_refuse_to_overwrite_a_users_files_without_force() {
-    let dir = dir_with(&[("s.json", SMALL), ("c.csv", COMMANDS)]);
+    let dir = dir_with(&[("s.json", TWO_CABLES), ("c.csv", TWO_STEP_COMMANDS)]);
     let mine = dir.path().join("mine");
     std::fs::create_dir(&mine).unwrap();
     std::fs::write(mine.join("notes.txt"), "my notes").unwrap();
@@ -512,28 +445,28 @@ fn outputs_refuse_to_overwrite_a_users_files_without_force() {
     let simulate = [
         "simulate", "-q", "-s", "s.json", "-c", "c.csv", "-o", "mine",
     ];
-    let e = failed_with(&tdeploy(&simulate, dir.path()), 2);
+    let e = failed_with(&guarded(&simulate, dir.path()), 2);
     assert!(
         e.contains("mine: output folder: holds files tdeploy did not write")
             && e.contains("--force"),
         "{e}"
     );
-    let e = failed_with(&tdeploy(&["structure", "-o", "bridge.json"], dir.path()), 2);
+    let e = failed_with(&guarded(&["structure", "-o", "bridge.json"], dir.path()), 2);
     assert!(
         e.contains("bridge.json: file: already exists") && e.contains("--force"),
         "{e}"
     );
-    let e = failed_with(&tdeploy(&["lab", "m.toml", "-o", "mine"], dir.path()), 2);
+    let e = failed_with(&guarded(&["lab", "m.toml", "-o", "mine"], dir.path()), 2);
     assert!(e.contains("m.toml: cannot read"), "bad input first: {e}");
     std::fs::write(
         dir.path().join("m.toml"),
         "format = \"tensegrity-deploy/model/1\"\nstructure = \"s.json\"\n",
     )
     .unwrap();
-    let e = failed_with(&tdeploy(&["lab", "m.toml", "-o", "mine"], dir.path()), 2);
+    let e = failed_with(&guarded(&["lab", "m.toml", "-o", "mine"], dir.path()), 2);
     assert!(e.contains("holds files tdeploy did not write"), "{e}");
     let e = failed_with(
-        &tdeploy(&["compare", "m.toml", "mine", "-o", "mine"], dir.path()),
+        &guarded(&["compare", "m.toml", "mine", "-o", "mine"], dir.path()),
         2,
     );
     assert!(!e.contains("panicked"), "{e}");
@@ -545,17 +478,23 @@ fn outputs_refuse_to_overwrite_a_users_files_without_force() {
         std::fs::read_to_string(dir.path().join("bridge.json")).unwrap(),
         "my bridge"
     );
-    // A re-run into tdeploy's own output replaces it whole; --force
-    // replaces a user's.
+    // --force replaces a user's folder whole; a re-run into tdeploy's own
+    // output is refused too (issue 25: an earlier result is never lost by
+    // accident), naming the command that wrote it, and --force replaces it.
     let mut forced = simulate.to_vec();
     forced.push("--force");
-    assert!(tdeploy(&forced, dir.path()).status.success());
+    assert!(guarded(&forced, dir.path()).status.success());
     assert!(!mine.join("notes.txt").exists() && mine.join("steps.csv").is_file());
-    assert!(tdeploy(&simulate, dir.path()).status.success());
-    let out = tdeploy(&["structure", "-o", "bridge.json", "--force"], dir.path());
+    let e = failed_with(&guarded(&simulate, dir.path()), 2);
+    assert!(
+        e.contains("earlier run of `tdeploy simulate`") && e.contains("--force"),
+        "{e}"
+    );
+    assert!(guarded(&forced, dir.path()).status.success());
+    let out = guarded(&["structure", "-o", "bridge.json", "--force"], dir.path());
     assert!(out.status.success());
     // The same bytes again need no --force.
-    assert!(tdeploy(&["structure", "-o", "bridge.json"], dir.path())
+    assert!(guarded(&["structure", "-o", "bridge.json"], dir.path())
         .status
         .success());
     // No temporary folder or file is left beside the outputs.
@@ -568,14 +507,14 @@ fn outputs_refuse_to_overwrite_a_users_files_without_force() {
 #[test]
 fn simulate_writes_the_steps_that_converged_before_a_failing_step() {
     let dir = dir_with(&[
-        ("s.json", SMALL),
+        ("s.json", TWO_CABLES),
         (
             "c.csv",
             "step,cable,payout_change_m\n1,cc,0.001\n2,cc,0.001\n3,cc,-5\n4,cc,0.001\n",
         ),
     ]);
     let e = failed_with(
-        &tdeploy(
+        &guarded(
             &["simulate", "-q", "-s", "s.json", "-c", "c.csv", "-o", "r"],
             dir.path(),
         ),
@@ -599,15 +538,9 @@ fn simulate_writes_the_steps_that_converged_before_a_failing_step() {
 #[test]
 fn compare_and_diagnose_json_reports_do_not_overwrite_a_users_file() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = format!(
-        "{}/experiments/lab/truth-friction.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let baseline = format!(
-        "{}/experiments/lab/baseline.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let lab = tdeploy(
+    let truth = repo_arg("experiments/lab/truth-friction.toml");
+    let baseline = repo_arg("experiments/lab/baseline.toml");
+    let lab = guarded(
         &[
             "lab",
             &truth,
@@ -642,7 +575,7 @@ fn compare_and_diagnose_json_reports_do_not_overwrite_a_users_file() {
             "mine.json",
         ],
     ] {
-        let e = failed_with(&tdeploy(&args, dir.path()), 2);
+        let e = failed_with(&guarded(&args, dir.path()), 2);
         assert!(e.contains("mine.json") && e.contains("--force"), "{e}");
         assert_eq!(
             std::fs::read_to_string(dir.path().join("mine.json")).unwrap(),
@@ -660,11 +593,11 @@ fn compare_and_diagnose_json_reports_do_not_overwrite_a_users_file() {
         "mine.json",
     ];
     forced.push("--force");
-    assert_eq!(tdeploy(&forced, dir.path()).status.code(), Some(0));
+    assert_eq!(guarded(&forced, dir.path()).status.code(), Some(0));
     assert!(std::fs::read_to_string(dir.path().join("mine.json"))
         .unwrap()
         .starts_with('{'));
-    let again = tdeploy(
+    let again = guarded(
         &[
             "diagnose",
             &baseline,

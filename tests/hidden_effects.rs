@@ -2,26 +2,26 @@
 //! a truth the diagnosing model does not know, as the issue "Compare the
 //! model with measurements, find the missing physical effect" asks.
 //!
-//! Logs are kept small for speed: four cycles of [`AMPLITUDES_M`] in
-//! [`STEPS`] steps each way (alternate cycles fitted and held out, so both
+//! Logs are kept small for speed: four cycles of
+//! [`common::fixtures::LAB_AMPLITUDES_M`] in [`common::fixtures::LAB_STEPS`]
+//! steps each way (alternate cycles fitted and held out, so both
 //! halves see a 20 cm cycle), the standard sensors (four load cells at 7 N,
 //! the ten midspan nodes in 3-D at 1 mm, a temperature channel at 0.1 °C,
 //! swinging 20 ± 12 °C).
 
+mod common;
+
 use rand::{Rng, SeedableRng};
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use common::fixtures::{reference_structure, standard_lab_log};
 use tensegrity_deploy::measure::compare::noise_rms_limit;
 use tensegrity_deploy::measure::diagnose::{diagnose, part, DiagnoseSettings, Verdict};
-use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
+use tensegrity_deploy::measure::lab::DAILY_SWING_K;
 use tensegrity_deploy::measure::local::Term;
 use tensegrity_deploy::measure::log::MeasurementLog;
-use tensegrity_deploy::model::{EffectKind, Effects, MemberKind, RelaxSettings, Structure};
-use tensegrity_deploy::sim::standard_sensors;
+use tensegrity_deploy::model::{EffectKind, Effects, MemberKind, Structure};
 use tensegrity_deploy::sim::EffectModel;
 
-const AMPLITUDES_M: [f64; 4] = [0.05, 0.2, 0.1, 0.2];
-const STEPS: usize = 4;
 /// Thermal length change is the weakest effect: over the standard 12 K swing
 /// it moves the midspan nodes by 0.3 mm at most, a third of the position
 /// noise, and a small log cannot show it. Its test logs a 25 K swing (an
@@ -29,33 +29,17 @@ const STEPS: usize = 4;
 /// 0.6 mm.
 const THERMAL_SWING_K: f64 = 25.0;
 
-fn bridge() -> Structure {
-    reference_bridge(&BridgeParameters::default()).unwrap()
-}
-
 fn model(structure: Structure, effects: Effects) -> EffectModel {
-    EffectModel {
-        structure,
-        effects,
-        settings: RelaxSettings::default(),
-        increment_m: 0.01,
-    }
+    EffectModel::for_measurement(structure, effects)
 }
 
 fn lab_log(truth: &EffectModel, seed: u64) -> MeasurementLog {
-    let sensors = standard_sensors(&truth.structure);
     let swing_k = if truth.effects.thermal.is_some() {
         THERMAL_SWING_K
     } else {
         DAILY_SWING_K
     };
-    let cycles = standard_cycles(
-        truth.structure.continuous_cables.len(),
-        &AMPLITUDES_M,
-        STEPS,
-        swing_k,
-    );
-    run_lab(truth, &sensors, &cycles, seed).unwrap()
+    standard_lab_log(truth, seed, swing_k)
 }
 
 /// Parameters drawn uniformly from the effect's plausible range.
@@ -73,11 +57,11 @@ fn plausible_draw(kind: EffectKind, seed: u64) -> Vec<f64> {
 fn hidden_effect_is_found(kind: EffectKind, seed: u64) {
     let truth_values = plausible_draw(kind, seed);
     let truth = model(
-        bridge(),
+        reference_structure(),
         Effects::default().with_parameters(kind, &truth_values),
     );
     let log = lab_log(&truth, seed);
-    let baseline = model(bridge(), Effects::default());
+    let baseline = model(reference_structure(), Effects::default());
     let settings = DiagnoseSettings {
         max_rounds: 1,
         ..DiagnoseSettings::default()
@@ -153,7 +137,7 @@ fn the_library_has_a_hidden_effect_test_for_every_effect() {
 /// should be rarer than 1 in 10 000).
 #[test]
 fn nothing_hidden_is_nothing_missing_on_19_of_20_seeds() {
-    let baseline = model(bridge(), Effects::default());
+    let baseline = model(reference_structure(), Effects::default());
     let mut clean = 0;
     for seed in 100..120 {
         let log = lab_log(&baseline, seed);
@@ -174,10 +158,10 @@ fn two_hidden_effects_are_found_in_two_rounds() {
     let truth_effects = Effects::default()
         .with_parameters(EffectKind::JointFriction, &[0.1])
         .with_parameters(EffectKind::SupportFlexibility, &[3e-5]);
-    let truth = model(bridge(), truth_effects);
+    let truth = model(reference_structure(), truth_effects);
     let log = lab_log(&truth, 21);
     let d = diagnose(
-        &model(bridge(), Effects::default()),
+        &model(reference_structure(), Effects::default()),
         &log,
         &DiagnoseSettings::default(),
     )
@@ -216,7 +200,7 @@ fn two_hidden_effects_are_found_in_two_rounds() {
 /// structured residual, not a library effect with a confident parameter.
 #[test]
 fn a_strut_too_long_is_a_structured_residual_no_candidate_explains() {
-    let mut long_strut = bridge();
+    let mut long_strut = reference_structure();
     let strut = long_strut
         .members
         .iter()
@@ -225,7 +209,7 @@ fn a_strut_too_long_is_a_structured_residual_no_candidate_explains() {
     long_strut.members[strut].rest_length_m += 0.004;
     let log = lab_log(&model(long_strut, Effects::default()), 31);
     let d = diagnose(
-        &model(bridge(), Effects::default()),
+        &model(reference_structure(), Effects::default()),
         &log,
         &DiagnoseSettings::default(),
     )

@@ -11,8 +11,12 @@
 //! `pub mod` / `pub use` lines of a `mod.rs` are declarations, not
 //! dependencies.
 
+mod common;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
+
+use common::repo_path;
 
 /// The library's files, keyed by module path (`["plan", "policy"]`; a
 /// `mod.rs` by its folder's path; `lib.rs` by `[]`).
@@ -330,7 +334,7 @@ fn file_graph(src: &Path) -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
 
 #[test]
 fn no_file_of_src_imports_itself_through_others() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let src = repo_path("src");
     let edges = file_graph(&src);
     let total: usize = edges.values().map(BTreeSet::len).sum();
     assert!(

@@ -1,13 +1,18 @@
-//! The layers of the library point one way (README.md, "Layout"): a lower
-//! layer never names a higher one. This scans every `crate::LAYER` path in
-//! the library's code, outside comments and outside `#[cfg(test)]` code
-//! (unit tests may build their fixtures with any layer, e.g. a model test
-//! on the reference bridge from `design`).
+//! The layers of the library point one way (`src/lib.rs`, "Layout"): a
+//! lower layer never names a higher one. This scans every `crate::LAYER`
+//! path in the library's code, outside comments and outside `#[cfg(test)]`
+//! code (unit tests may build their fixtures with any layer, e.g. a model
+//! test on the reference bridge from `design`). The table of layers is
+//! the folders of `src/`, no more and no fewer.
 
-use std::collections::BTreeMap;
+mod common;
+
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-/// Each layer and the layers it may use.
+use common::repo_path;
+
+/// Each layer (a folder of `src/`) and the layers it may use.
 fn allowed() -> BTreeMap<&'static str, Vec<&'static str>> {
     let below = |layers: &[&'static str]| layers.to_vec();
     let mut m = BTreeMap::new();
@@ -30,7 +35,11 @@ fn allowed() -> BTreeMap<&'static str, Vec<&'static str>> {
     with_studies.push("studies");
     m.insert("io", with_studies.clone());
     with_studies.push("io");
-    m.insert("report", with_studies);
+    m.insert("report", with_studies.clone());
+    // The binary's front end (`src/main.rs` holds it) may use everything.
+    let mut every = with_studies;
+    every.push("report");
+    m.insert("cli", every);
     m
 }
 
@@ -67,7 +76,7 @@ fn named_layers(text: &str) -> Vec<(usize, String)> {
 
 #[test]
 fn no_layer_imports_a_higher_one() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let root = repo_path("src");
     let allowed = allowed();
     let mut files = Vec::new();
     rust_files(&root, &mut files);
@@ -83,10 +92,10 @@ fn no_layer_imports_a_higher_one() {
             .to_string_lossy()
             .trim_end_matches(".rs")
             .to_string();
-        // The binary's front end and the crate root may use everything.
+        // The crate roots may use everything.
         let Some(may_use) = allowed.get(layer.as_str()) else {
             assert!(
-                ["cli", "lib", "main"].contains(&layer.as_str()),
+                ["lib", "main"].contains(&layer.as_str()),
                 "{}: a folder the layer table does not know",
                 relative.display()
             );
@@ -112,4 +121,42 @@ fn the_scan_sees_a_violation_and_skips_tests_and_comments() {
     let text = "use crate::plan::Policy;\n// crate::cli in a comment\nfn f() {}\n\
                 #[cfg(test)]\nmod tests { use crate::design::x; }\n";
     assert_eq!(named_layers(text), vec![(1, "plan".to_string())]);
+}
+
+/// The table knows every folder of `src/` and names no layer that is not
+/// one; the library declares each layer below the binary's front end.
+#[test]
+fn the_layer_table_is_the_folders_of_src() {
+    let root = repo_path("src");
+    let folders: BTreeSet<String> = std::fs::read_dir(&root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_dir())
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    let table = allowed();
+    let layers: BTreeSet<String> = table.keys().map(|l| l.to_string()).collect();
+    assert_eq!(
+        layers, folders,
+        "the layer table against the folders of src/"
+    );
+    for (layer, may_use) in &table {
+        for used in may_use {
+            assert!(
+                table.contains_key(used) && used != layer,
+                "`{layer}` may use `{used}`, which is not another layer"
+            );
+        }
+    }
+    let lib = std::fs::read_to_string(root.join("lib.rs")).unwrap();
+    let modules: BTreeSet<String> = lib
+        .lines()
+        .filter_map(|l| l.strip_prefix("pub mod ")?.strip_suffix(';'))
+        .map(String::from)
+        .collect();
+    let library: BTreeSet<String> = layers.into_iter().filter(|l| l != "cli").collect();
+    assert_eq!(
+        modules, library,
+        "the modules of src/lib.rs against the layers"
+    );
 }

@@ -1,10 +1,12 @@
 //! The deployment planner: the QP step's formulation on hand-made data,
 //! the sequence search on the reference bridge, and its files.
 
+mod common;
+
 use std::path::Path;
 
+use common::fixtures::reference_structure;
 use nalgebra::{DMatrix, Vector3};
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::policy_file::parse_policy;
 use tensegrity_deploy::io::problem_file::parse_problem;
 use tensegrity_deploy::io::FileError;
@@ -15,8 +17,9 @@ use tensegrity_deploy::model::{
 use tensegrity_deploy::numerics::qp::{solve, QpStatus};
 use tensegrity_deploy::plan::qp_step::{step_solver_settings, Direction, LinearLimit, RowKind};
 use tensegrity_deploy::plan::{
-    folded_start, formulate, plan_open_loop, solve_step, DeploymentProblem, NotReachable, PerMotor,
-    Plan, PlanStatus, Policy, QpStepStatus, StepData, StepWeights,
+    folded_start, formulate, plan_open_loop, solve_step, DeploymentProblem, LimitViolation,
+    NotReachable, PerMotor, Plan, PlanContext, PlanStatus, Policy, QpStepStatus, StepData,
+    StepWeights,
 };
 
 /// One pair, two motors, gap along x only.
@@ -187,7 +190,7 @@ fn stroke_limits_contradicting_a_member_limit_are_infeasible() {
 
 fn bridge(mu: f64) -> ForwardModel {
     ForwardModel::new(
-        reference_bridge(&BridgeParameters::default()).unwrap(),
+        reference_structure(),
         JointFriction::constant(mu).unwrap(),
         RelaxSettings::default(),
     )
@@ -303,6 +306,10 @@ fn qp_planner_connects_with_friction_open_loop_within_every_limit() {
     connects(0.2);
 }
 
+/// "Quickly" is counted in commands: the planner gives up within five.
+/// How long that takes is not checked here (a wall-clock bound was); the
+/// bench `planner`, `open_loop_not_reachable_short_stroke_mu0`, times this
+/// same plan.
 #[test]
 fn a_stroke_too_short_ends_not_reachable_quickly() {
     // Motors may not reel in below 0.30 m of payout: 10 cm of the 40 cm
@@ -314,7 +321,6 @@ fn a_stroke_too_short_ends_not_reachable_quickly() {
     };
     let policy = Policy::default();
     let start = folded_start(&model, &problem, policy.increment_m).unwrap();
-    let clock = std::time::Instant::now();
     let plan = plan_open_loop(&model, &problem, &policy, &start).unwrap();
     // The stroke's lower end binds: some motor's `stroke min` constraint
     // is active in the step that found no reduction.
@@ -337,10 +343,96 @@ fn a_stroke_too_short_ends_not_reachable_quickly() {
         s => panic!("{s:?}"),
     }
     assert!(plan.records.len() <= 5, "{} commands", plan.records.len());
-    assert!(clock.elapsed().as_secs() < 20);
     for p in &plan.final_state.payout_m {
         assert!(*p >= 0.30 - 1e-12);
     }
+}
+
+/// Issue 10 (seed 1 scenario 904 of `tdeploy evaluate`, deployed in
+/// `tests/deploy.rs`): in the last approach command the axial cables,
+/// which no load cell reads, lose 300–400 N on the model within a few
+/// centimetres of reel-in, and a truth whose tensions started that
+/// command below the model's went slack. The fix: a trial that leaves
+/// such a tension less than β (`margins.unmeasured_force_fall`, 0.4) times
+/// its fall above its lower limit is refused, though it breaks no plain
+/// limit. Checked on the model alone, whatever any truth does: from 3 cm
+/// of payout, reeling every motor in 3.5 cm leaves an axial cable at
+/// ~91 N after a ~379 N fall (91 − 0.4·379 is far below the 5 N limit).
+#[test]
+fn a_command_leaving_an_unmeasured_tension_within_its_fall_margin_is_refused() {
+    let model = bridge(0.0);
+    let problem = DeploymentProblem {
+        start_payout_m: PerMotor::All(0.10),
+        ..Default::default()
+    };
+    let policy = Policy::default();
+    let beta = policy.margins.unmeasured_force_fall.unwrap();
+    let start = folded_start(&model, &problem, policy.increment_m).unwrap();
+    let context = PlanContext::new(&model, &problem, &policy, &start).unwrap();
+    let motors = model.structure().continuous_cables.len();
+    // 7 cm in, in two commands, to 3 cm of payout: no margin binds yet.
+    let mut state = start.clone();
+    for step_m in [-0.05, -0.02] {
+        let trial = context.trial(&state, &vec![step_m; motors]);
+        assert!(trial.admissible(), "{:?}", trial.failure());
+        state = trial.state;
+    }
+    let command = vec![-0.035; motors];
+    let refused = context.trial(&state, &command);
+    assert!(refused.status.is_converged(), "{:?}", refused.status);
+    assert!(!refused.admissible());
+    // Every violation is the margin's, as its rule says.
+    let members: Vec<&str> = refused
+        .check
+        .violations
+        .iter()
+        .map(|v| match v {
+            LimitViolation::UnmeasuredFall {
+                member,
+                force_n,
+                fall_n,
+                margin,
+                lower_n,
+            } => {
+                assert_eq!(*margin, beta);
+                assert!(*force_n > *lower_n, "{}", v.describe());
+                assert!(force_n - margin * fall_n < *lower_n, "{}", v.describe());
+                member.as_str()
+            }
+            other => panic!("a plain limit broke: {}", other.describe()),
+        })
+        .collect();
+    assert!(members.iter().any(|m| m.contains("axial")), "{members:?}");
+    // The same, by hand from the model's forces at the command's ends:
+    // some tension ends above its limit but within β times its fall of it.
+    let rows = |s: &DeploymentState| -> Vec<f64> {
+        let f = model.member_forces(s);
+        f.member_n.into_iter().chain(f.segment_n).collect()
+    };
+    let (before, after) = (rows(&state), rows(&refused.state));
+    let structure = model.structure();
+    let within_margin: Vec<usize> = (0..before.len())
+        .filter(|&r| {
+            let strut = structure
+                .members
+                .get(r)
+                .is_some_and(|m| matches!(m.kind, MemberKind::Strut { .. }));
+            let fall = before[r] - after[r];
+            !strut && fall > 0.0 && after[r] - beta * fall < context.limits.force[r].lower_n
+        })
+        .collect();
+    assert!(!within_margin.is_empty());
+    for r in within_margin {
+        assert!(after[r] > context.limits.force[r].lower_n, "row {r}");
+    }
+    // With the margin off the same command is admitted and reaches the
+    // same state: the margin refuses; it changes nothing else.
+    let mut no_margin = policy.clone();
+    no_margin.margins.unmeasured_force_fall = None;
+    let plain = PlanContext::new(&model, &problem, &no_margin, &start).unwrap();
+    let admitted = plain.trial(&state, &command);
+    assert!(admitted.admissible(), "{:?}", admitted.failure());
+    assert_eq!(admitted.state, refused.state);
 }
 
 fn field_error(e: FileError) -> (usize, String) {
@@ -394,4 +486,70 @@ fn bad_policy_and_problem_files_are_rejected_naming_file_line_and_field() {
         field_error(parse_problem(problem, p).unwrap_err()),
         (2, "max_step_m".to_string())
     );
+}
+
+/// Issue 22, item 3: a 50 cm fold leaves both `cc1` cables of the
+/// frictionless reference model slack (every segment shorter than its
+/// rest length, 0 N), and a slack cable's tangent response is zero. The
+/// QP planner's first command takes the slack up: only the slack cables'
+/// motors move, each reels in at least its slack, and after it no cable
+/// is slack and every limit held on the model.
+#[test]
+fn a_slack_cable_is_taken_up_before_the_qp_plans_on_it() {
+    use tensegrity_deploy::plan::take_up::{slack_per_cable_m, take_up};
+    use tensegrity_deploy::plan::{planner_for, Decision};
+    let model = ForwardModel::new(
+        reference_structure(),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )
+    .unwrap();
+    let problem = DeploymentProblem {
+        start_payout_m: PerMotor::All(0.5),
+        max_payout_m: PerMotor::All(0.7),
+        ..DeploymentProblem::default()
+    };
+    let policy = Policy::default();
+    let start = folded_start(&model, &problem, policy.increment_m).unwrap();
+    let context = PlanContext::new(&model, &problem, &policy, &start).unwrap();
+    let cables = &model.structure().continuous_cables;
+    let slack = slack_per_cable_m(&context, &start);
+    for (c, cable) in cables.iter().enumerate() {
+        // More than a millimetre of slack on cc1, none elsewhere.
+        assert_eq!(
+            slack[c] > 1e-3,
+            cable.id.ends_with("cc1"),
+            "{}: {}",
+            cable.id,
+            slack[c]
+        );
+        assert_eq!(
+            slack[c] > 1e-6,
+            cable.id.ends_with("cc1"),
+            "{}: {}",
+            cable.id,
+            slack[c]
+        );
+    }
+    let command = take_up(&context, &start).expect("an admissible take-up");
+    for (c, u) in command.command_m.iter().enumerate() {
+        if slack[c] > 0.0 {
+            assert!(
+                *u <= -slack[c],
+                "{}: {u} m for {} m of slack",
+                cables[c].id,
+                slack[c]
+            );
+        } else {
+            assert_eq!(*u, 0.0, "{}", cables[c].id);
+        }
+    }
+    assert!(command.trial.admissible());
+    let after = slack_per_cable_m(&context, &command.trial.state);
+    assert!(after.iter().all(|&l| l <= 1e-6), "{after:?}");
+    let mut planner = planner_for(&context, &start);
+    match planner.next_command(&context, &start) {
+        Decision::Command(first) => assert_eq!(first.command_m, command.command_m),
+        Decision::Stop(s) => panic!("{}", s.describe()),
+    }
 }

@@ -4,32 +4,21 @@
 //! were written in format 1; each migrates to exactly the policy of its
 //! format-2 file in `policies/`.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
+use common::cli::{failed_with, stderr, tdeploy};
+use common::repo_path;
 use tensegrity_deploy::io::policy_file::{migrate_policy, read_policy};
 
 const SHIPPED: [&str; 4] = ["qp", "memory", "nominal", "greedy-tree"];
 
-fn repo(path: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
-}
-
-fn tdeploy(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn the_shipped_format_1_policies_migrate_to_the_shipped_format_2_ones() {
     for name in SHIPPED {
-        let old = repo(&format!("tests/data/policy-1/{name}.toml"));
+        let old = repo_path(&format!("tests/data/policy-1/{name}.toml"));
         let text = std::fs::read_to_string(&old).unwrap();
         let (migrated, notes) = migrate_policy(&text, &old).unwrap_or_else(|e| panic!("{e}"));
-        let current = read_policy(&repo(&format!("policies/{name}.toml"))).unwrap();
+        let current = read_policy(&repo_path(&format!("policies/{name}.toml"))).unwrap();
         assert_eq!(migrated, current, "{name}");
         assert!(notes.is_empty(), "{name}: {notes:?}");
     }
@@ -38,12 +27,10 @@ fn the_shipped_format_1_policies_migrate_to_the_shipped_format_2_ones() {
 #[test]
 fn an_old_policy_is_refused_naming_the_migration_which_writes_the_new_form() {
     let dir = tempfile::tempdir().unwrap();
-    let old = repo("tests/data/policy-1/greedy-tree.toml");
+    let old = repo_path("tests/data/policy-1/greedy-tree.toml");
     std::fs::copy(&old, dir.path().join("old.toml")).unwrap();
     let out = tdeploy(&["plan", "--policy", "old.toml", "-o", "o"], dir.path());
-    let e = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(2), "{e}");
-    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
+    let e = failed_with(&out, 2);
     assert!(
         e.contains("old.toml: line 5, field `format`")
             && e.contains("tdeploy policy migrate old.toml -o NEW"),
@@ -58,7 +45,7 @@ fn an_old_policy_is_refused_naming_the_migration_which_writes_the_new_form() {
     let migrated = read_policy(&dir.path().join("new.toml")).unwrap();
     assert_eq!(
         migrated,
-        read_policy(&repo("policies/greedy-tree.toml")).unwrap()
+        read_policy(&repo_path("policies/greedy-tree.toml")).unwrap()
     );
     // A second run writes the same bytes; other contents need --force.
     let again = tdeploy(
@@ -81,7 +68,7 @@ fn an_old_policy_is_refused_naming_the_migration_which_writes_the_new_form() {
         &["policy", "migrate", "new.toml", "-o", "newer.toml"],
         dir.path(),
     );
-    let e = String::from_utf8_lossy(&out.stderr).to_string();
+    let e = stderr(&out);
     assert_eq!(out.status.code(), Some(2), "{e}");
     assert!(
         e.contains("new.toml") && e.contains("tensegrity-deploy/policy/1"),

@@ -2,28 +2,32 @@
 //! equilibrium, frictionless equal tension, increment refinement, mirror
 //! symmetry and friction hysteresis.
 
+mod common;
+
+use common::fixtures::reference_structure;
 use nalgebra::Vector3;
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::design::BridgeParameters;
 use tensegrity_deploy::model::{
     CommandReport, DeploymentState, ForwardModel, JointFriction, MemberKind, RelaxSettings,
-    Structure, Workspace,
+    Workspace,
 };
-
-fn bridge() -> Structure {
-    reference_bridge(&BridgeParameters::default()).unwrap()
-}
 
 fn model(mu: f64, tol: f64) -> ForwardModel {
     let settings = RelaxSettings {
         tol_force_rel: tol,
         ..RelaxSettings::default()
     };
-    ForwardModel::new(bridge(), JointFriction::constant(mu).unwrap(), settings).unwrap()
+    ForwardModel::new(
+        reference_structure(),
+        JointFriction::constant(mu).unwrap(),
+        settings,
+    )
+    .unwrap()
 }
 
 #[test]
 fn each_half_has_the_seed_member_counts() {
-    let s = bridge();
+    let s = reference_structure();
     let count = |name: &str| s.members.iter().filter(|m| m.kind.name() == name).count();
     assert_eq!(s.nodes.len(), 2 * 25);
     assert_eq!(count("strut"), 2 * 30);
@@ -222,8 +226,12 @@ fn newton_and_dynamic_relaxation_agree() {
                 newton_max_iter,
                 ..RelaxSettings::default()
             };
-            let m = ForwardModel::new(bridge(), JointFriction::constant(mu).unwrap(), settings)
-                .unwrap();
+            let m = ForwardModel::new(
+                reference_structure(),
+                JointFriction::constant(mu).unwrap(),
+                settings,
+            )
+            .unwrap();
             let mut state = m.reference_state();
             let mut change = vec![0.0; m.structure().continuous_cables.len()];
             change[0] = -0.02;

@@ -6,27 +6,13 @@
 //!
 //! Short folds (10 and 15 cm) keep each run to a second or two.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn tdeploy(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
+use std::path::Path;
 
-fn repo(path: &str) -> String {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join(path)
-        .display()
-        .to_string()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).to_string()
-}
+use common::cli::{failed_with, stderr, stdout, succeeded, tdeploy};
+use common::files::{column, read_csv, read_json};
+use common::{repo_arg, repo_text};
 
 /// A folder with a 15 cm fold problem and `deploy`'s results in `d/`.
 fn deployed() -> tempfile::TempDir {
@@ -36,40 +22,17 @@ fn deployed() -> tempfile::TempDir {
         "format = \"tensegrity-deploy/problem/1\"\nstart_payout_m = 0.15\n",
     )
     .unwrap();
-    let o = tdeploy(
+    succeeded(&tdeploy(
         &["deploy", "--problem", "problem.toml", "-o", "d"],
         dir.path(),
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    ));
     dir
-}
-
-/// Rows of a CSV file by column name.
-fn csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines
-        .map(|l| l.split(',').map(String::from).collect())
-        .collect();
-    (header, rows)
-}
-
-fn column(header: &[String], name: &str) -> usize {
-    header
-        .iter()
-        .position(|h| h == name)
-        .unwrap_or_else(|| panic!("no column {name}"))
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// The commands `deploy` sent, per step and motor, from its own
 /// `commands.csv` (step 0 the fold, then the commands).
 fn deployed_commands(dir: &Path, motors: &[String]) -> Vec<Vec<f64>> {
-    let (h, rows) = csv(&dir.join("d/commands.csv"));
+    let (h, rows) = read_csv(&dir.join("d/commands.csv"));
     let step = column(&h, "step");
     let cable = column(&h, "cable");
     let value = h.len() - 1;
@@ -108,8 +71,8 @@ fn a_deploy_log_replayed_with_its_policy_gives_its_commands_back_and_the_counter
         ],
         dir.path(),
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let (h, rows) = csv(&dir.path().join("r/replay.csv"));
+    succeeded(&o);
+    let (h, rows) = read_csv(&dir.path().join("r/replay.csv"));
     let motors: Vec<String> = h
         .iter()
         .filter_map(|c| c.strip_prefix("logged_")?.strip_suffix("_m"))
@@ -135,8 +98,8 @@ fn a_deploy_log_replayed_with_its_policy_gives_its_commands_back_and_the_counter
             );
         }
     }
-    let s = json(&dir.path().join("r/summary.json"));
-    assert_eq!(s["format"], "tensegrity-deploy/replay/1");
+    let s = read_json(&dir.path().join("r/summary.json"));
+    assert_eq!(s["format"], "tensegrity-deploy/replay/2");
     assert_eq!(s["start"]["layout"], "deploy");
     assert_eq!(s["same_as_policy"], deployed.len());
     // The deployment ended connected: the policy would stop there.
@@ -147,12 +110,11 @@ fn a_deploy_log_replayed_with_its_policy_gives_its_commands_back_and_the_counter
     assert_eq!(cf["connected"], true, "{s}");
     assert_eq!(cf["violations"], 0);
     assert!(cf["final_measured_gap_m"].as_f64().unwrap() <= 0.030);
-    let (_, cf_rows) = csv(&dir.path().join("r/counterfactual.csv"));
+    let (_, cf_rows) = read_csv(&dir.path().join("r/counterfactual.csv"));
     assert_eq!(cf_rows.len(), 1 + cf["commands"].as_u64().unwrap() as usize);
     let svg = std::fs::read_to_string(dir.path().join("r/replay.svg")).unwrap();
     assert!(svg.starts_with("<svg"));
-    assert!(String::from_utf8_lossy(&o.stdout)
-        .contains("counterfactual on the calibrated model: connected"));
+    assert!(stdout(&o).contains("counterfactual on the calibrated model: connected"));
 }
 
 /// The replay is not a copy of the log: the nominal policy (even 5 cm
@@ -160,7 +122,7 @@ fn a_deploy_log_replayed_with_its_policy_gives_its_commands_back_and_the_counter
 #[test]
 fn another_policy_replayed_on_the_same_log_differs() {
     let dir = deployed();
-    let nominal = repo("policies/nominal.toml");
+    let nominal = repo_arg("policies/nominal.toml");
     let o = tdeploy(
         &[
             "replay",
@@ -179,7 +141,7 @@ fn another_policy_replayed_on_the_same_log_differs() {
         "{}",
         stderr(&o)
     );
-    let s = json(&dir.path().join("r/summary.json"));
+    let s = read_json(&dir.path().join("r/summary.json"));
     assert_eq!(s["policy"], "nominal");
     let differs = s["largest_difference_m"].as_f64().unwrap_or(0.0) > 1e-3;
     let stops = s["policy_would_have_stopped"].as_u64().unwrap() > 0;
@@ -193,7 +155,7 @@ fn another_policy_replayed_on_the_same_log_differs() {
 #[test]
 fn a_lab_log_replays_from_the_end_of_its_largest_fold_and_reports() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = repo("experiments/lab/truth-friction.toml");
+    let truth = repo_arg("experiments/lab/truth-friction.toml");
     let o = tdeploy(
         &[
             "lab",
@@ -207,7 +169,7 @@ fn a_lab_log_replays_from_the_end_of_its_largest_fold_and_reports() {
         ],
         dir.path(),
     );
-    assert!(o.status.success(), "{}", stderr(&o));
+    succeeded(&o);
     let o = tdeploy(
         &["replay", "lab", "--fit", "joint_friction", "-o", "r"],
         dir.path(),
@@ -222,7 +184,7 @@ fn a_lab_log_replays_from_the_end_of_its_largest_fold_and_reports() {
     ] {
         assert!(dir.path().join("r").join(f).is_file(), "{f}");
     }
-    let s = json(&dir.path().join("r/summary.json"));
+    let s = read_json(&dir.path().join("r/summary.json"));
     assert_eq!(s["start"]["layout"], "lab");
     assert_eq!(s["start"]["cycle"], 2);
     assert_eq!(s["start"]["start_step"], 2);
@@ -235,16 +197,12 @@ fn a_lab_log_replays_from_the_end_of_its_largest_fold_and_reports() {
     let fit = &s["calibration"]["fitted"][0];
     assert_eq!(fit["effect"], "joint_friction");
     assert!(s["counterfactual"].is_object() || s["counterfactual_failed"].is_string());
-    let (_, rows) = csv(&dir.path().join("r/replay.csv"));
+    let (_, rows) = read_csv(&dir.path().join("r/replay.csv"));
     assert_eq!(rows.len(), 3);
 }
 
 fn refused(dir: &Path, args: &[&str]) -> String {
-    let o = tdeploy(args, dir);
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{e}");
-    assert!(!e.contains("panicked"), "{e}");
-    assert_eq!(e.trim().lines().count(), 1, "one line: {e}");
+    let e = failed_with(&tdeploy(args, dir), 2);
     assert!(!dir.join("bad").exists(), "nothing written on bad input");
     e
 }
@@ -272,7 +230,7 @@ fn a_log_that_cannot_be_read_or_replayed_is_refused_naming_file_and_field() {
     // An unknown field in the policy file.
     std::fs::write(
         d.join("policy.toml"),
-        std::fs::read_to_string(repo("policies/qp.toml")).unwrap() + "\nbogus_field = 1\n",
+        repo_text("policies/qp.toml") + "\nbogus_field = 1\n",
     )
     .unwrap();
     let e = run(&["d/log", "--policy", "policy.toml"]);

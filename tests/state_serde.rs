@@ -2,12 +2,14 @@
 //! deployment resumes from): every position, rest length, payout and slip
 //! state bit for bit.
 
-use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+mod common;
+
+use common::fixtures::reference_structure;
 use tensegrity_deploy::model::{DeploymentState, JointSlip};
 
 #[test]
 fn a_deployment_state_round_trips_through_json() {
-    let s = reference_bridge(&BridgeParameters::default()).unwrap();
+    let s = reference_structure();
     let mut state = DeploymentState::reference(&s);
     state.payout_m[0] = 0.1 + 0.2;
     state.positions_m[3].z -= 1e-3 / 3.0;

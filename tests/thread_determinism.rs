@@ -2,31 +2,17 @@
 //! `compare`, `diagnose` and `simulate` (issue "harden": what held and
 //! must keep holding). `deploy` and `evaluate` have their own tests.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn tdeploy(args: &[&str], dir: &Path, threads: usize) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tdeploy"))
-        .args(args)
-        .current_dir(dir)
-        .env("RAYON_NUM_THREADS", threads.to_string())
-        .output()
-        .expect("tdeploy runs")
-}
-
-fn repo(path: &str) -> String {
-    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
-}
-
-#[path = "common/files.rs"]
-mod common_files;
-use common_files::files;
+use common::cli::{stderr, stdout, tdeploy_with, RunOptions};
+use common::files::files;
+use common::repo_arg;
 
 #[test]
 fn lab_compare_diagnose_and_simulate_give_the_same_bytes_at_1_2_and_4_threads() {
     let (truth, baseline) = (
-        repo("experiments/lab/truth-friction.toml"),
-        repo("experiments/lab/baseline.toml"),
+        repo_arg("experiments/lab/truth-friction.toml"),
+        repo_arg("experiments/lab/baseline.toml"),
     );
     let run = |threads: usize| -> (Vec<(String, Vec<u8>)>, Vec<u8>) {
         let tmp = tempfile::tempdir().unwrap();
@@ -56,22 +42,22 @@ fn lab_compare_diagnose_and_simulate_give_the_same_bytes_at_1_2_and_4_threads() 
             ],
             &["simulate", "--mu", "0.2", "--quiet", "-o", "simulate"],
         ];
-        let mut stdout = Vec::new();
+        let mut printed = Vec::new();
         for args in steps {
-            let out = tdeploy(args, dir, threads);
+            let out = tdeploy_with(args, dir, RunOptions::rayon_threads(threads));
             assert!(
                 matches!(out.status.code(), Some(0 | 1)),
                 "{args:?}: {}",
-                String::from_utf8_lossy(&out.stderr)
+                stderr(&out)
             );
             // diagnose prints its own wall time and thread count.
-            let text = String::from_utf8_lossy(&out.stdout);
+            let text = stdout(&out);
             for line in text.lines().filter(|l| !l.contains(" s on ")) {
-                stdout.extend_from_slice(line.as_bytes());
-                stdout.push(b'\n');
+                printed.extend_from_slice(line.as_bytes());
+                printed.push(b'\n');
             }
         }
-        (files(dir), stdout)
+        (files(dir), printed)
     };
     let one = run(1);
     assert!(one.0.len() > 10, "{} files", one.0.len());

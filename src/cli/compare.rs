@@ -41,7 +41,7 @@ pub fn command() -> Command {
         .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/compare").value_parser(value_parser!(PathBuf)).help("Report folder (CSV and SVG)"))
         .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the comparison and its verdict as JSON to this file (an existing file with other contents needs --force)"))
-        .arg(Arg::new("force").long("force").action(clap::ArgAction::SetTrue).help("Replace the report folder even if it holds files tdeploy did not write"))
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy compare`.

@@ -1,11 +1,13 @@
 //! `tdeploy cycles [--truth T] [--model M] [--policy P] [--problem F]
-//! [--cycles N] [--memory FILE] [--seed S] [-o DIR] [--force]`: repeated
+//! [--cycles N] [--memory FILE] [--temperature °C] [--seed S] [--threads N]
+//! [-o DIR] [--force]`: repeated
 //! deployment-fold cycles on one truth, learning into a case memory
 //! ([`tensegrity_deploy::studies::cycles`]).
 //!
 //! Defaults: the truth of `tdeploy deploy` (μ = 0.2, 3 mm backlash), the
 //! frictionless reference bridge as the controller's model, the policy
-//! `policies/memory.toml` (built in), 10 cycles, seed 1.
+//! `policies/memory.toml` (built in), 10 cycles, seed 1. A truth with a
+//! thermal effect needs `--temperature` (°C, every cycle at it).
 //!
 //! Writes in DIR (as a whole): `cycles.csv` (one row per cycle) and
 //! `timing.csv` (planning time per cycle, the only file that changes from
@@ -23,7 +25,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
-use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::control::{ClosedLoopSetup, Deployment};
 use tensegrity_deploy::io::cycles_files::write_cycles;
@@ -40,9 +42,9 @@ use tensegrity_deploy::sim::default_truth::default_truth;
 use tensegrity_deploy::sim::standard_sensors;
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult};
 
-use super::inputs::{planning_model, problem_or_default};
+use super::inputs::{deployment_temperature, planning_model, problem_or_default};
 use super::words::mm;
-use super::{value, Outcome};
+use super::{value, with_threads, Outcome};
 
 /// The built-in default policy of `cycles`: `policies/memory.toml`.
 const MEMORY_POLICY: &str = include_str!("../../policies/memory.toml");
@@ -60,9 +62,11 @@ pub fn command() -> Command {
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (fold, connection, limits)"))
         .arg(Arg::new("cycles").long("cycles").default_value("10").value_parser(value_parser!(usize)).help("Cycles to run (1 to 10000)"))
         .arg(Arg::new("memory").long("memory").value_parser(value_parser!(PathBuf)).help("Memory file to learn from and append each cycle's case to (created if missing). Default: a new memory, written to DIR/memory.tdm"))
+        .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature during the deployment, °C (held throughout); needed by a truth with a thermal effect, which expands its members from their reference temperature"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise (cycle k uses a seed derived from it)"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/cycles").value_parser(value_parser!(PathBuf)).help("Folder for cycles.csv, cycles.svg, timing.csv (and memory.tdm without --memory)"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files this command did not write"))
+        .arg(super::threads_arg())
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy cycles`.
@@ -80,11 +84,16 @@ pub struct Options {
     pub cycles: usize,
     /// Memory file; `None`: a new memory in the results folder.
     pub memory: Option<PathBuf>,
+    /// Air temperature, °C (`--temperature`); `None`: not given (refused
+    /// with a thermal truth).
+    pub temperature_c: Option<f64>,
     /// Seed of the sensor noise.
     pub seed: u64,
+    /// Worker threads; `None`: rayon's default.
+    pub threads: Option<usize>,
     /// Results folder.
     pub out: PathBuf,
-    /// Replace a folder of other files.
+    /// Replace an existing results folder.
     pub force: bool,
 }
 
@@ -102,7 +111,9 @@ impl Options {
             problem: m.get_one::<PathBuf>("problem").cloned(),
             cycles,
             memory: m.get_one::<PathBuf>("memory").cloned(),
+            temperature_c: m.get_one::<f64>("temperature").copied(),
             seed: value(m, "seed")?,
+            threads: super::threads_option(m)?,
             out: value(m, "out")?,
             force: m.get_flag("force"),
         })
@@ -146,9 +157,21 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Some(p) => read_model(p)?.measurement_model()?,
         None => default_truth(model.structure().clone()),
     };
-    let problem = problem_or_default(o.problem.as_deref())?;
+    let truth_words = o
+        .truth
+        .as_ref()
+        .map_or("default".to_string(), |p| p.display().to_string());
+    let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &truth_words)?;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
     let mut memory = match &o.memory {
-        Some(p) => read_memory_or_empty(p)?,
+        Some(p) => read_memory_or_empty(
+            p,
+            model.structure().continuous_cables.len(),
+            model.structure().midspan_pairs.len(),
+        )?,
         None => CaseMemory::default(),
     };
     let stored_before = memory.cases.len();
@@ -179,14 +202,16 @@ pub fn run(o: &Options) -> Result<Outcome> {
         policy: &policy,
         truth: &truth,
         sensors: &sensors,
-        temperature_c: None,
+        temperature_c,
         seed: o.seed,
     };
     let mut writer = MemoryWriter {
         path: &memory_path,
         failure: None,
     };
-    let end = run_cycles(&setup, o.cycles, &mut memory, &mut writer)?;
+    let end = with_threads(o.threads, || {
+        run_cycles(&setup, o.cycles, &mut memory, &mut writer)
+    })??;
     if let Some(e) = writer.failure {
         return Err(e.into());
     }

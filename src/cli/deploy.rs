@@ -1,14 +1,16 @@
 //! `tdeploy deploy [--truth F] [--model F] [--policy P] [--problem F]
-//! [--seed S] [--threads N] [-o DIR] [--force] [--json]`: a closed-loop deployment
+//! [--temperature °C] [--seed S] [--threads N] [-o DIR] [--force] [--json]`: a closed-loop deployment
 //! of a simulated bridge (the truth) by the controller planning on its
 //! model, corrected by a noisy measurement after every command (see
 //! [`tensegrity_deploy::control::closed_loop`]).
 //!
 //! Defaults: the truth is the reference bridge with
-//! [`tensegrity_deploy::sim::default_truth`]'s effects (μ = 0.2, 3 mm motor
+//! [`tensegrity_deploy::sim::default_truth()`]'s effects (μ = 0.2, 3 mm motor
 //! backlash); the controller plans on the same bridge without friction;
 //! the policy is `policies/qp.toml`'s (built in); the problem is the
-//! default 40 cm fold; seed 1.
+//! default 40 cm fold; seed 1. A truth with a thermal effect needs
+//! `--temperature` (the air temperature, held throughout); without one it
+//! is refused (exit 2) rather than deployed at its reference temperature.
 //!
 //! Prints one line per command (command per motor in mm, the largest
 //! measured gap, the truth's worst utilisation, the QP status, the
@@ -26,7 +28,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
 use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup, DeployError, Deployment};
@@ -38,13 +40,14 @@ use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::model::JointFriction;
-use tensegrity_deploy::plan::PlanStatus;
+use tensegrity_deploy::plan::RunVerdict;
 use tensegrity_deploy::report::deployment_figure::deployment_svg;
 use tensegrity_deploy::sim::default_truth::{default_truth, default_truth_effects};
 use tensegrity_deploy::sim::{standard_sensors, EffectModel, PlantError};
 
 use super::inputs::{
-    absolute, controller_model_file, planning_model, policy_or_default, problem_or_default,
+    absolute, controller_model_file, deployment_temperature, planning_model, policy_or_default,
+    problem_or_default,
 };
 use super::progress::{Progress, Unit};
 use super::words::{commands_count, mm};
@@ -58,10 +61,11 @@ pub fn command() -> Command {
         .arg(Arg::new("model").long("model").value_parser(value_parser!(PathBuf)).help("Model file the controller plans on (its structure, stiffness and friction). Default: the reference bridge without friction"))
         .arg(Arg::new("policy").long("policy").value_parser(value_parser!(PathBuf)).help("Policy file (default: policies/qp.toml's settings, built in)"))
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (default: fold 0.40 m, 30 mm connection, documented limits)"))
+        .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature during the deployment, °C (held throughout); needed by a truth with a thermal effect, which expands its members from their reference temperature"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
-        .arg(Arg::new("threads").long("threads").value_parser(value_parser!(usize)).help("Worker threads, at least 1 (default: one per core); the results do not depend on it"))
+        .arg(super::threads_arg())
         .arg(Arg::new("out").long("out").short('o').default_value("out/deploy").value_parser(value_parser!(PathBuf)).help("Folder for commands.csv, log/, deployment.csv, summary.json, deployment.svg, timing.csv, truth.toml and model.toml"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files tdeploy did not write"))
+        .arg(super::force_arg())
         .arg(Arg::new("json").long("json").action(ArgAction::SetTrue).help("Print summary.json on stdout instead of the per-command lines and verdict (no progress bar)"))
 }
 
@@ -76,6 +80,9 @@ pub struct Options {
     pub policy: Option<PathBuf>,
     /// Problem file; `None`: the default problem.
     pub problem: Option<PathBuf>,
+    /// Air temperature, °C (`--temperature`); `None`: not given (refused
+    /// with a thermal truth).
+    pub temperature_c: Option<f64>,
     /// Seed of the sensor noise.
     pub seed: u64,
     /// Worker threads; `None`: rayon's default.
@@ -91,15 +98,13 @@ pub struct Options {
 impl Options {
     /// The options of the parsed subcommand.
     pub fn from_matches(m: &ArgMatches) -> Result<Options> {
-        let threads = m.get_one::<usize>("threads").copied();
-        if threads == Some(0) {
-            bail!("--threads: must be at least 1");
-        }
+        let threads = super::threads_option(m)?;
         Ok(Options {
             truth: m.get_one::<PathBuf>("truth").cloned(),
             model: m.get_one::<PathBuf>("model").cloned(),
             policy: m.get_one::<PathBuf>("policy").cloned(),
             problem: m.get_one::<PathBuf>("problem").cloned(),
+            temperature_c: m.get_one::<f64>("temperature").copied(),
             seed: value(m, "seed")?,
             threads,
             out: value(m, "out")?,
@@ -139,17 +144,14 @@ fn truth(o: &Options) -> Result<(ModelFile, EffectModel, String)> {
 }
 
 /// The verdict line.
-fn verdict(d: &Deployment) -> String {
-    let gaps = format!(
-        "largest measured gap {} mm, true {} mm",
+fn verdict(v: &RunVerdict, d: &Deployment) -> String {
+    format!(
+        "{} (after {}; largest measured gap {} mm, true {} mm)",
+        v.describe(),
+        commands_count(d.records.len()),
         mm(d.final_measured_gap_m()),
         mm(d.final_true_gap_m())
-    );
-    let n = commands_count(d.records.len());
-    match &d.status {
-        PlanStatus::Connected => format!("connected after {n} ({gaps})"),
-        other => format!("not connected: {} (after {n}; {gaps})", other.describe()),
-    }
+    )
 }
 
 /// Runs `tdeploy deploy`.
@@ -158,11 +160,15 @@ pub fn run(o: &Options) -> Result<Outcome> {
     // is written whole (old or new, never a mix).
     let folder = ResultsFolder::claim(&o.out, "deploy", o.force)?;
     let (truth_file, truth, truth_words) = truth(o)?;
+    let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &truth_words)?;
     let (model_file, model_words) = controller_model_file(o.model.as_deref())?;
     let model_file = absolute(model_file)?;
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
     let policy = policy_or_default(o.policy.as_deref())?;
-    let problem = problem_or_default(o.problem.as_deref())?;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
     let sensors = standard_sensors(&truth.structure);
     let setup = ClosedLoopSetup {
         model: &model,
@@ -170,16 +176,17 @@ pub fn run(o: &Options) -> Result<Outcome> {
         policy: &policy,
         truth: &truth,
         sensors: &sensors,
-        temperature_c: None,
+        temperature_c,
         seed: o.seed,
     };
     let quiet = o.json;
     if !quiet {
         say!(
-            "deploy: policy {} ({}), truth {truth_words}, controller's model {model_words}, seed {}",
+            "deploy: policy {} ({}), truth {truth_words}, controller's model {model_words}, seed {}{}",
             policy.name,
             policy.planner.as_str(),
-            o.seed
+            o.seed,
+            temperature_c.map_or(String::new(), |t| format!(", {t} °C"))
         );
     }
     let mut progress = Progress::new(Unit::Commands, policy.max_commands as u64, quiet);
@@ -199,7 +206,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Err(e) => return Err(e.into()),
     };
 
-    let verdict = verdict(&d);
+    let run_verdict = d.verdict(problem.connection_tolerance_m);
+    let verdict = verdict(&run_verdict, &d);
     let sources = DeploymentSources {
         truth: truth_words,
         model: model_words,
@@ -209,7 +217,14 @@ pub fn run(o: &Options) -> Result<Outcome> {
         ),
         seed: o.seed,
     };
-    let summary = DeploymentSummary::new(&d, &policy, &problem, sources, verdict.clone());
+    let summary = DeploymentSummary::new(
+        &d,
+        &run_verdict,
+        &policy,
+        &problem,
+        sources,
+        verdict.clone(),
+    );
     let out = folder.path();
     write_deployment(
         out,
@@ -263,7 +278,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             o.out.display()
         );
     }
-    Ok(if d.status.is_connected() {
+    Ok(if run_verdict.is_connected() {
         Outcome::GoalReached
     } else {
         Outcome::GoalMissed(verdict)

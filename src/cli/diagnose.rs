@@ -35,7 +35,7 @@ pub fn command() -> Command {
         .arg(Arg::new("log").required(true).value_parser(value_parser!(PathBuf)).help("Log folder"))
         .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects to look for at most, one per round (1 to the number of effects)"))
         .arg(Arg::new("json").long("json").value_parser(value_parser!(PathBuf)).help("Also write the diagnosis as JSON to this file (an existing file with other contents needs --force)"))
-        .arg(Arg::new("force").long("force").action(clap::ArgAction::SetTrue).help("Overwrite the --json file even if it holds something else"))
+        .arg(Arg::new("force").long("force").action(clap::ArgAction::SetTrue).help("Overwrite the --json file if it exists with other contents"))
 }
 
 /// Options of `tdeploy diagnose`.

@@ -58,9 +58,9 @@ pub fn command() -> Command {
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (its start fold is replaced by each scenario's)"))
         .arg(Arg::new("cycles").long("cycles").default_value("1").value_parser(value_parser!(usize)).help("Deployment-fold cycles per scenario (1 to 100), each run from an empty case memory: how a policy with a [memory] section does after learning. Each run's row reports its last cycle; a limit broken in any cycle counts"))
         .arg(Arg::new("shard").long("shard").default_value("1/1").help("Run shard k of n (scenarios i with i mod n = k − 1); `tdeploy merge` joins the shards"))
-        .arg(Arg::new("threads").long("threads").value_parser(value_parser!(usize)).help("Worker threads, at least 1 (default: one per core); the results do not depend on it"))
+        .arg(super::threads_arg())
         .arg(Arg::new("out").long("out").short('o').default_value("out/evaluate").value_parser(value_parser!(PathBuf)).help("Folder for evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg, timing.csv"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files this command did not write"))
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy evaluate`.
@@ -93,10 +93,7 @@ pub struct Options {
 impl Options {
     /// The options of the parsed subcommand.
     pub fn from_matches(m: &ArgMatches) -> Result<Options> {
-        let threads = m.get_one::<usize>("threads").copied();
-        if threads == Some(0) {
-            bail!("--threads: must be at least 1");
-        }
+        let threads = super::threads_option(m)?;
         let scenarios: usize = value(m, "scenarios")?;
         if !(1..=MAX_SCENARIOS).contains(&scenarios) {
             bail!("--scenarios: {scenarios} is not from 1 to {MAX_SCENARIOS}");
@@ -153,7 +150,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
         None => ScenarioDistribution::default(),
     };
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
-    let problem = problem_or_default(o.problem.as_deref())?;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
     let record = EvaluationRecord::new(
         o.seed,
         o.scenarios,

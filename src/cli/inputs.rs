@@ -8,9 +8,11 @@ use std::path::Path;
 use anyhow::{Context, Result};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
+use tensegrity_deploy::io::model_file::{
+    read_model, ModelFile, StructureSource, REFERENCE_TEMPERATURE_RANGE_C,
+};
 use tensegrity_deploy::io::policy_file::read_policy;
-use tensegrity_deploy::io::problem_file::read_problem;
+use tensegrity_deploy::io::problem_file::read_problem_for;
 use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::{DeploymentProblem, Policy};
 use tensegrity_deploy::sim::EffectModel;
@@ -69,6 +71,31 @@ pub fn absolute(file: ModelFile) -> Result<ModelFile> {
     })
 }
 
+/// The air temperature of a deployment, °C, from `--temperature`,
+/// checked against the truth it acts on. A thermal truth needs one: its
+/// effect is the members' expansion from the reference temperature, and
+/// taking that reference for the air temperature would silently switch
+/// the effect off. Without a thermal effect the temperature changes
+/// nothing, and may be left out.
+pub fn deployment_temperature(
+    flag: Option<f64>,
+    truth: &Effects,
+    truth_words: &str,
+) -> Result<Option<f64>> {
+    if let Some(t) = flag {
+        if let Err(m) = REFERENCE_TEMPERATURE_RANGE_C.check(t) {
+            anyhow::bail!("--temperature: {m}");
+        }
+    }
+    match (&truth.thermal, flag) {
+        (Some(th), None) => anyhow::bail!(
+            "the truth {truth_words} has a thermal effect (reference {} °C): give the air temperature with --temperature °C",
+            th.reference_temperature_c
+        ),
+        _ => Ok(flag),
+    }
+}
+
 /// The policy file's policy, or the built-in default.
 pub fn policy_or_default(path: Option<&Path>) -> Result<Policy> {
     Ok(match path {
@@ -77,10 +104,11 @@ pub fn policy_or_default(path: Option<&Path>) -> Result<Policy> {
     })
 }
 
-/// The problem file's problem, or the documented default.
-pub fn problem_or_default(path: Option<&Path>) -> Result<DeploymentProblem> {
+/// The problem file's problem, its per-motor lists checked for a
+/// structure of `motors` motors, or the documented default.
+pub fn problem_or_default(path: Option<&Path>, motors: usize) -> Result<DeploymentProblem> {
     Ok(match path {
-        Some(p) => read_problem(p)?,
+        Some(p) => read_problem_for(p, motors)?,
         None => DeploymentProblem::default(),
     })
 }

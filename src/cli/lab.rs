@@ -41,7 +41,7 @@ pub fn command() -> Command {
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
         .arg(Arg::new("amplitudes").long("amplitudes").value_delimiter(',').default_value("0.01,0.05,0.1,0.4").value_parser(value_parser!(f64)).help("Cable actuation of each cycle, m, each in (0, 1] (paid out, then reeled back in)"))
         .arg(Arg::new("steps").long("steps").default_value("5").value_parser(value_parser!(usize)).help("Steps in each direction of a cycle, 1 to 1000"))
-        .arg(Arg::new("force").long("force").action(clap::ArgAction::SetTrue).help("Replace the log folder (and its truth record) even if they hold files tdeploy did not write"))
+        .arg(super::force_arg())
         .arg(Arg::new("temperature-swing").long("temperature-swing").default_value("12").value_parser(value_parser!(f64)).help("Amplitude of the temperature's daily swing about 20 °C, K, in [0, 100]"))
 }
 

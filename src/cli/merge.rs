@@ -12,7 +12,7 @@ use std::collections::BTreeSet;
 use std::path::PathBuf;
 
 use anyhow::{bail, Result};
-use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::io::evaluation_files::{
     read_evaluation_record, read_runs, EvaluationRecord, EvaluationRuns,
@@ -29,7 +29,7 @@ pub fn command() -> Command {
         .about("Join the shards of one `tdeploy evaluate` sweep into the sweep's results (the same files as one run)")
         .arg(Arg::new("shards").required(true).num_args(1..).value_parser(value_parser!(PathBuf)).help("The shards' results folders"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/evaluate").value_parser(value_parser!(PathBuf)).help("Folder for the merged results"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files this command did not write"))
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy merge`.
@@ -70,11 +70,13 @@ pub fn run(o: &Options) -> Result<Outcome> {
         match &first {
             None => first = Some((dir.clone(), record.clone())),
             Some((dir0, r0)) => {
-                if r0.without_shard() != record.without_shard() {
+                let differ = r0.sweep_differences(&record);
+                if !differ.is_empty() {
                     bail!(
-                        "{} and {}: not shards of the same sweep (seed, scenarios, policies, model or distribution differ)",
+                        "{} and {}: not shards of the same sweep: their evaluation.toml differ in {}",
                         dir0.display(),
-                        dir.display()
+                        dir.display(),
+                        differ.join(", ")
                     );
                 }
                 if r0.shard().map(|s| s.count) != Some(shard.count) {

@@ -22,8 +22,9 @@
 //! Subcommands: `structure` ([`structure`]), `simulate` ([`simulate`]),
 //! `experiment` ([`experiment`]), `lab` ([`lab`]), `compare` ([`compare`]),
 //! `diagnose` ([`diagnose`]), `calibrate` ([`calibrate`]), `plan`
-//! ([`plan`]), `deploy` ([`deploy`]), `replay` ([`replay`]), `policy
-//! migrate` ([`policy`]).
+//! ([`plan`]), `deploy` ([`deploy`]), `evaluate` ([`evaluate`]), `merge`
+//! ([`merge`]), `replay` ([`replay`]), `cycles` ([`cycles`]), `policy
+//! migrate` ([`policy`]), `memory repair` ([`memory`]).
 //!
 //! # Exit codes
 //! | code | meaning |
@@ -59,6 +60,7 @@ mod evaluation_table;
 mod experiment;
 mod inputs;
 mod lab;
+mod memory;
 mod merge;
 mod plan;
 mod policy;
@@ -71,7 +73,7 @@ mod words;
 use std::process::ExitCode;
 
 use anyhow::{anyhow, bail, Context, Result};
-use clap::{ArgMatches, Command};
+use clap::{Arg, ArgMatches, Command};
 
 use tensegrity_deploy::numerics::NumberRange;
 use tensegrity_deploy::sim::PlantError;
@@ -112,6 +114,7 @@ pub fn command() -> Command {
         .subcommand(replay::command())
         .subcommand(cycles::command())
         .subcommand(policy::command())
+        .subcommand(memory::command())
 }
 
 /// The typed options of one subcommand.
@@ -145,6 +148,8 @@ pub enum Options {
     Cycles(cycles::Options),
     /// `tdeploy policy`.
     Policy(policy::Options),
+    /// `tdeploy memory`.
+    Memory(memory::Options),
 }
 
 impl Options {
@@ -165,6 +170,7 @@ impl Options {
             Some(("replay", a)) => Options::Replay(replay::Options::from_matches(a)?),
             Some(("cycles", a)) => Options::Cycles(cycles::Options::from_matches(a)?),
             Some(("policy", a)) => Options::Policy(policy::Options::from_matches(a)?),
+            Some(("memory", a)) => Options::Memory(memory::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -188,6 +194,7 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Replay(o) => replay::run(o),
         Options::Cycles(o) => cycles::run(o),
         Options::Policy(o) => policy::run(o),
+        Options::Memory(o) => memory::run(o),
     }
 }
 
@@ -241,6 +248,32 @@ fn replay_stopped(e: PlantError, context: String) -> Result<Outcome> {
         }
         other => Err(anyhow::Error::new(other).context(context)),
     }
+}
+
+/// `--threads N`, one meaning for every command that runs in parallel.
+fn threads_arg() -> Arg {
+    Arg::new("threads")
+        .long("threads")
+        .value_parser(clap::value_parser!(usize))
+        .help("Worker threads, at least 1 (default: one per core); the results do not depend on it")
+}
+
+/// The `--threads` count given (`None`: rayon's default); 0 refused.
+fn threads_option(m: &ArgMatches) -> Result<Option<usize>> {
+    let threads = m.get_one::<usize>("threads").copied();
+    if threads == Some(0) {
+        anyhow::bail!("--threads: must be at least 1");
+    }
+    Ok(threads)
+}
+
+/// `--force`, one meaning for every command that writes a results folder
+/// (see [`tensegrity_deploy::io::output`]).
+fn force_arg() -> Arg {
+    Arg::new("force")
+        .long("force")
+        .action(clap::ArgAction::SetTrue)
+        .help("Replace the output folder, whole, if it exists: an earlier result (of any seed or policy) or other files. Without it an existing non-empty folder is refused")
 }
 
 /// Runs `work` on `threads` worker threads (`None`: rayon's default, one

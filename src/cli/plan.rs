@@ -1,13 +1,16 @@
-//! `tdeploy plan [MODEL] [--policy P] [--problem F] -o DIR`: an open-loop
-//! deployment command sequence planned on a model, from the folded state
-//! to the midspan connection. Writes `commands.csv` and `plan.csv` in DIR
-//! (formats in [`tensegrity_deploy::io::plan_files`]).
+//! `tdeploy plan [MODEL] [--policy P] [--problem F] -o DIR [--force]`: an
+//! open-loop deployment command sequence planned on a model, from the
+//! folded state to the midspan connection. Writes `commands.csv` and
+//! `plan.csv` in DIR as one results set (formats in
+//! [`tensegrity_deploy::io::plan_files`]; an existing folder needs
+//! `--force`, see [`tensegrity_deploy::io::output`]).
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::{value_parser, Arg, ArgMatches, Command};
 
+use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::plan_files::write_plan;
 use tensegrity_deploy::model::JointFriction;
 use tensegrity_deploy::plan::{folded_start, plan_open_loop};
@@ -28,6 +31,7 @@ pub fn command() -> Command {
         .arg(Arg::new("policy").long("policy").value_parser(value_parser!(PathBuf)).help("Policy file (default: policies/qp.toml's settings, built in)"))
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (default: fold 0.40 m, 30 mm connection, documented limits)"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/plan").value_parser(value_parser!(PathBuf)).help("Folder for commands.csv (step 0: the fold from the designed state; steps 1…: the plan) and plan.csv (one row per planned command)"))
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy plan`.
@@ -41,6 +45,8 @@ pub struct Options {
     pub problem: Option<PathBuf>,
     /// Results folder.
     pub out: PathBuf,
+    /// Replace an existing results folder.
+    pub force: bool,
 }
 
 impl Options {
@@ -51,6 +57,7 @@ impl Options {
             policy: m.get_one::<PathBuf>("policy").cloned(),
             problem: m.get_one::<PathBuf>("problem").cloned(),
             out: value(m, "out")?,
+            force: m.get_flag("force"),
         })
     }
 }
@@ -59,8 +66,11 @@ impl Options {
 pub fn run(o: &Options) -> Result<Outcome> {
     let model = planning_model(o.model.as_deref(), JointFriction::constant(DEFAULT_MU)?)?;
     let policy = policy_or_default(o.policy.as_deref())?;
-    let problem = problem_or_default(o.problem.as_deref())?;
-    let out = &o.out;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
+    let folder = ResultsFolder::claim(&o.out, "plan", o.force)?;
     let start = folded_start(&model, &problem, policy.increment_m)?;
     say!(
         "plan: policy {} ({}), start gaps {} mm",
@@ -92,8 +102,16 @@ pub fn run(o: &Options) -> Result<Outcome> {
         );
     }
     let motors = problem.motor_limits(model.structure().continuous_cables.len())?;
-    write_plan(out, model.structure(), motors.start_payout_m, &plan)?;
-    say!("{}", plan.status.describe());
+    write_plan(
+        folder.path(),
+        model.structure(),
+        motors.start_payout_m,
+        &plan,
+    )?;
+    folder.commit()?;
+    let out = &o.out;
+    let verdict = plan.verdict(&model, &problem, &start);
+    say!("{}", verdict.describe());
     say!(
         "{} commands; final gaps {} mm; commands in {}, per-command table in {}",
         plan.records.len(),
@@ -101,12 +119,12 @@ pub fn run(o: &Options) -> Result<Outcome> {
         out.join("commands.csv").display(),
         out.join("plan.csv").display()
     );
-    Ok(if plan.status.is_connected() {
+    Ok(if verdict.is_connected() {
         Outcome::GoalReached
     } else {
         Outcome::GoalMissed(format!(
             "the plan does not connect the halves: {}",
-            plan.status.describe()
+            verdict.describe()
         ))
     })
 }

@@ -29,7 +29,7 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
-use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
+use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::control::DeployError;
 use tensegrity_deploy::io::log::read_log;
@@ -63,7 +63,7 @@ pub fn command() -> Command {
         .arg(Arg::new("rounds").long("rounds").default_value("2").value_parser(value_parser!(usize)).help("Effects the diagnosis looks for at most (1 to the number of effects)"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the counterfactual's sensor noise"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/replay").value_parser(value_parser!(PathBuf)).help("Folder for replay.csv, counterfactual.csv, summary.json, replay.svg and timing.csv"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace a folder that holds files tdeploy did not write"))
+        .arg(super::force_arg())
 }
 
 /// Options of `tdeploy replay`.
@@ -159,7 +159,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let base = model_file.measurement_model()?;
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
     let policy = policy_or_default(o.policy.as_deref())?;
-    let problem = problem_or_default(o.problem.as_deref())?;
+    let problem = problem_or_default(
+        o.problem.as_deref(),
+        model.structure().continuous_cables.len(),
+    )?;
     let log = read_log(&o.log, &base.structure)?;
     let cycle = match o.cycle.or_else(|| default_cycle(&log)) {
         Some(c) => c,
@@ -232,7 +235,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
         }
         Err(why) => Err(format!("no calibrated model ({why})")),
     };
-    let margins = cf.as_ref().ok().map(Margins::of);
+    let tolerance_m = problem.connection_tolerance_m;
+    let margins = cf.as_ref().ok().map(|d| Margins::of(d, tolerance_m));
     let verdict = verdict(&replay, margins.as_ref(), cf.as_ref().err());
 
     let s = model.structure();
@@ -247,7 +251,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
             seed: o.seed,
         },
         calibration.as_ref().map_err(Clone::clone),
-        cf.as_ref().map(Margins::of).map_err(Clone::clone),
+        cf.as_ref()
+            .map(|d| Margins::of(d, tolerance_m))
+            .map_err(Clone::clone),
         verdict.clone(),
     );
     let out = folder.path();
@@ -318,7 +324,8 @@ fn verdict(r: &Replay, m: Option<&Margins>, failed: Option<&String>) -> String {
                 format!("counterfactual on the calibrated model: connected after {} commands ({margins})", m.commands)
             } else {
                 format!(
-                    "counterfactual on the calibrated model: not connected: {} after {} commands ({margins})",
+                    "counterfactual on the calibrated model: not connected ({}; the controller: {}) after {} commands ({margins})",
+                    m.outcome,
                     m.status.describe(),
                     m.commands
                 )

@@ -61,7 +61,7 @@ pub fn command() -> Command {
         .arg(Arg::new("max-iter").long("max-iter").value_parser(value_parser!(usize)).default_value("200000").help("Most dynamic-relaxation iterations per solve; a solve that needs more stops the run (exit 1)"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/simulate").value_parser(value_parser!(PathBuf)))
         .arg(Arg::new("quiet").long("quiet").short('q').action(ArgAction::SetTrue).help("No progress bar"))
-        .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("Replace the output folder even if it holds files tdeploy did not write"))
+        .arg(super::force_arg())
 }
 
 /// Where μ comes from.

@@ -25,7 +25,11 @@
 //! every increment of every command is checked against the problem's
 //! limits built on the truth's own structure and start ([`super::truth_watch::TruthWatch`]).
 //! A violation does not stop the run (the controller cannot see it); it
-//! is recorded and counted.
+//! is recorded and counted, and decides the run's verdict
+//! ([`Deployment::verdict`]). A limit the truth's start already broke is
+//! held to its start value until a command ends with it met (restored),
+//! then to its bound; the deployment lists each such limit with whether
+//! the end meets it.
 //!
 //! Randomness: the sensor noise only, from one `StdRng` seeded with the
 //! setup's seed and drawn in a fixed order (one measurement of every
@@ -45,7 +49,7 @@ use super::guidance::Guidance;
 use super::measured_offsets::measured_gap_vectors;
 use super::truth_watch::TruthWatch;
 use crate::model::{ForwardModel, Structure};
-use crate::plan::limits::{LimitCheck, Limits};
+use crate::plan::limits::{force_rows, LimitCheck, Limits};
 use crate::plan::{DeploymentProblem, PlanError, PlanStatus, Policy, SolverFailure};
 use crate::sim::{EffectModel, Plant, PlantError, Sensor};
 
@@ -217,6 +221,9 @@ pub fn deploy_guided(
     observer.on_start(&start);
     let mut readings = vec![first];
     let start_true_state = plant.state().clone();
+    // Start-broken truth limits that a command has ended meeting.
+    let mut restored = vec![false; truth_limits.required.len()];
+    let mut end_rows = (force_rows(&truth_model, plant.state()), 0.0);
 
     let mut records: Vec<DeployRecord> = Vec::new();
     let status = loop {
@@ -225,7 +232,7 @@ pub fn deploy_guided(
             ControllerDecision::Send(p) => p,
         };
         let index = records.len() + 1;
-        let mut watch = TruthWatch::new(&truth_model, &truth_limits);
+        let mut watch = TruthWatch::new(&truth_model, &truth_limits, &restored);
         let report = plant.apply(&p.sent_m, setup.temperature_c, &mut watch);
         if let Err(error) = report {
             break PlanStatus::SolverFailure {
@@ -236,12 +243,18 @@ pub fn deploy_guided(
             };
         }
         let truth_increments = watch.increments;
-        let check = watch.worst.unwrap_or_else(|| LimitCheck {
-            worst_utilisation: 0.0,
-            min_tension_n: f64::INFINITY,
-            min_clearance_m: f64::INFINITY,
-            violations: Vec::new(),
-        });
+        if let Some((rows, tolerance_n)) = watch.last_rows.take() {
+            for (k, meets) in truth_limits
+                .meets_required(&rows, tolerance_n)
+                .into_iter()
+                .enumerate()
+            {
+                restored[k] |= meets;
+            }
+            end_rows = (rows, tolerance_n);
+        }
+        let truth_violation_increments = watch.breaches.iter().map(|(k, _)| *k).collect();
+        let check = watch.worst.unwrap_or_else(LimitCheck::empty);
         let reading = plant.measure(setup.sensors, &mut rng);
         // The controller's own decision: its trial is the prediction, so
         // this cannot fail to follow; a failure would be a bug, reported
@@ -263,6 +276,7 @@ pub fn deploy_guided(
             truth_worst_utilisation: check.worst_utilisation,
             truth_min_tension_n: check.min_tension_n,
             truth_violations: check.violations,
+            truth_violation_increments,
             truth_increments,
             truth_increments_checked: watch.checked,
             model_worst_utilisation: p.model_worst_utilisation,
@@ -294,6 +308,11 @@ pub fn deploy_guided(
         final_payout_scale: controller.part_payout_scale(),
         status,
         truth_limit_violations: records.iter().map(|r| r.truth_violations.len()).sum(),
+        truth_start_broken: truth_limits.start_broken_limits(
+            truth_structure,
+            &end_rows.0,
+            end_rows.1,
+        ),
         corrective_commands: first_below_corrective_gap.map(|k| records.len() - k),
         first_below_corrective_gap,
         start,

@@ -478,6 +478,9 @@ impl<'a> Controller<'a> {
             readings,
             &policy.control.measures,
         );
+        // A start-broken limit this command restored is held to its bound
+        // from now on, as the truth's supervisor holds it.
+        self.context.hold_restored(&self.state);
         self.last_readings = readings.to_vec();
         self.commands_observed += 1;
         Ok(Observation {

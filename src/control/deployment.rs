@@ -5,7 +5,8 @@
 use serde::Serialize;
 
 use crate::model::DeploymentState;
-use crate::plan::{LimitViolation, PlanStatus, QpStepStatus};
+use crate::plan::limits::StartBrokenLimit;
+use crate::plan::{Breach, LimitViolation, PlanStatus, QpStepStatus, RunVerdict};
 
 /// The largest measured gap below which the deployment is in its last,
 /// corrective phase, m: twice the 30 mm connection tolerance (the issue's
@@ -60,8 +61,11 @@ pub struct DeployRecord {
     /// Smallest cable, spring or segment tension of the truth along the
     /// command, N.
     pub truth_min_tension_n: f64,
-    /// Limits the truth broke along the command (empty when none).
+    /// Limits the truth broke along the command (empty when none), in
+    /// increment order.
     pub truth_violations: Vec<LimitViolation>,
+    /// The increment (1 for the first) of each of `truth_violations`.
+    pub truth_violation_increments: Vec<usize>,
     /// Increments the truth applied the command in.
     pub truth_increments: usize,
     /// Increments whose state was checked against the limits (all of them
@@ -117,6 +121,9 @@ pub struct Deployment {
     pub final_model_state: DeploymentState,
     /// Truth limit violations over all commands and increments.
     pub truth_limit_violations: usize,
+    /// The truth's limits that its folded start already broke, with
+    /// whether the end meets them (see [`crate::plan::limits`]).
+    pub truth_start_broken: Vec<StartBrokenLimit>,
     /// The number of the first command after which the largest measured
     /// gap is below [`CORRECTIVE_PHASE_GAP_M`] (0: already at the start).
     pub first_below_corrective_gap: Option<usize>,
@@ -133,6 +140,26 @@ pub struct Deployment {
 }
 
 impl Deployment {
+    /// The verdict on the run, judged on the truth: connected only when
+    /// the controller stopped as connected, every true gap is within
+    /// `tolerance_m`, the truth broke no limit and every start-broken
+    /// limit was restored ([`RunVerdict`]).
+    pub fn verdict(&self, tolerance_m: f64) -> RunVerdict {
+        RunVerdict {
+            status: self.status.clone(),
+            largest_gap_m: self.final_true_gap_m(),
+            tolerance_m,
+            broken: Breach::first_per_limit(self.records.iter().flat_map(|r| {
+                r.truth_violation_increments
+                    .iter()
+                    .zip(&r.truth_violations)
+                    .map(move |(&k, v)| (r.index, k, v))
+            })),
+            violations: self.truth_limit_violations,
+            start_broken: self.truth_start_broken.clone(),
+        }
+    }
+
     /// The commands sent, per command and motor, m.
     pub fn commands(&self) -> Vec<Vec<f64>> {
         self.records.iter().map(|r| r.command_m.clone()).collect()

@@ -1,10 +1,17 @@
 //! The truth's supervisor: every increment of every command checked
 //! against the problem's limits on the truth's own structure, as a
 //! supervisor would on the real bridge. A violation does not stop the run
-//! (the controller cannot see it); it is recorded and counted.
+//! (the controller cannot see it); it is recorded and counted, with the
+//! increment it happened at.
+//!
+//! The bounds are the problem's own ([`Limits::required`]), never
+//! widened; a limit the truth's start already broke is held to its start
+//! value until a command restores it ([`Limits::held_bounds`], see
+//! [`crate::plan::limits`]).
 
 use crate::model::{DeploymentState, ForwardModel, IncrementObserver, RelaxReport};
-use crate::plan::limits::{LimitCheck, Limits};
+use crate::plan::limits::force_rows;
+use crate::plan::limits::{ForceBounds, LimitCheck, LimitViolation, Limits};
 use crate::plan::worst_along_path;
 
 /// Checks every increment of the truth against limits built on the
@@ -14,6 +21,7 @@ use crate::plan::worst_along_path;
 pub struct TruthWatch<'a> {
     model: &'a ForwardModel,
     limits: &'a Limits,
+    held: Vec<ForceBounds>,
     /// Increments seen.
     pub increments: usize,
     /// Increments checked (the converged ones).
@@ -21,23 +29,35 @@ pub struct TruthWatch<'a> {
     /// The worst values and every violation so far (`None` before the
     /// first checked increment).
     pub worst: Option<LimitCheck>,
+    /// Every violation with the increment (1 for the first) it happened
+    /// at, in order.
+    pub breaches: Vec<(usize, LimitViolation)>,
+    /// The force rows of the last checked increment (the command's end
+    /// when every increment converged), N, with the solver's force
+    /// tolerance there, N.
+    pub last_rows: Option<(Vec<f64>, f64)>,
 }
 
 impl<'a> TruthWatch<'a> {
-    /// A watch of `limits` on states of `model`.
-    pub fn new(model: &'a ForwardModel, limits: &'a Limits) -> Self {
+    /// A watch of `limits` on states of `model`, with the start-broken
+    /// rows a previous command `restored` (one flag per force row; none:
+    /// nothing restored yet) held to their required bounds.
+    pub fn new(model: &'a ForwardModel, limits: &'a Limits, restored: &[bool]) -> Self {
         TruthWatch {
             model,
             limits,
+            held: limits.held_bounds(restored),
             increments: 0,
             checked: 0,
             worst: None,
+            breaches: Vec::new(),
+            last_rows: None,
         }
     }
 }
 
 impl IncrementObserver for TruthWatch<'_> {
-    fn on_increment(&mut self, _: usize, _: usize, r: &RelaxReport, state: &DeploymentState) {
+    fn on_increment(&mut self, index: usize, _: usize, r: &RelaxReport, state: &DeploymentState) {
         self.increments += 1;
         // A state that is no equilibrium has no meaningful forces; the
         // plant reports the failed solve itself.
@@ -46,9 +66,15 @@ impl IncrementObserver for TruthWatch<'_> {
         }
         // The solver's tolerance absorbs rounding at a bound, as in the
         // planner's own checks; the truth has no correction.
-        let c = self.limits.check(self.model, state, r.tolerance_n, &[]);
+        let rows = force_rows(self.model, state);
+        let c = self
+            .limits
+            .check_rows_held(self.model, state, &rows, r.tolerance_n, &self.held);
         self.checked += 1;
+        self.breaches
+            .extend(c.violations.iter().map(|v| (index + 1, v.clone())));
         self.worst = Some(worst_along_path(self.worst.take(), c));
+        self.last_rows = Some((rows, r.tolerance_n));
     }
 }
 
@@ -67,8 +93,8 @@ mod tests {
         let model = plant.model().clone();
         // Reeling in 2.5 cm raises the continuous-cable tensions. With the
         // default limits nothing is near a bound; with a 1 N tension limit
-        // every tension-only row is widened to its start value, so the
-        // rise breaks some of them.
+        // every tension-only row is start-broken and held to its start
+        // value, so the rise makes some of them worse than at the start.
         let loose = Limits::new(&model, &DeploymentProblem::default(), plant.state());
         let tight_problem = DeploymentProblem {
             max_tension_n: 1.0,
@@ -77,7 +103,7 @@ mod tests {
         let tight = Limits::new(&model, &tight_problem, plant.state());
         let command = vec![-0.025; n];
         let mut a = plant.clone();
-        let mut watch = TruthWatch::new(&model, &loose);
+        let mut watch = TruthWatch::new(&model, &loose, &[]);
         let report = a.apply(&command, None, &mut watch).unwrap();
         assert_eq!(watch.increments, report.increments);
         assert_eq!(watch.checked, report.increments);
@@ -86,7 +112,7 @@ mod tests {
         assert!(w.ok(), "{:?}", w.violations);
         assert!(w.worst_utilisation > 0.0 && w.min_tension_n > 5.0);
 
-        let mut watch = TruthWatch::new(&model, &tight);
+        let mut watch = TruthWatch::new(&model, &tight, &[]);
         plant.apply(&command, None, &mut watch).unwrap();
         assert_eq!(watch.checked, report.increments);
         let w = watch.worst.unwrap();
@@ -94,7 +120,7 @@ mod tests {
         assert!(
             w.violations
                 .iter()
-                .all(|v| matches!(v, LimitViolation::AboveUpper { .. })),
+                .all(|v| matches!(v, LimitViolation::WorseThanStart { lower: false, .. })),
             "{:?}",
             w.violations
         );

@@ -1,7 +1,7 @@
 //! Design tools: structures to run the model on. The reference footbridge
-//! ([`reference_bridge`]), its stability-constrained prestress
+//! ([`reference_bridge()`]), its stability-constrained prestress
 //! ([`form_finding`]), the seed's friction test rig ([`friction_rig`]) and
-//! the peer benchmark's cable net ([`square_net`]).
+//! the peer benchmark's cable net ([`square_net()`]).
 
 pub mod form_finding;
 pub mod friction_rig;

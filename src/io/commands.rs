@@ -16,7 +16,7 @@
 //!
 //! Work is bounded: a step is applied in increments no larger than the
 //! simulation's increment, at most
-//! [`MAX_INCREMENTS_PER_COMMAND`](crate::model::solver::command::MAX_INCREMENTS_PER_COMMAND)
+//! [`MAX_INCREMENTS_PER_COMMAND`]
 //! per step and [`MAX_INCREMENTS_PER_RUN`] over the file
 //! ([`check_increments`]).
 

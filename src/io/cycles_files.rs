@@ -3,7 +3,9 @@
 //! as the shortest text that reads back to the same value.
 //!
 //! - `cycles.csv`: one row per cycle. Columns: `cycle` (1 for the first),
-//!   `status` (the deployment's status label, `connected`, …), `commands`,
+//!   `status` (the deployment's verdict label,
+//!   [`crate::plan::RunVerdict::label`]: `connected`, `limits_broken`, …),
+//!   `commands`,
 //!   `corrective_commands` (commands after the one that brought the
 //!   largest measured gap below 60 mm), `approach_commands` (commands of
 //!   the first approach), `approach_gap_m` (largest measured gap after
@@ -13,6 +15,12 @@
 //!   (largest end gap the ILC update predicted), `adaptation_error` (why
 //!   the memory gave no guidance although it held cases, in words). Empty:
 //!   no value (no such command, no case learnt from, no error).
+//!   `approach_commands` and `approach_gap_m` are empty in a cycle that
+//!   connected without a first approach: without a feedforward, the
+//!   approach ends at the first command the controller's model *predicted*
+//!   to connect; when the halves were found connected only on measurement
+//!   (the correction from the readings, not a prediction, closed the last
+//!   millimetres) no command was that one.
 //! - `timing.csv`: `cycle,planning_time_s`, wall-clock planning time of
 //!   each cycle (adaptation and every command): the one file that changes
 //!   from run to run.

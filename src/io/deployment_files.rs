@@ -51,12 +51,13 @@ use super::{write_atomically, write_json, CsvTable, FileError};
 use crate::control::Deployment;
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::Structure;
-use crate::plan::{DeploymentProblem, PlanStatus, Policy};
+use crate::plan::limits::StartBrokenLimit;
+use crate::plan::{Breach, DeploymentProblem, PlanStatus, Policy, RunVerdict};
 use crate::sim::{EffectModel, Sensor};
 
 /// The `format` of `summary.json`; a folder holding it is one `tdeploy
 /// deploy` wrote and may write again.
-pub const DEPLOYMENT_SUMMARY_FORMAT: &str = "tensegrity-deploy/deployment/1";
+pub const DEPLOYMENT_SUMMARY_FORMAT: &str = "tensegrity-deploy/deployment/2";
 
 /// What a deployment's summary names besides the deployment: its inputs,
 /// in the words the summary writes them.
@@ -81,10 +82,22 @@ pub struct DeploymentSummary<'a> {
     pub format: &'static str,
     /// The verdict line `tdeploy deploy` prints.
     pub verdict: String,
-    /// Whether the halves connected.
+    /// Whether the run connected: the controller stopped as connected,
+    /// every true gap within the tolerance, the truth broke no limit and
+    /// restored every limit its start broke ([`RunVerdict`]).
     pub connected: bool,
-    /// How the deployment ended.
+    /// The verdict's label ([`RunVerdict::label`]): `connected`,
+    /// `limits_broken`, `not_reachable`, `command_limit`,
+    /// `solver_failure`, `gap_out_of_tolerance`, `limits_not_restored`.
+    pub outcome: &'static str,
+    /// How the controller itself ended (it cannot see the truth).
     pub status: &'a PlanStatus,
+    /// The truth limits broken, one per limit with its first command and
+    /// increment.
+    pub truth_limits_broken: Vec<Breach>,
+    /// The truth's limits its folded start already broke, with whether
+    /// the end meets them.
+    pub truth_start_broken: &'a [StartBrokenLimit],
     /// Seed of the sensor noise.
     pub seed: u64,
     /// The policy's name.
@@ -133,9 +146,11 @@ pub struct DeploymentSummary<'a> {
 
 impl<'a> DeploymentSummary<'a> {
     /// The summary of `d`, deployed by `policy` under `problem` from
-    /// `sources`; `verdict` is the line the command prints.
+    /// `sources`, judged by `run` (`d`'s [`Deployment::verdict`]);
+    /// `verdict` is the line the command prints.
     pub fn new(
         d: &'a Deployment,
+        run: &RunVerdict,
         policy: &'a Policy,
         problem: &DeploymentProblem,
         sources: DeploymentSources,
@@ -145,8 +160,11 @@ impl<'a> DeploymentSummary<'a> {
         DeploymentSummary {
             format: DEPLOYMENT_SUMMARY_FORMAT,
             verdict,
-            connected: d.status.is_connected(),
+            connected: run.is_connected(),
+            outcome: run.label(),
             status: &d.status,
+            truth_limits_broken: run.broken.clone(),
+            truth_start_broken: &d.truth_start_broken,
             seed: sources.seed,
             policy: &policy.name,
             planner: policy.planner.as_str(),

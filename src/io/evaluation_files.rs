@@ -11,10 +11,16 @@
 //! load_cell_noise_n = [7.0, 7.0]
 //! fold_m = [0.35, 0.45]
 //! temperature_c = [5.0, 35.0]      # optional
+//! fold_difference_m = [-0.1, 0.1] # optional: half B folds fold_m + d
 //! [effects.motor]
 //! slip_fraction = [-0.05, 0.05]
 //! backlash_m = [0.0, 0.005]
+//! [faults.drum_zero_error]         # optional: a local fault
+//! probability = 0.3                # that a scenario has it
+//! offset_m = [-0.015, 0.015]
 //! ```
+//! A hidden `thermal` effect needs `temperature_c`. `scenarios/wide.toml`
+//! uses every key.
 //!
 //! **`evaluation.toml`**: what was run (format
 //! `tensegrity-deploy/evaluation/2`): seed, scenario count, cycles per
@@ -29,8 +35,11 @@
 //! final_measured_gap_m,final_true_gap_m,cable_travel_m,
 //! truth_worst_utilisation,truth_violations,approach_gap_m` (SI units;
 //! empty = none; with several cycles per scenario, the last cycle's,
-//! violations and utilisation over all cycles). Format 1 had neither the
-//! cycles nor the approach gap.
+//! violations and utilisation over all cycles). `status` is the run's
+//! verdict label ([`crate::plan::RunVerdict::label`]: what the truth did;
+//! `limits_broken` if any cycle broke a limit) and `succeeded` is `true`
+//! exactly for `connected`. Format 1 had neither the cycles nor the
+//! approach gap.
 //! Numbers are written as the shortest text that reads back to the same
 //! value, so a merge re-writes the rows of its shards byte for byte.
 //!
@@ -48,8 +57,10 @@ use serde::{Deserialize, Serialize};
 use super::problem_file::{field_line, parse_versioned};
 use super::toml_text::{field_error, parse_toml};
 use super::{csv_records, csv_with_header, read_text, CsvTable, FileError};
-use crate::plan::Policy;
-use crate::studies::evaluation::{RunResult, Scenario, ScenarioDistribution, Shard};
+use crate::numerics::NumberRange;
+use crate::plan::policy::MAX_COMMANDS;
+use crate::plan::{Policy, RunVerdict};
+use crate::studies::evaluation::{RunResult, Scenario, ScenarioDistribution, Shard, NOT_STARTED};
 
 /// The `format` of a scenario-distribution file.
 pub const DISTRIBUTION_FORMAT: &str = "tensegrity-deploy/scenarios/1";
@@ -70,6 +81,17 @@ const RESULT_COLUMNS: [&str; 11] = [
     "truth_violations",
     "approach_gap_m",
 ];
+
+/// Whether `status` is one a run of `runs.csv` may have: a deployment's
+/// verdict ([`RunVerdict::LABELS`]) or [`NOT_STARTED`].
+fn is_run_status(status: &str) -> bool {
+    RunVerdict::LABELS.contains(&status) || status == NOT_STARTED
+}
+
+/// Range of the non-negative results of `runs.csv` (gaps, cable travel,
+/// utilisation): finite, and at most 1e6, far above any a deployment of a
+/// bridge can give (travel is at most commands × motors × 10 m).
+const NON_NEGATIVE_RESULT: NumberRange = NumberRange::closed(0.0, 1e6);
 
 /// Reads and validates a scenario-distribution file.
 pub fn read_distribution(path: &Path) -> Result<ScenarioDistribution, FileError> {
@@ -145,12 +167,40 @@ impl EvaluationRecord {
         Shard::parse(&self.shard)
     }
 
-    /// Everything but the shard, for comparing the shards of one sweep.
-    pub fn without_shard(&self) -> EvaluationRecord {
-        EvaluationRecord {
-            shard: String::new(),
-            ..self.clone()
-        }
+    /// The fields (as `evaluation.toml` names them) in which `self` and
+    /// `other` record different sweeps; the shard is not compared. Empty:
+    /// shards of the same sweep.
+    pub fn sweep_differences(&self, other: &EvaluationRecord) -> Vec<&'static str> {
+        // Destructured so that a field added to the record is compared.
+        let EvaluationRecord {
+            format,
+            seed,
+            scenarios,
+            shard: _,
+            policies,
+            policy_fingerprints,
+            model,
+            cycles,
+            distribution,
+        } = self;
+        let mut fields = Vec::new();
+        let mut differs = |field, d: bool| {
+            if d {
+                fields.push(field)
+            }
+        };
+        differs("format", *format != other.format);
+        differs("seed", *seed != other.seed);
+        differs("scenarios", *scenarios != other.scenarios);
+        differs("policies", *policies != other.policies);
+        differs(
+            "policy_fingerprints",
+            *policy_fingerprints != other.policy_fingerprints,
+        );
+        differs("model", *model != other.model);
+        differs("cycles", *cycles != other.cycles);
+        differs("distribution", *distribution != other.distribution);
+        fields
     }
 
     /// As TOML text.
@@ -343,21 +393,42 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
                 .filter(|v| v.is_finite())
                 .ok_or_else(|| bad(i, "a finite number"))
         };
-        let optional = |i: usize| -> Result<Option<f64>, FileError> {
-            if field(i).is_empty() {
-                Ok(None)
-            } else {
-                number(i).map(Some)
-            }
-        };
         let count = |i: usize| -> Result<usize, FileError> {
             field(i).parse().map_err(|_| bad(i, "a count"))
         };
         let index = count(0)?;
+        if index >= record.scenarios {
+            return Err(bad(
+                0,
+                &format!("a scenario of the sweep (0 to {})", record.scenarios - 1),
+            ));
+        }
         let seed: u64 = field(1).parse().map_err(|_| bad(1, "a seed"))?;
         let drawn = (0..d)
             .map(|k| number(2 + k))
             .collect::<Result<Vec<_>, _>>()?;
+        // The scenario as the recorded distribution and seed draw it: the
+        // row must hold exactly those draws (runs.csv writes each number
+        // in the shortest form that reads back equal).
+        let expected = record.distribution.draw(record.seed, index);
+        if seed != expected.seed {
+            return Err(bad(
+                1,
+                &format!("scenario {index}'s seed in this sweep ({})", expected.seed),
+            ));
+        }
+        for (k, (x, want)) in drawn
+            .iter()
+            .zip(expected.drawn_values(&record.distribution))
+            .enumerate()
+        {
+            if x.to_bits() != want.to_bits() {
+                return Err(bad(
+                    2 + k,
+                    &format!("what the recorded distribution draws for scenario {index} ({want})"),
+                ));
+            }
+        }
         let at = 2 + d;
         let policy = record
             .policies
@@ -373,25 +444,60 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
                 runs.scenarios.insert(index, scenario);
             }
         }
+        let status = field(at + 1);
+        if !is_run_status(status) {
+            return Err(bad(
+                at + 1,
+                &format!(
+                    "a run status ({}, {NOT_STARTED})",
+                    RunVerdict::LABELS.join(", ")
+                ),
+            ));
+        }
+        let non_negative = |i: usize| -> Result<f64, FileError> {
+            number(i).and_then(|v| {
+                NON_NEGATIVE_RESULT
+                    .contains(v)
+                    .then_some(v)
+                    .ok_or_else(|| bad(i, &format!("a number in {NON_NEGATIVE_RESULT}")))
+            })
+        };
+        let optional_non_negative = |i: usize| -> Result<Option<f64>, FileError> {
+            if field(i).is_empty() {
+                Ok(None)
+            } else {
+                non_negative(i).map(Some)
+            }
+        };
+        let commands = count(at + 3)?;
+        if commands > MAX_COMMANDS {
+            return Err(bad(
+                at + 3,
+                &format!("a command count (at most {MAX_COMMANDS}, a policy's largest)"),
+            ));
+        }
         runs.results.push(RunResult {
             scenario: index,
             policy,
-            status: field(at + 1).to_string(),
+            status: status.to_string(),
             succeeded: field(at + 2)
                 .parse()
                 .map_err(|_| bad(at + 2, "true or false"))?,
-            commands: count(at + 3)?,
+            commands,
             corrective_commands: if field(at + 4).is_empty() {
                 None
             } else {
                 Some(count(at + 4)?)
+                    .filter(|&k| k <= commands)
+                    .ok_or_else(|| bad(at + 4, "a count no larger than the commands sent"))?
+                    .into()
             },
-            final_measured_gap_m: optional(at + 5)?,
-            final_true_gap_m: optional(at + 6)?,
-            cable_travel_m: number(at + 7)?,
-            worst_utilisation: number(at + 8)?,
+            final_measured_gap_m: optional_non_negative(at + 5)?,
+            final_true_gap_m: optional_non_negative(at + 6)?,
+            cable_travel_m: non_negative(at + 7)?,
+            worst_utilisation: non_negative(at + 8)?,
             truth_violations: count(at + 9)?,
-            approach_gap_m: optional(at + 10)?,
+            approach_gap_m: optional_non_negative(at + 10)?,
             planning_time_median_s: None,
         });
     }
@@ -439,6 +545,51 @@ mod tests {
         )
         .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(d, ScenarioDistribution::default());
+    }
+
+    /// `scenarios/wide.toml` hides every effect of the library and every
+    /// local fault, and folds unevenly.
+    #[test]
+    fn the_wide_distribution_draws_every_effect_and_fault() {
+        use crate::model::{EffectKind, FaultKind};
+        let text = include_str!("../../scenarios/wide.toml");
+        let d = parse_distribution(text, Path::new("scenarios/wide.toml"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        for kind in EffectKind::ALL {
+            assert!(d.effects.contains_key(kind.name()), "{}", kind.name());
+        }
+        for kind in FaultKind::ALL {
+            assert!(d.faults[kind.name()].probability > 0.0, "{}", kind.name());
+        }
+        assert_eq!(d.fold_m, [0.10, 0.60]);
+        assert!(d.fold_difference_m.is_some() && d.temperature_c.is_some());
+        // A thermal effect without a temperature is refused, naming it.
+        let no_temperature = text.replace("temperature_c = [0.0, 40.0]", "");
+        let e = parse_distribution(&no_temperature, Path::new("w.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("w.toml: field `temperature_c`: missing"),
+            "{e}"
+        );
+        let bad = text.replace("probability = 0.3\noffset_m", "probability = 1.3\noffset_m");
+        let e = parse_distribution(&bad, Path::new("w.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("w.toml: line 62, field `faults.drum_zero_error.probability`"),
+            "{e}"
+        );
+        let bad = text.replace("offset_m = [-0.015, 0.015]", "offset = [-0.015, 0.015]");
+        let e = parse_distribution(&bad, Path::new("w.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with(
+                "w.toml: line 63, field `faults.drum_zero_error.offset`: unknown parameter"
+            ),
+            "{e}"
+        );
     }
 
     #[test]

@@ -104,8 +104,9 @@ pub enum Experiment {
     FrictionRig(FrictionRigExperiment),
     /// `kind = "friction-effect"`.
     FrictionEffect(FrictionEffectExperiment),
-    /// `kind = "friction-vs-measurement"`.
-    FrictionVsMeasurement(FrictionVsMeasurementExperiment),
+    /// `kind = "friction-vs-measurement"` (boxed: its truth's effects,
+    /// local faults included, make it the largest kind by far).
+    FrictionVsMeasurement(Box<FrictionVsMeasurementExperiment>),
     /// `kind = "deployment"`.
     Deployment(DeploymentExperiment),
 }
@@ -388,7 +389,7 @@ pub fn parse_experiment(text: &str, path: &Path) -> Result<Experiment, FileError
                 )
             })?;
             super::model_file::check_reference_temperature(&d.truth, "truth", text, path)?;
-            Ok(Experiment::FrictionVsMeasurement(
+            Ok(Experiment::FrictionVsMeasurement(Box::new(
                 FrictionVsMeasurementExperiment {
                     actuation_m: d.actuation_m,
                     steps: d.steps,
@@ -398,7 +399,7 @@ pub fn parse_experiment(text: &str, path: &Path) -> Result<Experiment, FileError
                     truth: d.truth,
                     out: d.out,
                 },
-            ))
+            )))
         }
         Some(other) => Err(field_error(
             text,

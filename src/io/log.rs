@@ -17,7 +17,8 @@
 //!   `CABLE_ID:SEGMENT`, or a member id; N), `position_x`, `position_y`,
 //!   `position_z` (target: a node id; m) or `temperature` (target `-`; °C).
 //!   `noise_sd` is the sensor's noise standard deviation in its unit,
-//!   positive (residuals are divided by it).
+//!   positive (residuals are divided by it) and no larger than the kind's
+//!   bound ([`SensorTarget::noise_sd_range`]: 0.1 m, 10 kN, 10 °C).
 //! - `measurements.csv`: `cycle,step,sensor,value`: one row per cycle, step
 //!   and sensor, in SI units (°C for temperature), within [`READING_RANGE`];
 //!   step 0 of a cycle is the
@@ -184,13 +185,12 @@ fn read_sensors(path: &Path, structure: &Structure) -> Result<Vec<Sensor>, FileE
             }
         };
         let noise_sd = parse_finite(&r[3], path, line, "noise_sd")?;
-        // Residuals are divided by it: zero would make them infinite.
-        if noise_sd <= 0.0 {
-            return Err(err(
+        target.noise_sd_range().check(noise_sd).map_err(|reason| {
+            err(
                 "noise_sd",
-                format!("{noise_sd:e} must be positive (the sensor's noise SD in its unit)"),
-            ));
-        }
+                format!("{reason} (the sensor's noise SD in its unit)"),
+            )
+        })?;
         sensors.push(Sensor {
             id,
             target,
@@ -477,7 +477,7 @@ mod tests {
         std::fs::write(&sensors, text.replacen(",7\n", ",0\n", 1)).unwrap();
         let e = read_log(dir.path(), &s).unwrap_err().to_string();
         assert!(
-            e.contains("sensors.csv: line 2, field `noise_sd`: 0e0 must be positive"),
+            e.contains("sensors.csv: line 2, field `noise_sd`: must be a finite number in (0, 10000], got 0"),
             "{e}"
         );
         std::fs::write(&sensors, text).unwrap();
@@ -494,6 +494,39 @@ mod tests {
             "{e}"
         );
         assert_eq!(e.lines().count(), 1, "{e}");
+    }
+
+    /// Issue 25: `noise_sd = 1e297` on the position sensors made
+    /// `replay --fit` run past 60 s; a temperature noise of 1e299 was
+    /// accepted too. Each kind has its upper bound, and the error names it.
+    #[test]
+    fn huge_sensor_noise_is_refused_naming_the_bound() {
+        let s = reference_bridge(&BridgeParameters::default()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        write_log(dir.path(), &sample(&s), &s).unwrap();
+        let sensors = dir.path().join("sensors.csv");
+        let text = std::fs::read_to_string(&sensors).unwrap();
+        for (from, to, line, bound) in [
+            (",7\n", ",1e297\n", 2, "(0, 10000]"),
+            (",0.001\n", ",1e297\n", 3, "(0, 0.1]"),
+            (",0.1\n", ",1e299\n", 4, "(0, 10]"),
+        ] {
+            std::fs::write(&sensors, text.replacen(from, to, 1)).unwrap();
+            let e = read_log(dir.path(), &s).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("sensors.csv: line {line}, field `noise_sd`: must be a finite number in {bound}")),
+                "{e}"
+            );
+        }
+        // The bounds themselves are accepted.
+        let at_bounds = text
+            .replacen(",7\n", ",10000\n", 1)
+            .replacen(",0.1\n", ",10\n", 1)
+            .replacen(",0.001\n", ",0.1\n", 1);
+        std::fs::write(&sensors, at_bounds).unwrap();
+        let log = read_log(dir.path(), &s).unwrap();
+        let noise: Vec<f64> = log.sensors.iter().map(|x| x.noise_sd).collect();
+        assert_eq!(noise, [1e4, 0.1, 10.0]);
     }
 
     #[test]

@@ -19,8 +19,9 @@
 //!   then rename); a case is appended as one `write` of a whole line,
 //!   flushed to disk before the call returns. A crash during an append
 //!   can leave only a last line without its `\n`: every case before it is
-//!   intact, the load names the torn line, and [`drop_torn_tail`] removes
-//!   it (atomically). Appending to a file with a torn tail is refused.
+//!   intact, the load names the torn line, and [`repair_torn_tail`]
+//!   (`tdeploy memory repair FILE`) removes it atomically. Appending to a
+//!   file with a torn tail is refused.
 
 use std::io::Write;
 use std::path::Path;
@@ -51,13 +52,31 @@ pub fn read_memory(path: &Path) -> Result<CaseMemory, FileError> {
 }
 
 /// Reads the memory file `path` if there is one, else an empty memory
-/// (a memory that [`append_case`] will create).
-pub fn read_memory_or_empty(path: &Path) -> Result<CaseMemory, FileError> {
-    if path.exists() {
-        read_memory(path)
-    } else {
-        Ok(CaseMemory::default())
+/// (a memory that [`append_case`] will create); every case is checked for
+/// a bridge of `motors` motors and `pairs` midspan pairs
+/// ([`Case::validate`]), the error naming the file, the case's line and
+/// the field. The file is not changed.
+pub fn read_memory_or_empty(
+    path: &Path,
+    motors: usize,
+    pairs: usize,
+) -> Result<CaseMemory, FileError> {
+    if !path.exists() {
+        return Ok(CaseMemory::default());
     }
+    let memory = read_memory(path)?;
+    for (k, case) in memory.cases.iter().enumerate() {
+        case.validate(motors, pairs).map_err(|e| {
+            // Line 1 is the format; case k is on line k + 2.
+            FileError::field(
+                path,
+                k + 2,
+                &format!("case.{}", e.field),
+                format!("{}: the case is not used", e.reason),
+            )
+        })?;
+    }
+    Ok(memory)
 }
 
 /// Parses a memory file's text; `path` names it in errors.
@@ -82,7 +101,10 @@ pub fn parse_memory(text: &str, path: &Path) -> Result<CaseMemory, FileError> {
                 path,
                 line,
                 "case",
-                "incomplete (an append was interrupted); the cases before it are intact: remove this line (`drop_torn_tail`) to use them".into(),
+                format!(
+                    "incomplete (an append was interrupted); the cases before it are intact: `tdeploy memory repair {}` removes this line and keeps them",
+                    path.display()
+                ),
             ));
         };
         let corrupted = |why: &str| {
@@ -135,7 +157,10 @@ pub fn append_case(path: &Path, case: &Case) -> Result<(), FileError> {
                     path,
                     line,
                     "case",
-                    "incomplete (an earlier append was interrupted); remove it (`drop_torn_tail`) before appending".into(),
+                    format!(
+                        "incomplete (an earlier append was interrupted); nothing appended: `tdeploy memory repair {}` removes this line and keeps every case before it",
+                        path.display()
+                    ),
                 ));
             }
             let mut file = std::fs::OpenOptions::new()
@@ -149,17 +174,43 @@ pub fn append_case(path: &Path, case: &Case) -> Result<(), FileError> {
     }
 }
 
+/// What [`repair_torn_tail`] did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Repair {
+    /// Bytes of the torn last line removed (0: the file was whole and is
+    /// unchanged).
+    pub dropped_bytes: usize,
+    /// The cases the file holds after the repair, every one validated.
+    pub memory: CaseMemory,
+}
+
 /// Removes a last line without its `\n` (a torn append), rewriting the
-/// file atomically; returns whether there was one. The cases before it
-/// are kept as they are.
-pub fn drop_torn_tail(path: &Path) -> Result<bool, FileError> {
+/// file atomically, and loads what is left. The cases before the torn line
+/// are kept byte for byte. A file whose other lines do not load (a wrong
+/// header, a corrupted case) is an error and is left unchanged: only an
+/// interrupted append is repaired, since that is all a crash can leave.
+pub fn repair_torn_tail(path: &Path) -> Result<Repair, FileError> {
     let bytes = std::fs::read(path).map_err(|e| FileError::read(path, e))?;
-    if bytes.is_empty() || bytes.last() == Some(&b'\n') {
-        return Ok(false);
+    let keep = match bytes.last() {
+        None | Some(b'\n') => bytes.len(),
+        Some(_) => bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1),
+    };
+    let text = std::str::from_utf8(&bytes[..keep]).map_err(|e| {
+        FileError::field(
+            path,
+            1,
+            "case",
+            format!("not text (UTF-8): {e}; nothing repaired"),
+        )
+    })?;
+    let memory = parse_memory(text, path)?;
+    if keep < bytes.len() {
+        write_atomically(path, &bytes[..keep])?;
     }
-    let keep = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-    write_atomically(path, &bytes[..keep])?;
-    Ok(true)
+    Ok(Repair {
+        dropped_bytes: bytes.len() - keep,
+        memory,
+    })
 }
 
 #[cfg(test)]
@@ -249,9 +300,24 @@ mod tests {
         assert!(e.contains("line 4") && e.contains("interrupted"), "{e}");
         assert!(append_case(&path, &case(3)).is_err());
         assert_eq!(std::fs::read(&path).unwrap(), torn);
-        assert!(drop_torn_tail(&path).unwrap());
+        assert!(e.contains("tdeploy memory repair"), "{e}");
+        let repair = repair_torn_tail(&path).unwrap();
+        assert_eq!(repair.dropped_bytes, line.len() / 2);
+        assert_eq!(repair.memory.cases, vec![case(0), case(1)]);
         assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), case(1)]);
-        assert!(!drop_torn_tail(&path).unwrap());
+        assert_eq!(repair_torn_tail(&path).unwrap().dropped_bytes, 0);
+        // A corrupted case is not what a crash leaves: not repaired.
+        let whole = std::fs::read_to_string(&path).unwrap();
+        let bad = whole
+            .replacen("fnv1a:", "fnv1a:0", 2)
+            .replacen("fnv1a:0", "fnv1a:", 1);
+        std::fs::write(&path, format!("{bad}torn")).unwrap();
+        let e = repair_torn_tail(&path).unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("checksum"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{bad}torn")
+        );
     }
 
     #[test]
@@ -265,5 +331,95 @@ mod tests {
             .contains("line 1"));
         assert!(append_case(&path, &case(0)).is_err());
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "my notes\n");
+    }
+
+    /// A case as the tools write it for the reference bridge (10 motors,
+    /// 5 midspan pairs).
+    fn consistent_case() -> Case {
+        Case {
+            conditions: CaseConditions {
+                temperature_c: Some(12.0),
+                fold_m: vec![0.4; 10],
+                start_gap_m: Some(0.14),
+                payout_scale: vec![1.01, 0.99],
+            },
+            commands_m: vec![vec![-0.05; 10], vec![-0.01; 10]],
+            measured_gaps_m: vec![
+                vec![Some(0.1); 5],
+                vec![Some(0.01), None, Some(0.01), Some(0.02), Some(0.0)],
+            ],
+            final_gap_vectors_m: vec![Some([0.01, -0.002, 0.0]), None, None, None, None],
+            prediction_error_m: vec![Some(1e-3), None],
+            outcome: CaseOutcome {
+                status: "connected".into(),
+                commands: 2,
+                corrective_commands: Some(1),
+                final_gap_m: Some(0.02),
+            },
+        }
+    }
+
+    /// Issue 25: cases with a 1 000-motor fold, an 11-motor command row,
+    /// the wrong number of gap pairs, values of 1e308 or subnormal,
+    /// negative gaps or folds and a garbage status all loaded and were
+    /// used (a final gap of 1e308 made `cycles` write an infinite ILC
+    /// prediction). Each is refused naming the file, the case's line and
+    /// the field; the file is left as it was.
+    #[test]
+    fn memory_contents_out_of_range_are_refused_naming_line_and_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = consistent_case();
+        good.validate(10, 5).unwrap();
+        /// A field path and the edit that breaks it.
+        type Edit = (&'static str, fn(&mut Case));
+        let edits: Vec<Edit> = vec![
+            ("case.conditions.fold_m", |c| {
+                c.conditions.fold_m = vec![0.4; 1000]
+            }),
+            ("case.conditions.fold_m[3]", |c| {
+                c.conditions.fold_m[3] = -0.1
+            }),
+            ("case.commands_m[1]", |c| c.commands_m[1].push(0.0)),
+            ("case.commands_m[0][2]", |c| c.commands_m[0][2] = 1e308),
+            ("case.measured_gaps_m[0][4]", |c| {
+                c.measured_gaps_m[0][4] = Some(-0.01)
+            }),
+            ("case.final_gap_vectors_m", |c| {
+                c.final_gap_vectors_m.pop().map(drop).unwrap_or(())
+            }),
+            ("case.final_gap_vectors_m[0][1]", |c| {
+                c.final_gap_vectors_m[0] = Some([0.0, 1e308, 0.0])
+            }),
+            ("case.prediction_error_m[0]", |c| {
+                c.prediction_error_m[0] = Some(1e-310)
+            }),
+            ("case.conditions.payout_scale[0]", |c| {
+                c.conditions.payout_scale[0] = 0.0
+            }),
+            ("case.outcome.status", |c| c.outcome.status = "bogus".into()),
+            ("case.outcome.status", |c| c.outcome.status = String::new()),
+            ("case.outcome.commands", |c| c.outcome.commands = 7),
+            ("case.outcome.corrective_commands", |c| {
+                c.outcome.corrective_commands = Some(usize::MAX)
+            }),
+            ("case.outcome.final_gap_m", |c| {
+                c.outcome.final_gap_m = Some(1e308)
+            }),
+        ];
+        for (k, (field, edit)) in edits.into_iter().enumerate() {
+            let path = dir.path().join(format!("m{k}.tdm"));
+            append_case(&path, &good).unwrap();
+            let mut bad = good.clone();
+            edit(&mut bad);
+            append_case(&path, &bad).unwrap();
+            let bytes = std::fs::read(&path).unwrap();
+            let e = read_memory_or_empty(&path, 10, 5).unwrap_err();
+            let FileError::Field { line, field: f, .. } = &e else {
+                panic!("{e}")
+            };
+            assert_eq!((*line, f.as_str()), (3, field), "{e}");
+            assert!(e.to_string().contains(&format!("m{k}.tdm")), "{e}");
+            assert_eq!(std::fs::read(&path).unwrap(), bytes);
+        }
     }
 }

@@ -35,10 +35,36 @@
 //!
 //! [effects.support_flexibility]
 //! compliance_m_per_n = 2e-5  # 50 kN/m in every supported direction
+//!
+//! # Local faults: one part each, named by its id in the structure.
+//! [faults.drum_zero_error]
+//! motor = "A_cc1"            # the motor's continuous cable
+//! offset_m = 0.015           # drum zeroed 15 mm off: cable 15 mm slacker
+//!
+//! [faults.member_error]
+//! member = "A_strut_m0_a1"
+//! rest_length_error_m = 0.005  # 5 mm long
+//! stiffness_scale = 1.0
+//!
+//! [faults.half_difference]
+//! half = "B"                 # "A" or "B"
+//! strut_scale = 1.0
+//! cable_scale = 0.85
+//! spring_scale = 1.0
+//! joint_mass_scale = 1.0
 //! ```
 //! A missing `[effects.*]` table is an effect switched off. Every effect,
 //! its physics, parameters, units and plausible ranges are documented in
 //! [`crate::model::effects`]. Unknown keys are errors, not ignored.
+//!
+//! A `[faults.*]` table is a local fault ([`crate::model::faults`]): its
+//! part by id (key `motor`, `member` or `half`, [`FaultKind::part_key`])
+//! and its parameters ([`FaultKind::parameters`]); a parameter left out
+//! takes its neutral value (no error of that kind). The ids are resolved
+//! against the model's structure when the file is read, so a model file
+//! with faults loads its structure then; an unknown id, a parameter out
+//! of its admissible range or a rest length a fault makes non-positive is
+//! an error naming the file, line and field.
 //!
 //! Written as: a calibrated model (`tdeploy calibrate -o`,
 //! [`write_new_model`], never over an existing file); `truth.toml` and
@@ -46,6 +72,7 @@
 //! record `LOG.truth.toml` beside a synthetic log ([`write_truth_record`]:
 //! the model file after two `#` comment lines naming the lab run).
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -54,7 +81,7 @@ use super::structure_file::read_structure;
 use super::toml_text::{field_error, parse_toml};
 use super::{write_atomically, FileError};
 use crate::design::{reference_bridge, BridgeParameters};
-use crate::model::{Effects, Structure};
+use crate::model::{Effects, FaultKind, Faults, Structure};
 use crate::numerics::NumberRange;
 use crate::sim::EffectModel;
 
@@ -86,6 +113,8 @@ struct ModelDoc {
     structure: String,
     #[serde(default)]
     effects: Effects,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    faults: BTreeMap<String, BTreeMap<String, toml::Value>>,
 }
 
 /// Range of a thermal effect's reference temperature, °C: the
@@ -155,10 +184,155 @@ pub fn parse_model(text: &str, path: &Path) -> Result<ModelFile, FileError> {
             path.parent().unwrap_or(Path::new(".")).join(p)
         })
     };
-    Ok(ModelFile {
+    let mut model = ModelFile {
         structure,
         effects: doc.effects,
-    })
+    };
+    if !doc.faults.is_empty() {
+        model.effects.faults = read_faults(&doc.faults, &model, text, path)?;
+    }
+    Ok(model)
+}
+
+/// The `[faults.*]` tables resolved against `model`'s structure (see the
+/// module notes).
+fn read_faults(
+    tables: &BTreeMap<String, BTreeMap<String, toml::Value>>,
+    model: &ModelFile,
+    text: &str,
+    path: &Path,
+) -> Result<Faults, FileError> {
+    let structure = model.load_structure()?;
+    let mut faults = Faults::default();
+    for (name, table) in tables {
+        let at = |key: &str| format!("faults.{name}.{key}");
+        let kind = FaultKind::ALL
+            .into_iter()
+            .find(|k| k.name() == name)
+            .ok_or_else(|| {
+                field_error(
+                    text,
+                    path,
+                    &format!("faults.{name}"),
+                    format!(
+                        "unknown fault (known: {})",
+                        FaultKind::ALL.map(|k| k.name()).join(", ")
+                    ),
+                )
+            })?;
+        for key in table.keys() {
+            if key != kind.part_key() && !kind.parameters().iter().any(|p| p.name == key) {
+                return Err(field_error(
+                    text,
+                    path,
+                    &at(key),
+                    format!(
+                        "unknown key of {name} (its keys: {}, {})",
+                        kind.part_key(),
+                        kind.parameters()
+                            .iter()
+                            .map(|p| p.name)
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                ));
+            }
+        }
+        let id = match table.get(kind.part_key()) {
+            Some(toml::Value::String(id)) => id,
+            Some(_) => {
+                return Err(field_error(
+                    text,
+                    path,
+                    &at(kind.part_key()),
+                    "must be a string: the part's id".into(),
+                ))
+            }
+            None => {
+                return Err(field_error(
+                    text,
+                    path,
+                    &format!("faults.{name}"),
+                    format!("missing key `{}`: which part is faulty", kind.part_key()),
+                ))
+            }
+        };
+        let part = kind.find_part(&structure, id).ok_or_else(|| {
+            field_error(
+                text,
+                path,
+                &at(kind.part_key()),
+                format!(
+                    "no {} \"{id}\" in the structure (e.g. \"{}\")",
+                    kind.part_key(),
+                    kind.part_id(&structure, 0)
+                ),
+            )
+        })?;
+        let mut values = Vec::new();
+        for spec in kind.parameters() {
+            values.push(match table.get(spec.name) {
+                None => spec.neutral,
+                Some(toml::Value::Float(v)) => *v,
+                Some(toml::Value::Integer(v)) => *v as f64,
+                Some(_) => {
+                    return Err(field_error(
+                        text,
+                        path,
+                        &at(spec.name),
+                        format!("must be a number, {}", spec.unit),
+                    ))
+                }
+            });
+        }
+        faults = faults.with_fault(kind, part, &values);
+    }
+    faults.validate().map_err(|e| {
+        field_error(
+            text,
+            path,
+            &format!("faults.{}.{}", e.fault, e.parameter),
+            e.reason.clone(),
+        )
+    })?;
+    faults.apply(&structure).map_err(|e| {
+        // A part that is not there, or else the one check a fault can
+        // fail in a valid structure: a rest length made non-positive.
+        let key = match &e {
+            crate::model::structure::StructureError::BadFault { fault, .. } => {
+                format!("faults.{fault}")
+            }
+            _ => "faults.member_error.rest_length_error_m".to_string(),
+        };
+        field_error(text, path, &key, e.to_string())
+    })?;
+    Ok(faults)
+}
+
+/// The `[faults.*]` tables of `faults` on `structure` (`None`: the
+/// structure could not be loaded; parts are then named `#INDEX`, which no
+/// reader accepts).
+fn fault_tables(
+    faults: &Faults,
+    structure: Option<&Structure>,
+) -> BTreeMap<String, BTreeMap<String, toml::Value>> {
+    faults
+        .present()
+        .into_iter()
+        .filter_map(|kind| {
+            let (part, values) = faults.part_and_parameters(kind)?;
+            let id = match structure {
+                Some(s) if part < kind.part_count(s) => kind.part_id(s, part),
+                _ => format!("#{part}"),
+            };
+            let mut table = BTreeMap::new();
+            table.insert(kind.part_key().to_string(), toml::Value::String(id));
+            for (spec, v) in kind.parameters().iter().zip(values) {
+                table.insert(spec.name.to_string(), toml::Value::Float(v));
+            }
+            Some((kind.name().to_string(), table))
+        })
+        .collect()
 }
 
 impl ModelFile {
@@ -187,7 +361,8 @@ impl ModelFile {
     }
 
     /// The model file's text. A structure file is written relative to
-    /// `dir` when it lies inside it.
+    /// `dir` when it lies inside it. Faults name their parts by id, read
+    /// from the structure (loaded again for that).
     pub fn to_toml(&self, dir: &Path) -> String {
         let structure = match &self.structure {
             StructureSource::Reference => "reference".to_string(),
@@ -197,10 +372,16 @@ impl ModelFile {
                 .to_string_lossy()
                 .into_owned(),
         };
+        let faults = if self.effects.faults.is_empty() {
+            BTreeMap::new()
+        } else {
+            fault_tables(&self.effects.faults, self.load_structure().ok().as_ref())
+        };
         let doc = ModelDoc {
             format: MODEL_FORMAT.into(),
             structure,
             effects: self.effects,
+            faults,
         };
         toml::to_string(&doc).expect("a model serialises to TOML")
     }
@@ -347,6 +528,88 @@ backlash_m = 0.002
             .unwrap_err()
             .to_string();
         assert!(e.contains("format"), "{e}");
+    }
+
+    const FAULTY: &str = r#"format = "tensegrity-deploy/model/1"
+structure = "reference"
+
+[faults.drum_zero_error]
+motor = "A_cc1"
+offset_m = 0.015
+
+[faults.member_error]
+member = "A_strut_m0_a1"
+rest_length_error_m = 0.005
+
+[faults.half_difference]
+half = "B"
+cable_scale = 0.85
+"#;
+
+    #[test]
+    fn reads_faults_by_part_id_and_writes_them_back() {
+        let m = parse_model(FAULTY, Path::new("m.toml")).unwrap();
+        let s = m.load_structure().unwrap();
+        let f = m.effects.faults;
+        assert_eq!(f.present(), FaultKind::ALL.to_vec());
+        let drum = f.drum_zero_error.unwrap();
+        assert_eq!(s.continuous_cables[drum.cable].id, "A_cc1");
+        assert_eq!(drum.offset_m, 0.015);
+        let member = f.member_error.unwrap();
+        assert_eq!(s.members[member.member].id, "A_strut_m0_a1");
+        // Left out: neutral.
+        assert_eq!(
+            (member.rest_length_error_m, member.stiffness_scale),
+            (0.005, 1.0)
+        );
+        let half = f.half_difference.unwrap();
+        assert_eq!(half.half, crate::model::Half::B);
+        assert_eq!((half.cable_scale, half.strut_scale), (0.85, 1.0));
+        assert!(m.effects.enabled().is_empty(), "faults are no effect kinds");
+        let text = m.to_toml(Path::new("."));
+        assert!(text.contains("motor = \"A_cc1\""), "{text}");
+        assert_eq!(parse_model(&text, Path::new("m.toml")).unwrap(), m);
+    }
+
+    #[test]
+    fn fault_errors_name_file_line_and_field() {
+        let cases = [
+            (
+                FAULTY.replace("\"A_strut_m0_a1\"", "\"A_strut_m9\""),
+                "m.toml: line 9, field `faults.member_error.member`: no member \"A_strut_m9\" in the structure",
+            ),
+            (
+                FAULTY.replace("offset_m = 0.015", "offset_m = \"far\""),
+                "m.toml: line 6, field `faults.drum_zero_error.offset_m`: must be a number, m",
+            ),
+            (
+                FAULTY.replace("cable_scale = 0.85", "cable_scale = 0"),
+                "m.toml: line 14, field `faults.half_difference.cable_scale`: must be ≥ 0.001, got 0",
+            ),
+            (
+                FAULTY.replace("cable_scale = 0.85", "cable_scal = 0.85"),
+                "m.toml: line 14, field `faults.half_difference.cable_scal`: unknown key",
+            ),
+            (
+                FAULTY.replace("half = \"B\"", "half = \"C\""),
+                "m.toml: line 13, field `faults.half_difference.half`: no half \"C\"",
+            ),
+            (
+                FAULTY.replace("rest_length_error_m = 0.005", "rest_length_error_m = -9.0"),
+                "m.toml: line 10, field `faults.member_error.rest_length_error_m`: struts[3] (\"A_strut_m0_a1\"): field `rest_length_m` must be positive",
+            ),
+            (
+                FAULTY.replace("[faults.member_error]", "[faults.member_eror]"),
+                "m.toml: line 8, field `faults.member_eror`: unknown fault",
+            ),
+        ];
+        for (text, want) in cases {
+            let e = parse_model(&text, Path::new("m.toml"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with(want), "{e}\nwanted {want}");
+            assert!(!e.contains('\n'), "{e}");
+        }
     }
 
     #[test]

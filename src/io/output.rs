@@ -9,9 +9,12 @@
 //!   every file is in it. A crash or `kill -9` before that leaves the old
 //!   set untouched (and a hidden `.NAME.tdeploy-new-PID` folder, removed by
 //!   the next run into the same target); after it, the new set. The target
-//!   may be replaced only if it is missing, empty, or holds the marker file
-//!   [`RESULTS_MARKER`] of an earlier results set; anything else (a user's
-//!   folder) needs `--force`.
+//!   is written only if it is missing or empty; a folder holding anything
+//!   (an earlier results set, which the marker file [`RESULTS_MARKER`]
+//!   names, or a user's own files) is replaced, whole, only with `--force`.
+//!   Every command that writes a results folder (`deploy`, `plan`,
+//!   `cycles`, `replay`, `evaluate`, …) follows the one rule: a result of
+//!   another seed or policy is never lost to a re-run by accident.
 //!
 //! Between the two renames of a replacement the old set sits, complete, in
 //! a hidden `.NAME.tdeploy-old-PID` sibling for an instant: never a mix.
@@ -82,9 +85,10 @@ pub struct ResultsFolder {
 
 impl ResultsFolder {
     /// Claims `target` for the results of `command` (e.g. `simulate`):
-    /// refuses a target that is not a folder, or a non-empty folder without
-    /// [`RESULTS_MARKER`], unless `force`; then creates the staging folder.
-    /// Call it before the work, so that a refusal costs nothing.
+    /// refuses a target that is not a folder, or a non-empty folder unless
+    /// `force` (the message says whose results it holds, from
+    /// [`RESULTS_MARKER`]); then creates the staging folder. Call it before
+    /// the work, so that a refusal costs nothing.
     pub fn claim(target: &Path, command: &str, force: bool) -> Result<Self, FileError> {
         let refuse = |message: &str| FileError::Invalid {
             path: target.to_path_buf(),
@@ -103,10 +107,17 @@ impl ResultsFolder {
                 let mut entries =
                     std::fs::read_dir(target).map_err(|e| FileError::read(target, e))?;
                 let empty = entries.next().is_none();
-                if !empty && !force && !target.join(RESULTS_MARKER).is_file() {
-                    return Err(refuse(
-                        "holds files tdeploy did not write; choose another output folder or pass --force to replace it",
-                    ));
+                if !empty && !force {
+                    let marker = std::fs::read_to_string(target.join(RESULTS_MARKER)).ok();
+                    let writer = marker
+                        .as_deref()
+                        .and_then(|m| m.trim().strip_prefix("written by "));
+                    return Err(refuse(&match writer {
+                        Some(w) => format!(
+                            "holds the results of an earlier run of `{w}`; pass --force to replace them, or choose another output folder"
+                        ),
+                        None => "holds files tdeploy did not write; choose another output folder or pass --force to replace it".into(),
+                    }));
                 }
             }
         }
@@ -222,7 +233,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_users_folder_is_refused_and_an_earlier_set_replaced_whole() {
+    fn an_existing_folder_is_replaced_whole_only_with_force() {
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("results");
         // Fresh target: written, marked.
@@ -230,8 +241,16 @@ mod tests {
         std::fs::write(set.path().join("a.csv"), "1").unwrap();
         set.commit().unwrap();
         assert!(target.join(RESULTS_MARKER).is_file());
-        // Our own earlier set: replaced whole (the old file goes).
-        let set = ResultsFolder::claim(&target, "test", false).unwrap();
+        // Our own earlier set: refused, naming the command and the flag;
+        // with force, replaced whole (the old file goes).
+        let e = ResultsFolder::claim(&target, "test", false).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("holds the results of an earlier run of `tdeploy test`; pass --force"),
+            "{e}"
+        );
+        assert!(target.join("a.csv").is_file());
+        let set = ResultsFolder::claim(&target, "test", true).unwrap();
         std::fs::write(set.path().join("b.csv"), "2").unwrap();
         set.commit().unwrap();
         assert!(!target.join("a.csv").exists() && target.join("b.csv").is_file());
@@ -248,7 +267,7 @@ mod tests {
             .unwrap();
         assert!(!user.join("thesis.tex").exists());
         // An uncommitted set leaves nothing behind and the target as it was.
-        let set = ResultsFolder::claim(&target, "test", false).unwrap();
+        let set = ResultsFolder::claim(&target, "test", true).unwrap();
         std::fs::write(set.path().join("c.csv"), "3").unwrap();
         drop(set);
         assert!(target.join("b.csv").is_file() && !target.join("c.csv").exists());

@@ -352,4 +352,22 @@ mod tests {
             ["`sensitivity_step_m` left out: only the QP planner read it"]
         );
     }
+
+    /// Issue 25: `name = "x\ny"` split the policy column of `runs.csv` and
+    /// the printed table over two lines; `name = ""` left it blank.
+    #[test]
+    fn a_policy_name_that_is_not_one_printable_line_is_refused() {
+        for (name, says) in [
+            (r#""x\ny""#, "one line of printable characters"),
+            (r#""""#, "must not be empty"),
+        ] {
+            let text = format!("format = \"{POLICY_FORMAT}\"\nname = {name}\n");
+            let e = parse_policy(&text, Path::new("p.toml")).unwrap_err();
+            let FileError::Field { line, field, .. } = &e else {
+                panic!("{e}")
+            };
+            assert_eq!((*line, field.as_str()), (2, "name"), "{e}");
+            assert!(e.to_string().contains(says), "{e}");
+        }
+    }
 }

@@ -28,10 +28,24 @@ use crate::plan::DeploymentProblem;
 pub const PROBLEM_FORMAT: &str = "tensegrity-deploy/problem/1";
 
 /// Reads and validates a problem file. The per-motor lists are checked
-/// against the structure when a plan starts.
+/// against a structure by [`read_problem_for`].
 pub fn read_problem(path: &Path) -> Result<DeploymentProblem, FileError> {
     let text = super::read_text(path)?;
     parse_problem(&text, path)
+}
+
+/// [`read_problem`] for a structure with `motors` motors: the per-motor
+/// lists are also checked against each other and the motor count
+/// ([`DeploymentProblem::motor_limits`]: one value or one per motor, each
+/// minimum below its maximum, each start inside its stroke), the error
+/// naming the file, the line and the field.
+pub fn read_problem_for(path: &Path, motors: usize) -> Result<DeploymentProblem, FileError> {
+    let text = super::read_text(path)?;
+    let problem = parse_problem(&text, path)?;
+    problem
+        .motor_limits(motors)
+        .map_err(|e| FileError::field(path, field_line(&text, e.field), e.field, e.reason))?;
+    Ok(problem)
 }
 
 /// The text of a problem file for `problem`: every field written out, so
@@ -174,5 +188,48 @@ mod tests {
         assert_eq!(field_line(text, "t.b"), 3);
         assert_eq!(field_line(text, "u.b"), 5);
         assert_eq!(field_line(text, "a"), 1);
+    }
+
+    /// Issue 25: the per-motor checks (start outside the stroke, minimum
+    /// not below maximum, wrong list length) named neither the file nor
+    /// the line.
+    #[test]
+    fn per_motor_checks_name_file_line_and_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        let head = "format = \"tensegrity-deploy/problem/1\"\n# limits\n";
+        for (body, line, field, says) in [
+            (
+                "start_payout_m = 0.6\n",
+                3,
+                "start_payout_m",
+                "motor 0: start 0.6 m is outside the stroke",
+            ),
+            (
+                "min_payout_m = 0.5\nmax_payout_m = 0.5\n",
+                3,
+                "min_payout_m",
+                "is not below maximum",
+            ),
+            (
+                "max_step_m = [0.05, 0.05]\n",
+                3,
+                "max_step_m",
+                "give one value or 10 (one per motor)",
+            ),
+        ] {
+            std::fs::write(&path, format!("{head}{body}")).unwrap();
+            read_problem(&path).unwrap_or_else(|e| panic!("valid alone: {e}"));
+            let e = read_problem_for(&path, 10).unwrap_err();
+            let FileError::Field {
+                line: l, field: f, ..
+            } = &e
+            else {
+                panic!("{e}")
+            };
+            assert_eq!((*l, f.as_str()), (line, field), "{e}");
+            let text = e.to_string();
+            assert!(text.contains("p.toml") && text.contains(says), "{text}");
+        }
     }
 }

@@ -25,7 +25,10 @@
 //! - `summary.json` ([`ReplaySummary`], format [`REPLAY_SUMMARY_FORMAT`]):
 //!   the verdict, where the replay started, how often the policy agreed,
 //!   the calibration ([`crate::measure::calibrate::Calibration`]) and the
-//!   counterfactual's margins; no timings. `null`: no value.
+//!   counterfactual's margins (its `connected` and `outcome` are the run
+//!   verdict's, [`crate::plan::RunVerdict`]; format 1 had no `outcome` and
+//!   took the controller's status for `connected`); no timings. `null`:
+//!   no value.
 //! - `timing.csv`: `step,planning_time_s` per replayed step, wall clock:
 //!   the one file that changes from run to run.
 //!
@@ -42,7 +45,7 @@ use crate::plan::{PlanStatus, Policy};
 use crate::studies::log_replay::{Margins, Replay, ReplayStart, ReplayStop};
 
 /// The `format` of `summary.json`.
-pub const REPLAY_SUMMARY_FORMAT: &str = "tensegrity-deploy/replay/1";
+pub const REPLAY_SUMMARY_FORMAT: &str = "tensegrity-deploy/replay/2";
 
 /// `summary.json` (no timings: the same inputs give the same bytes).
 #[derive(Debug, Serialize)]

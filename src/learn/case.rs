@@ -4,7 +4,44 @@ use serde::{Deserialize, Serialize};
 
 use crate::control::{measured_gap_vectors, Deployment};
 use crate::model::Structure;
+use crate::numerics::{FieldError, NumberRange};
+use crate::plan::PlanStatus;
 use crate::sim::Sensor;
+
+/// Payouts and payout changes a case may hold, m: a problem's payouts lie
+/// within ±10 m and its steps are at most 10 m
+/// ([`crate::plan::DeploymentProblem::per_motor_ranges`]).
+const PAYOUT_RANGE_M: NumberRange = NumberRange::closed(-10.0, 10.0);
+/// A fold a case may start from, m: a payout from the designed state,
+/// never negative (a cable reeled in past its design length is no fold),
+/// at most the problem's 10 m.
+const FOLD_RANGE_M: NumberRange = NumberRange::closed(0.0, 10.0);
+/// A midspan gap or prediction error, m: the gap of a folded bridge is
+/// well under a metre; 10 m bounds any the tools produce.
+const GAP_RANGE_M: NumberRange = NumberRange::closed(0.0, 10.0);
+/// A component of a midspan gap vector, m.
+const GAP_COMPONENT_RANGE_M: NumberRange = NumberRange::closed(-10.0, 10.0);
+/// A payout scale estimate, 1: the estimator's factor on a half's
+/// payouts, positive; 10 bounds any plausible drum error.
+const PAYOUT_SCALE_RANGE: NumberRange = NumberRange::positive_up_to(10.0);
+/// A temperature, °C, as the evaluation's distributions allow.
+const TEMPERATURE_RANGE_C: NumberRange = NumberRange::closed(-100.0, 100.0);
+
+/// `Ok` if `value` is inside `range` and not subnormal: a number of
+/// magnitude below 1e-308 is no measurement the tools write (it comes from
+/// a corrupted or hand-made file) and loses precision in arithmetic.
+fn check_value(field: String, value: f64, range: NumberRange) -> Result<(), FieldError> {
+    range
+        .check(value)
+        .map_err(|r| FieldError::new(field.clone(), r))?;
+    if value != 0.0 && !value.is_normal() {
+        return Err(FieldError::new(
+            field,
+            format!("{value:e} is subnormal: no value the tools write"),
+        ));
+    }
+    Ok(())
+}
 
 /// What a cycle started from, as the controller knew it: the features
 /// retrieval compares.
@@ -60,6 +97,118 @@ pub struct Case {
 }
 
 impl Case {
+    /// Checks the case for a bridge of `motors` motors and `pairs` midspan
+    /// pairs: every list of the right length (one command row per command,
+    /// one value per motor or pair), every number finite, normal and in its
+    /// documented range, the status one of [`PlanStatus::LABELS`], the
+    /// command counts consistent. The error names the field's JSON path
+    /// (`commands_m[3][11]`). A case that fails is never used: retrieval
+    /// and the ILC update would compute with its numbers.
+    pub fn validate(&self, motors: usize, pairs: usize) -> Result<(), FieldError> {
+        let count = |field: &str, len: usize, expected: usize| {
+            if len == expected {
+                Ok(())
+            } else {
+                Err(FieldError::new(
+                    field,
+                    format!("{len} entries; the bridge needs {expected}"),
+                ))
+            }
+        };
+        let c = &self.conditions;
+        if let Some(t) = c.temperature_c {
+            check_value("conditions.temperature_c".into(), t, TEMPERATURE_RANGE_C)?;
+        }
+        count("conditions.fold_m", c.fold_m.len(), motors)?;
+        for (k, &x) in c.fold_m.iter().enumerate() {
+            check_value(format!("conditions.fold_m[{k}]"), x, FOLD_RANGE_M)?;
+        }
+        if let Some(g) = c.start_gap_m {
+            check_value("conditions.start_gap_m".into(), g, GAP_RANGE_M)?;
+        }
+        if c.payout_scale.len() > motors {
+            return Err(FieldError::new(
+                "conditions.payout_scale",
+                format!(
+                    "{} entries; at most one per independent part, and the bridge has {motors} motors",
+                    c.payout_scale.len()
+                ),
+            ));
+        }
+        for (k, &x) in c.payout_scale.iter().enumerate() {
+            check_value(
+                format!("conditions.payout_scale[{k}]"),
+                x,
+                PAYOUT_SCALE_RANGE,
+            )?;
+        }
+        let commands = self.commands_m.len();
+        for (i, row) in self.commands_m.iter().enumerate() {
+            count(&format!("commands_m[{i}]"), row.len(), motors)?;
+            for (k, &x) in row.iter().enumerate() {
+                check_value(format!("commands_m[{i}][{k}]"), x, PAYOUT_RANGE_M)?;
+            }
+        }
+        count("measured_gaps_m", self.measured_gaps_m.len(), commands)?;
+        for (i, row) in self.measured_gaps_m.iter().enumerate() {
+            count(&format!("measured_gaps_m[{i}]"), row.len(), pairs)?;
+            for (k, x) in row.iter().enumerate() {
+                if let Some(x) = *x {
+                    check_value(format!("measured_gaps_m[{i}][{k}]"), x, GAP_RANGE_M)?;
+                }
+            }
+        }
+        count("final_gap_vectors_m", self.final_gap_vectors_m.len(), pairs)?;
+        for (k, v) in self.final_gap_vectors_m.iter().enumerate() {
+            for (a, &x) in v.iter().flatten().enumerate() {
+                check_value(
+                    format!("final_gap_vectors_m[{k}][{a}]"),
+                    x,
+                    GAP_COMPONENT_RANGE_M,
+                )?;
+            }
+        }
+        count(
+            "prediction_error_m",
+            self.prediction_error_m.len(),
+            commands,
+        )?;
+        for (i, x) in self.prediction_error_m.iter().enumerate() {
+            if let Some(x) = *x {
+                check_value(format!("prediction_error_m[{i}]"), x, GAP_RANGE_M)?;
+            }
+        }
+        let o = &self.outcome;
+        if !PlanStatus::LABELS.contains(&o.status.as_str()) {
+            return Err(FieldError::new(
+                "outcome.status",
+                format!(
+                    "{:?} is not a status ({})",
+                    o.status,
+                    PlanStatus::LABELS.join(", ")
+                ),
+            ));
+        }
+        if o.commands != commands {
+            return Err(FieldError::new(
+                "outcome.commands",
+                format!("{} but the case holds {commands} commands", o.commands),
+            ));
+        }
+        if let Some(k) = o.corrective_commands {
+            if k > commands {
+                return Err(FieldError::new(
+                    "outcome.corrective_commands",
+                    format!("{k}, more than the {commands} commands sent"),
+                ));
+            }
+        }
+        if let Some(g) = o.final_gap_m {
+            check_value("outcome.final_gap_m".into(), g, GAP_RANGE_M)?;
+        }
+        Ok(())
+    }
+
     /// The case of a closed-loop deployment `d` of `structure` read by
     /// `sensors`, run at `temperature_c`.
     pub fn of_deployment(

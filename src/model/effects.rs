@@ -2,7 +2,7 @@
 //! parameterised and switchable, so that the same code can make "measured"
 //! data with an effect on and be diagnosed with it off.
 //!
-//! An effect acts at one of five places:
+//! An effect acts at one of six places:
 //! - **the structure** (member stiffness error, joint mass error, support
 //!   flexibility): a transformed [`Structure`]
 //!   ([`Effects::apply_to_structure`]);
@@ -17,6 +17,10 @@
 //! - **the sensors** (load-cell bias): what a sensor reads
 //!   ([`Effects::load_cell_reading_n`]).
 //!
+//! Beside the effects, [`Effects::faults`] holds the local faults of
+//! [`super::faults`] (one drum zeroed off, one member off, one half
+//! differing), which act on the structure too but are not effect kinds.
+//!
 //! Every effect is `None` when off. [`EffectKind`] lists them with their
 //! parameters, units and plausible ranges ([`EffectKind::parameters`]);
 //! [`Effects::with_parameters`] and [`Effects::parameters`] give the uniform
@@ -26,8 +30,10 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::cable_seats::seat_material_m;
+use super::faults::Faults;
 use super::flexible_supports::with_flexible_supports;
 use super::friction::{AngleConvention, FrictionCoefficient, JointFriction};
+pub use super::parameter_spec::ParameterSpec;
 use super::structure::{MemberKind, Structure, StructureError};
 
 /// The effects of the library, in a fixed order.
@@ -50,22 +56,6 @@ pub enum EffectKind {
     JointEccentricity,
     /// Supports that give elastically under changing reactions.
     SupportFlexibility,
-}
-
-/// One parameter of an effect.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ParameterSpec {
-    /// Name, as in model files.
-    pub name: &'static str,
-    /// Unit.
-    pub unit: &'static str,
-    /// The value that leaves the model as without the effect.
-    pub neutral: f64,
-    /// Plausible range for the real structure (a fit outside it is
-    /// suspect; a synthetic truth draws from it).
-    pub plausible: (f64, f64),
-    /// Physically admissible range (what [`Effects::validate`] accepts).
-    pub admissible: (f64, f64),
 }
 
 const FRICTION_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
@@ -326,6 +316,13 @@ pub struct Effects {
     pub joint_eccentricity: Option<JointEccentricityEffect>,
     /// Support flexibility.
     pub support_flexibility: Option<SupportFlexibilityEffect>,
+    /// Local faults (one drum, one member, one half; see
+    /// [`super::faults`]), applied with the structural effects. Not an
+    /// effect kind: [`Self::enabled`], [`Self::parameters`] and
+    /// [`Self::validate`] leave them alone, and model files write them as
+    /// `[faults.*]` tables naming their parts by id, outside `[effects]`.
+    #[serde(skip)]
+    pub faults: Faults,
 }
 
 /// An effect parameter that makes no sense.
@@ -349,16 +346,7 @@ impl Effects {
                 continue;
             };
             for (spec, v) in kind.parameters().iter().zip(values) {
-                let (lo, hi) = spec.admissible;
-                let reason = if !v.is_finite() {
-                    format!("must be a finite number, got {v}")
-                } else if v < lo || v > hi {
-                    match (lo.is_finite(), hi.is_finite()) {
-                        (true, true) => format!("must lie in [{lo}, {hi}], got {v}"),
-                        (true, false) => format!("must be ≥ {lo}, got {v}"),
-                        _ => format!("must be ≤ {hi}, got {v}"),
-                    }
-                } else {
+                let Some(reason) = spec.admissible_reason(v) else {
                     continue;
                 };
                 return Err(EffectError {
@@ -459,9 +447,12 @@ impl Effects {
             .collect()
     }
 
-    /// The structure with stiffness and mass errors and support flexibility
-    /// applied. Errors only if `structure` itself is invalid for the
-    /// transformation (a validated structure always passes).
+    /// The structure with stiffness and mass errors, the local faults and
+    /// support flexibility applied, in that order (a half difference
+    /// scales on top of the bridge-wide errors; support bars are neither
+    /// scaled nor weighed). Errors if `structure` itself is invalid for
+    /// the transformation (a validated structure always passes without
+    /// faults) or a fault does not fit it ([`Faults::apply`]).
     pub fn apply_to_structure(&self, structure: &Structure) -> Result<Structure, StructureError> {
         let mut s = structure.clone();
         if let Some(e) = self.stiffness_error {
@@ -488,6 +479,7 @@ impl Effects {
                 n.mass_kg *= e.scale;
             }
         }
+        let s = self.faults.apply(&s)?;
         match self.support_flexibility {
             // Last, so that the support bars are neither scaled nor weighed.
             Some(e) => with_flexible_supports(&s, e.compliance_m_per_n),

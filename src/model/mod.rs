@@ -5,8 +5,10 @@
 
 pub mod cable_seats;
 pub mod effects;
+pub mod faults;
 pub mod flexible_supports;
 pub mod friction;
+pub mod parameter_spec;
 pub mod sliding;
 pub mod solver;
 pub mod state;
@@ -14,11 +16,12 @@ pub mod stiffness;
 pub mod structure;
 
 pub use effects::{EffectKind, Effects, MotorModel};
+pub use faults::{FaultKind, Faults, Half};
 pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFriction};
 pub use solver::{
     CommandError, CommandReport, ForwardModel, IncrementObserver, MemberForces, MotorDirection,
     MotorResponse, PayoutSensitivities, RelaxReport, RelaxSettings, RelaxStatus, SensitivityError,
-    SettingsError, SolveMode, Workspace,
+    SettingsError, SlipOnset, SolveMode, Workspace,
 };
 pub use state::{DeploymentState, JointSlip};
 pub use stiffness::{min_stiffness_eigenvalue, tangent_stiffness, JointMode};

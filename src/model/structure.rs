@@ -199,6 +199,15 @@ pub enum StructureError {
         /// What is wrong.
         reason: String,
     },
+    /// A local fault ([`super::faults`]) names a part the structure does
+    /// not have.
+    #[error("fault `{fault}`: {reason}")]
+    BadFault {
+        /// The fault's name.
+        fault: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
     /// A free node with no member attached would fall forever.
     #[error("nodes[{index}] (\"{id}\"): free node is not reached by any member")]
     UnconnectedFreeNode {

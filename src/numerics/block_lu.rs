@@ -9,7 +9,7 @@
 //! Cholesky `LLᵀ` where the block is symmetric and positive definite (a
 //! tangent without sliding friction joints, at a stable state; half the
 //! flops of LU and no pivoting), LU with partial pivoting otherwise.
-//! Symmetry is tested numerically, to [`SYMMETRY_TOL`] of the largest
+//! Symmetry is tested numerically, to `SYMMETRY_TOL` of the largest
 //! entry (a frictionless cable's tangent is symmetric only to rounding);
 //! the Cholesky factors are those of the symmetric part.
 //!

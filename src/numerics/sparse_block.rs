@@ -8,7 +8,7 @@
 //! superset of every tangent's entries: slack members and the joints'
 //! slip states change values, never the pattern) with its symbolic
 //! analyses, computed once and shared by every matrix on it;
-//! [`SparseBlock`] the values assembled into it and their numeric factors.
+//! `SparseBlock` the values assembled into it and their numeric factors.
 //!
 //! Kernels (faer's sparse solvers, sequential): Cholesky `LLᵀ` of the
 //! symmetric part where the block is symmetric (to [`super::block_lu`]'s

@@ -45,7 +45,13 @@ pub enum NotReachable {
         largest_gap_m: f64,
     },
     /// QP planner: no command meets the linearised limits.
-    QpInfeasible,
+    QpInfeasible {
+        /// The limits the state already lies beyond (with the measured
+        /// offsets), which the step would have to bring back at once
+        /// (named as the QP's rows, e.g. `segment A_cc1[2] min`); empty
+        /// where none does.
+        binding: Vec<String>,
+    },
     /// QP planner: the linearised step predicts no reduction of the gaps
     /// (or no move at all).
     NoReducingCommand {
@@ -95,7 +101,7 @@ impl NotReachable {
                 1e3 * min_move_m,
                 1e3 * largest_gap_m
             ),
-            NotReachable::QpInfeasible => {
+            NotReachable::QpInfeasible { .. } => {
                 "no command meets the linearised limits (QP infeasible)".into()
             }
             NotReachable::NoReducingCommand {
@@ -127,6 +133,37 @@ impl NotReachable {
                 last_trial.describe()
             ),
             NotReachable::NoLinearisation => "no linearisation gave a command".into(),
+        }
+    }
+}
+
+impl NotReachable {
+    /// The limits or motors that bind, when the stop is the controller
+    /// refusing to break a limit (named as the QP names its rows: `segment
+    /// A_cc1[2] min`, `A_cc0 stroke min`, `A_cc0 reel-in max step`); empty
+    /// when the stop has another cause (a spent sequence, a low reduction
+    /// ratio, no linearisation) or names nothing.
+    pub fn binding(&self) -> Vec<String> {
+        let of_trial = |t: &TrialRejection| match t {
+            TrialRejection::Inadmissible(TrialFailure::Limit(v)) => vec![v.limit()],
+            _ => Vec::new(),
+        };
+        match self {
+            NotReachable::NominalStepRejected {
+                failure: TrialFailure::Limit(v),
+                ..
+            } => vec![v.limit()],
+            NotReachable::QpInfeasible { binding } => binding.clone(),
+            NotReachable::NoReducingCommand {
+                active_constraints, ..
+            } => active_constraints
+                .iter()
+                .filter(|a| !a.ends_with("trust region"))
+                .cloned()
+                .collect(),
+            NotReachable::KeptSensitivitiesUnconfirmed { last_trial }
+            | NotReachable::TrustRegionCollapsed { last_trial, .. } => of_trial(last_trial),
+            _ => Vec::new(),
         }
     }
 }
@@ -292,7 +329,9 @@ mod tests {
                 "no single-motor move down to ±0.5 mm reduces the largest gap (31.2 mm)",
             ),
             (
-                NotReachable::QpInfeasible,
+                NotReachable::QpInfeasible {
+                    binding: Vec::new(),
+                },
                 "no command meets the linearised limits (QP infeasible)",
             ),
             (

@@ -5,14 +5,52 @@
 //! continuous-cable segments (flat, as the state's segments), so row `r`
 //! means the same force in the limits, the sensitivities and the QP.
 //!
-//! A limit that the start state already breaks (the folded bridge's
-//! segments carry ~9 N, below a 10 N minimum) is widened to the start
-//! value: the planner may not make it worse, but is not asked to repair it
-//! before it may move at all. Likewise a strut pair that the designed
-//! geometry itself holds closer than the clearance limit is held only to
-//! the smaller of its designed and start clearances: the reference
-//! generator's schematic geometry has struts that cross (0 mm apart),
-//! and the design is the goal the planner is asked to reach.
+//! # Limits the start already breaks
+//! The problem's bounds ([`Limits::required`]) are never widened in what
+//! decides a run's outcome: a deployment ends meeting every one of them or
+//! it has not succeeded ([`super::verdict::RunVerdict`]). A bound that the
+//! folded start already breaks (a 50 cm fold leaves every segment of `cc1`
+//! slack) is a *start-broken* limit ([`StartBrokenLimit`]), reported as
+//! such with whether the run restored it:
+//! - until it is restored, it may not be made worse than its start value:
+//!   the planner holds it there ([`Limits::force`], the required bounds
+//!   widened to the start), and so does the truth's supervisor
+//!   ([`Limits::held_bounds`]); falling below the start value is a
+//!   violation ([`LimitViolation::WorseThanStart`]);
+//! - once a command ends with the limit met, it is *restored*, and from
+//!   then on it is held to its required bound like any other, by the
+//!   supervisor on the truth's forces and by the planner on its model's
+//!   (with the measured offsets, [`Limits::hold_restored`]): falling back
+//!   is a violation;
+//! - a deployment that ends with a start-broken limit not restored is not
+//!   connected, whatever its gaps. A continuous cable the fold left slack
+//!   is taken up by its motor before the QP plans on it
+//!   ([`super::take_up`]): its tangent response is zero until it is taut.
+//!
+//! # Which limits matter
+//! Every upper (overload) limit is a deployment limit, wherever the member
+//! is. The minimum tension is there to keep a member straight and bracing
+//! its nodes. For a member whose two nodes are both fixed in every
+//! direction (with rigid supports: a cable of the abutment ring, joining
+//! two supported joints) no command can change its length, so its force
+//! is a constant of the assembly ([`Limits::fixed_length`]; a test checks
+//! it): a minimum on it is vacuous, and a slack one changes neither the
+//! geometry nor the bracing, since the supports hold both nodes in every
+//! direction. Its minimum is therefore not a deployment limit (its lower
+//! bound is `-inf`; its upper bound is kept). With flexible supports the
+//! same member joins two *elastically* supported nodes (the truth's
+//! supports are free nodes on foundation springs): its force follows the
+//! supports' deformation, and its tension is what holds the abutment ring
+//! together (a test checks that the force changes with the commands).
+//! There its minimum is a deployment limit like any other, and a ring
+//! cable the fold already slackened is a start-broken limit, restored when
+//! the halves deploy.
+//!
+//! Strut pairs that the designed geometry itself holds closer than the
+//! clearance limit are held only to the smaller of their designed and
+//! start clearances: the reference generator's schematic geometry has
+//! struts that cross (0 mm apart), and the design is the goal the planner
+//! is asked to reach (the clearance check is off by default).
 
 use nalgebra::Vector3;
 use serde::{Serialize, Serializer};
@@ -41,12 +79,26 @@ pub struct ForceBounds {
     pub upper_n: f64,
 }
 
-/// The limits of one problem on one structure, widened where the start
-/// state already breaks them.
+/// The limits of one problem on one structure, with the rows the start
+/// already breaks (see the module notes).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Limits {
-    /// Bounds per force row (members, then segments).
+    /// The bounds the planner holds each force row to (members, then
+    /// segments): [`Self::required`], widened to the start's force where
+    /// the start breaks them (it may not make them worse, and is not
+    /// asked to repair them before it may move at all).
     pub force: Vec<ForceBounds>,
+    /// The problem's bounds per force row: what a deployment must end
+    /// meeting. The lower bound of a member whose length no command can
+    /// change is `-inf` (see the module notes).
+    pub required: Vec<ForceBounds>,
+    /// Per force row, the start's force, N.
+    pub start_n: Vec<f64>,
+    /// Per force row, whether the start breaks its required bounds.
+    pub start_broken: Vec<bool>,
+    /// Per force row, whether it is a member between two nodes fixed in
+    /// every direction (its force is a constant of the assembly).
+    pub fixed_length: Vec<bool>,
     /// Euler load per force row, N (`None` except for struts).
     pub euler_n: Vec<Option<f64>>,
     /// Pairs of struts (member indices) that share no joint; the nodes of
@@ -97,6 +149,20 @@ pub enum LimitViolation {
         /// The limit, N.
         upper_n: f64,
     },
+    /// A force row the start already broke, made worse than its start
+    /// value before it was restored (see the module notes).
+    WorseThanStart {
+        /// The force row's name ([`force_row_name`]).
+        member: String,
+        /// Its force, N.
+        force_n: f64,
+        /// Its force at the start, N.
+        start_n: f64,
+        /// The required bound, broken since the start, N.
+        limit_n: f64,
+        /// `true` for a lower bound.
+        lower: bool,
+    },
     /// Two struts closer than their clearance limit.
     StrutsTooClose {
         /// Id of the first strut.
@@ -139,6 +205,22 @@ impl LimitViolation {
                 force_n,
                 upper_n,
             } => format!("{member} at {force_n:.1} N, above {upper_n:.1} N"),
+            LimitViolation::WorseThanStart {
+                member,
+                force_n,
+                start_n,
+                limit_n,
+                lower,
+            } => {
+                let (dir, bound) = if *lower {
+                    ("below", "minimum")
+                } else {
+                    ("above", "maximum")
+                };
+                format!(
+                    "{member} at {force_n:.1} N, {dir} its start value {start_n:.1} N (its {limit_n:.1} N {bound} broken since the start)"
+                )
+            }
             LimitViolation::StrutsTooClose {
                 strut_a,
                 strut_b,
@@ -168,10 +250,116 @@ impl Serialize for LimitViolation {
     }
 }
 
+impl LimitViolation {
+    /// The limit broken, one name per limit (the same at every increment
+    /// that breaks it): `cable A_c3 min`, `cable A_c3 max`,
+    /// `clearance A_s1–A_s7`.
+    pub fn limit(&self) -> String {
+        match self {
+            LimitViolation::BelowLower { member, .. }
+            | LimitViolation::UnmeasuredFall { member, .. } => format!("{member} min"),
+            LimitViolation::AboveUpper { member, .. } => format!("{member} max"),
+            LimitViolation::WorseThanStart { member, lower, .. } => {
+                format!("{member} {}", if *lower { "min" } else { "max" })
+            }
+            LimitViolation::StrutsTooClose {
+                strut_a, strut_b, ..
+            } => format!("clearance {strut_a}–{strut_b}"),
+        }
+    }
+
+    /// How far beyond its bound the value is (N for forces, m for
+    /// clearances; positive): which of two breaches of one limit is the
+    /// worse.
+    pub fn excess(&self) -> f64 {
+        match self {
+            LimitViolation::BelowLower {
+                force_n, lower_n, ..
+            } => lower_n - force_n,
+            LimitViolation::AboveUpper {
+                force_n, upper_n, ..
+            } => force_n - upper_n,
+            LimitViolation::WorseThanStart {
+                force_n,
+                start_n,
+                lower,
+                ..
+            } => {
+                if *lower {
+                    start_n - force_n
+                } else {
+                    force_n - start_n
+                }
+            }
+            LimitViolation::UnmeasuredFall {
+                force_n,
+                fall_n,
+                margin,
+                lower_n,
+                ..
+            } => lower_n + margin * fall_n - force_n,
+            LimitViolation::StrutsTooClose {
+                distance_m, min_m, ..
+            } => min_m - distance_m,
+        }
+    }
+}
+
 impl LimitCheck {
     /// `true` when no limit is broken.
     pub fn ok(&self) -> bool {
         self.violations.is_empty()
+    }
+
+    /// A check of nothing: no utilisation, no tension, no clearance.
+    pub fn empty() -> Self {
+        LimitCheck {
+            worst_utilisation: 0.0,
+            min_tension_n: f64::INFINITY,
+            min_clearance_m: f64::INFINITY,
+            violations: Vec::new(),
+        }
+    }
+}
+
+/// A limit that the start already broke, and what the run made of it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StartBrokenLimit {
+    /// The force row's name ([`force_row_name`]).
+    pub member: String,
+    /// `true` for a lower bound (a slack member), `false` for an upper.
+    pub lower: bool,
+    /// The required bound, N.
+    pub limit_n: f64,
+    /// The force at the start, N.
+    pub start_n: f64,
+    /// The force at the end, N.
+    pub end_n: f64,
+    /// Whether the end meets the bound.
+    pub restored: bool,
+}
+
+impl StartBrokenLimit {
+    /// Plain words, e.g. `segment A_cc1[2] slack at the start (3.1 N <
+    /// 5.0 N), restored (12.0 N at the end)`.
+    pub fn describe(&self) -> String {
+        let (state, sign) = if self.lower {
+            ("slack", "<")
+        } else {
+            ("overloaded", ">")
+        };
+        format!(
+            "{} {state} at the start ({:.1} N {sign} {:.1} N), {} ({:.1} N at the end)",
+            self.member,
+            self.start_n,
+            self.limit_n,
+            if self.restored {
+                "restored"
+            } else {
+                "not restored"
+            },
+            self.end_n
+        )
     }
 }
 
@@ -265,37 +453,55 @@ pub fn strut_clearance(
 }
 
 impl Limits {
-    /// The limits of `problem` on `model`'s structure, widened to what
-    /// `start` already breaks.
+    /// The limits of `problem` on `model`'s structure, with the rows that
+    /// `start` already breaks (see the module notes).
     pub fn new(model: &ForwardModel, problem: &DeploymentProblem, start: &DeploymentState) -> Self {
         let s = model.structure();
-        let mut force = Vec::new();
+        let mut required = Vec::new();
         let mut euler_n = Vec::new();
+        let mut fixed_length = Vec::new();
         for m in &s.members {
             let e = euler_load_n(&m.kind, m.rest_length_m);
             euler_n.push(e);
-            force.push(match e {
+            let fixed = m.nodes.iter().all(|&n| s.nodes[n].fixed.iter().all(|f| *f));
+            fixed_length.push(fixed);
+            required.push(match e {
                 Some(e) => ForceBounds {
                     lower_n: -problem.max_strut_buckling_utilisation * e,
                     upper_n: f64::INFINITY,
                 },
                 None => ForceBounds {
-                    lower_n: problem.min_tension_n,
+                    lower_n: if fixed {
+                        f64::NEG_INFINITY
+                    } else {
+                        problem.min_tension_n
+                    },
                     upper_n: problem.max_tension_n,
                 },
             });
         }
         for _ in 0..s.segment_count() {
             euler_n.push(None);
-            force.push(ForceBounds {
+            fixed_length.push(false);
+            required.push(ForceBounds {
                 lower_n: problem.min_tension_n,
                 upper_n: problem.max_tension_n,
             });
         }
-        for (b, f) in force.iter_mut().zip(force_rows(model, start)) {
-            b.lower_n = b.lower_n.min(f);
-            b.upper_n = b.upper_n.max(f);
-        }
+        let start_n = force_rows(model, start);
+        let start_broken: Vec<bool> = start_n
+            .iter()
+            .zip(&required)
+            .map(|(&f, b)| f < b.lower_n || f > b.upper_n)
+            .collect();
+        let force = required
+            .iter()
+            .zip(&start_n)
+            .map(|(b, &f)| ForceBounds {
+                lower_n: b.lower_n.min(f),
+                upper_n: b.upper_n.max(f),
+            })
+            .collect();
         // Nodes that become one joint at connection.
         let mut joint: Vec<NodeIndex> = (0..s.nodes.len()).collect();
         for [a, b] in &s.midspan_pairs {
@@ -324,12 +530,80 @@ impl Limits {
         }
         Limits {
             force,
+            required,
+            start_n,
+            start_broken,
+            fixed_length,
             euler_n,
             strut_pairs,
             min_clearance_m,
             max_tension_n: problem.max_tension_n,
             max_buckling_utilisation: problem.max_strut_buckling_utilisation,
         }
+    }
+
+    /// The bounds the truth's supervisor holds each force row to, given
+    /// which start-broken rows a command has `restored` (one flag per
+    /// row): the required bounds, except for a start-broken row not yet
+    /// restored, held to its start value ([`Self::force`]).
+    pub fn held_bounds(&self, restored: &[bool]) -> Vec<ForceBounds> {
+        (0..self.required.len())
+            .map(|r| {
+                if self.start_broken[r] && !restored.get(r).copied().unwrap_or(false) {
+                    self.force[r]
+                } else {
+                    self.required[r]
+                }
+            })
+            .collect()
+    }
+
+    /// Holds every start-broken row that `rows_n` (N, at the end of a
+    /// command) meet to its required bound from now on ([`Self::force`]):
+    /// the planner's side of *restored* (see the module notes).
+    pub fn hold_restored(&mut self, rows_n: &[f64]) {
+        let meets = self.meets_required(rows_n, 0.0);
+        for (r, ok) in meets.into_iter().enumerate() {
+            if ok && self.start_broken[r] {
+                self.force[r] = self.required[r];
+            }
+        }
+    }
+
+    /// Per force row, whether `rows_n` (N) meet the required bounds
+    /// within `tolerance_n`.
+    pub fn meets_required(&self, rows_n: &[f64], tolerance_n: f64) -> Vec<bool> {
+        rows_n
+            .iter()
+            .zip(&self.required)
+            .map(|(&f, b)| f >= b.lower_n - tolerance_n && f <= b.upper_n + tolerance_n)
+            .collect()
+    }
+
+    /// The start-broken limits with the end's force rows `end_rows_n`
+    /// (N): restored where the end meets the bound within `tolerance_n`.
+    pub fn start_broken_limits(
+        &self,
+        structure: &Structure,
+        end_rows_n: &[f64],
+        tolerance_n: f64,
+    ) -> Vec<StartBrokenLimit> {
+        let meets = self.meets_required(end_rows_n, tolerance_n);
+        (0..self.required.len())
+            .filter(|&r| self.start_broken[r])
+            .map(|r| {
+                let (b, f0) = (self.required[r], self.start_n[r]);
+                let lower = f0 < b.lower_n;
+                StartBrokenLimit {
+                    member: force_row_name(structure, r),
+                    lower,
+                    limit_n: if lower { b.lower_n } else { b.upper_n },
+                    start_n: f0,
+                    end_n: end_rows_n.get(r).copied().unwrap_or(f64::NAN),
+                    restored: meets.get(r).copied().unwrap_or(false),
+                }
+            })
+            .collect()
     }
 
     /// Checks a state against every limit; `tolerance_n` absorbs the
@@ -356,14 +630,24 @@ impl Limits {
         rows: &[f64],
         tolerance_n: f64,
     ) -> LimitCheck {
+        self.check_rows_held(model, state, rows, tolerance_n, &self.force)
+    }
+
+    /// [`Self::check_rows`] with each force row held to `held` (e.g.
+    /// [`Self::held_bounds`]) instead of the planner's bounds: a row held
+    /// to its start value rather than its required bound that breaks it
+    /// is a [`LimitViolation::WorseThanStart`].
+    pub fn check_rows_held(
+        &self,
+        model: &ForwardModel,
+        state: &DeploymentState,
+        rows: &[f64],
+        tolerance_n: f64,
+        held: &[ForceBounds],
+    ) -> LimitCheck {
         let s = model.structure();
-        let mut out = LimitCheck {
-            worst_utilisation: 0.0,
-            min_tension_n: f64::INFINITY,
-            min_clearance_m: f64::INFINITY,
-            violations: Vec::new(),
-        };
-        for (r, (&f, b)) in rows.iter().zip(&self.force).enumerate() {
+        let mut out = LimitCheck::empty();
+        for (r, (&f, b)) in rows.iter().zip(held).enumerate() {
             let use_ = match self.euler_n[r] {
                 Some(e) => (-f).max(0.0) / (self.max_buckling_utilisation * e),
                 None => {
@@ -372,17 +656,33 @@ impl Limits {
                 }
             };
             out.worst_utilisation = out.worst_utilisation.max(use_);
+            let req = self.required[r];
+            let worse_than_start = |lower: bool| LimitViolation::WorseThanStart {
+                member: force_row_name(s, r),
+                force_n: f,
+                start_n: self.start_n[r],
+                limit_n: if lower { req.lower_n } else { req.upper_n },
+                lower,
+            };
             if !(f >= b.lower_n - tolerance_n) {
-                out.violations.push(LimitViolation::BelowLower {
-                    member: force_row_name(s, r),
-                    force_n: f,
-                    lower_n: b.lower_n,
+                out.violations.push(if b.lower_n < req.lower_n {
+                    worse_than_start(true)
+                } else {
+                    LimitViolation::BelowLower {
+                        member: force_row_name(s, r),
+                        force_n: f,
+                        lower_n: b.lower_n,
+                    }
                 });
             } else if !(f <= b.upper_n + tolerance_n) {
-                out.violations.push(LimitViolation::AboveUpper {
-                    member: force_row_name(s, r),
-                    force_n: f,
-                    upper_n: b.upper_n,
+                out.violations.push(if b.upper_n > req.upper_n {
+                    worse_than_start(false)
+                } else {
+                    LimitViolation::AboveUpper {
+                        member: force_row_name(s, r),
+                        force_n: f,
+                        upper_n: b.upper_n,
+                    }
                 });
             }
         }
@@ -449,6 +749,54 @@ mod tests {
             assert_eq!(v.describe(), text, "{v:?}");
             assert_eq!(serde_json::to_value(&v).unwrap(), text);
         }
+    }
+
+    /// A start-broken row is held to its start value until a command
+    /// restores it, then to its required bound; a row the start meets is
+    /// held to its bound throughout, and breaking a start value is named
+    /// as such.
+    #[test]
+    fn a_start_broken_row_is_held_to_its_start_value_until_restored() {
+        let b = |lower_n, upper_n| ForceBounds { lower_n, upper_n };
+        let limits = Limits {
+            force: vec![b(2.0, 100.0), b(5.0, 100.0)],
+            required: vec![b(5.0, 100.0), b(5.0, 100.0)],
+            start_n: vec![2.0, 50.0],
+            start_broken: vec![true, false],
+            fixed_length: vec![false, false],
+            euler_n: vec![None, None],
+            strut_pairs: Vec::new(),
+            min_clearance_m: Vec::new(),
+            max_tension_n: 100.0,
+            max_buckling_utilisation: 1.0,
+        };
+        assert_eq!(limits.held_bounds(&[]), vec![b(2.0, 100.0), b(5.0, 100.0)]);
+        assert_eq!(
+            limits.held_bounds(&[true, false]),
+            vec![b(5.0, 100.0), b(5.0, 100.0)]
+        );
+        assert_eq!(limits.meets_required(&[4.0, 50.0], 1e-6), vec![false, true]);
+        // The planner's side: held to the start value until a state meets
+        // the bound, then to the bound.
+        let mut planner = limits.clone();
+        planner.hold_restored(&[4.0, 50.0]);
+        assert_eq!(planner.force, limits.force);
+        planner.hold_restored(&[5.5, 50.0]);
+        assert_eq!(planner.force, limits.required);
+        assert_eq!(limits.meets_required(&[5.0, 4.0], 1e-6), vec![true, false]);
+        let v = LimitViolation::WorseThanStart {
+            member: "segment A_cc1[2]".into(),
+            force_n: 1.0,
+            start_n: 2.0,
+            limit_n: 5.0,
+            lower: true,
+        };
+        assert_eq!(
+            v.describe(),
+            "segment A_cc1[2] at 1.0 N, below its start value 2.0 N (its 5.0 N minimum broken since the start)"
+        );
+        assert_eq!(v.limit(), "segment A_cc1[2] min");
+        assert!((v.excess() - 1.0).abs() < 1e-12);
     }
 
     #[test]

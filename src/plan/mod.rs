@@ -7,6 +7,7 @@
 //! - [`response`]: one-sided responses to each motor's payout;
 //! - [`qp_step`]: one step as a QP on those responses;
 //! - [`search`]: sequential convex programming with a trust region;
+//!   [`take_up`]: a slack continuous cable reeled in until taut first;
 //! - [`baselines`]: nominal even actuation and the greedy tree;
 //! - [`policy`]: policies as data, one section per concern (planner,
 //!   margins, control, memory);
@@ -14,7 +15,8 @@
 //!   predictions (computed in `crate::control`);
 //! - [`planner`]: the planners' shared trait, context and trials;
 //!   [`planners`]: the planner a policy names; [`outcome`]: plans and
-//!   their status; [`causes`]: why a plan stops short;
+//!   their status; [`causes`]: why a plan stops short; [`verdict`]: the
+//!   one verdict on a run (plan or deployment) every command reports;
 //! - [`open_loop`]: the folded start and a plan on the model alone.
 //!
 //! Pure numerics: a plan is a function of (model, problem, policy, state).
@@ -34,6 +36,8 @@ pub mod problem;
 pub mod qp_step;
 pub mod response;
 pub mod search;
+pub mod take_up;
+pub mod verdict;
 
 pub use causes::{ControllerError, NotReachable, SolverFailure, TrialFailure, TrialRejection};
 pub use correction::ModelCorrection;
@@ -49,3 +53,4 @@ pub use policy::{
 pub use problem::{DeploymentProblem, MotorLimits, PerMotor, ProblemError};
 pub use qp_step::{formulate, solve_step, QpStep, QpStepStatus, StepData, StepWeights};
 pub use response::PayoutResponse;
+pub use verdict::{Breach, RunOutcome, RunVerdict};

@@ -45,7 +45,7 @@ pub fn plan_open_loop(
     policy: &Policy,
     start: &DeploymentState,
 ) -> Result<Plan, PlanError> {
-    let context = PlanContext::new(model, problem, policy, start)?;
+    let mut context = PlanContext::new(model, problem, policy, start)?;
     let mut planner = planner_for(&context, start);
     let mut state = start.clone();
     let mut records = Vec::new();
@@ -75,6 +75,7 @@ pub fn plan_open_loop(
                     planning_time_s: clock.elapsed().as_secs_f64(),
                 });
                 state = c.trial.state;
+                context.hold_restored(&state);
             }
         }
     };

@@ -18,7 +18,10 @@ pub enum PlanStatus {
     /// policy's margin.
     Connected,
     /// No admissible command brings the bridge closer, or the planner's
-    /// own sequence is spent; the cause says which limit or why.
+    /// own sequence is spent; the cause says which limit or why. Where
+    /// limits or motors bind ([`NotReachable::binding`]) its words are
+    /// `not reachable safely: …` naming them: the controller stopped
+    /// rather than break them.
     NotReachable {
         /// Why.
         cause: NotReachable,
@@ -33,6 +36,14 @@ pub enum PlanStatus {
 }
 
 impl PlanStatus {
+    /// Every [`Self::label`], in declaration order.
+    pub const LABELS: [&'static str; 4] = [
+        "connected",
+        "not_reachable",
+        "command_limit",
+        "solver_failure",
+    ];
+
     /// `true` for [`PlanStatus::Connected`].
     pub fn is_connected(&self) -> bool {
         matches!(self, PlanStatus::Connected)
@@ -53,7 +64,19 @@ impl PlanStatus {
     pub fn describe(&self) -> String {
         match self {
             PlanStatus::Connected => "connected: every midspan pair within tolerance".into(),
-            PlanStatus::NotReachable { cause } => format!("not reachable: {}", cause.describe()),
+            PlanStatus::NotReachable { cause } => {
+                let binding = cause.binding();
+                if binding.is_empty() {
+                    format!("not reachable: {}", cause.describe())
+                } else {
+                    format!(
+                        "not reachable safely: {} bind{} ({})",
+                        binding.join(", "),
+                        if binding.len() == 1 { "s" } else { "" },
+                        cause.describe()
+                    )
+                }
+            }
             PlanStatus::CommandLimit => {
                 "command limit: the policy's largest number of commands is spent".into()
             }
@@ -165,19 +188,23 @@ mod tests {
 
     #[test]
     fn status_labels_are_the_json_tags() {
-        for s in [
+        let all = [
             PlanStatus::Connected,
             PlanStatus::NotReachable {
-                cause: NotReachable::QpInfeasible,
+                cause: NotReachable::QpInfeasible {
+                    binding: Vec::new(),
+                },
             },
             PlanStatus::CommandLimit,
             PlanStatus::SolverFailure {
                 cause: SolverFailure::QpNumericalTrouble,
             },
-        ] {
-            let json = serde_json::to_value(&s).unwrap();
+        ];
+        for s in &all {
+            let json = serde_json::to_value(s).unwrap();
             assert_eq!(json["status"], s.label(), "{s:?}");
         }
+        assert_eq!(all.map(|s| s.label()), PlanStatus::LABELS);
     }
 
     #[test]

@@ -27,7 +27,8 @@ pub struct PlanContext<'a> {
     pub policy: &'a Policy,
     /// Per-motor limits.
     pub motors: MotorLimits,
-    /// Member and clearance limits, widened to what the start breaks.
+    /// Member and clearance limits, widened to what the start breaks
+    /// until a command restores it ([`Self::hold_restored`]).
     pub limits: Limits,
     /// Weight of each midspan pair's squared gap.
     pub gap_weights: Vec<f64>,
@@ -98,6 +99,14 @@ impl<'a> PlanContext<'a> {
             .zip(&self.gap_weights)
             .map(|(g, w)| w * g.norm_squared())
             .sum()
+    }
+
+    /// Holds every start-broken limit that `state` (the end of a command,
+    /// with the measured offsets) meets to its required bound from now on
+    /// ([`Limits::hold_restored`]).
+    pub fn hold_restored(&mut self, state: &DeploymentState) {
+        let rows = self.corrected_force_rows(state);
+        self.limits.hold_restored(&rows);
     }
 
     /// `true` when every gap is within the tolerance less the margin.

@@ -22,7 +22,8 @@ use super::qp_step::{
     solve_step, step_solver_settings, LinearLimit, QpStep, QpStepStatus, StepData, StepWeights,
 };
 use super::response::PayoutResponse;
-use crate::model::DeploymentState;
+use super::take_up::take_up;
+use crate::model::{DeploymentState, SlipOnset};
 
 /// Scale of force rows in the QP, N.
 const FORCE_SCALE_N: f64 = 100.0;
@@ -243,6 +244,12 @@ fn responses(
             context.policy.increment_m,
         )
         .map_err(SolverFailure::SecantSensitivities),
+        SensitivityKind::SlidingTangent => PayoutResponse::sliding_tangent(context.model, state)
+            .map_err(SolverFailure::TangentSensitivities),
+        SensitivityKind::SlipOnset => {
+            PayoutResponse::tangent_with(context.model, state, SlipOnset::Loaded)
+                .map_err(SolverFailure::TangentSensitivities)
+        }
         SensitivityKind::Tangent | SensitivityKind::Auto => {
             PayoutResponse::tangent(context.model, state)
                 .map_err(SolverFailure::TangentSensitivities)
@@ -270,6 +277,12 @@ enum Linearisation {
 
 impl CommandPlanner for QpPlanner {
     fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
+        // A slack cable's tangent response is zero: take its slack up
+        // first (see `take_up`).
+        if let Some(command) = take_up(context, state) {
+            self.kept = None;
+            return Decision::Command(Box::new(command));
+        }
         let kept = self
             .kept
             .take()
@@ -283,11 +296,12 @@ impl CommandPlanner for QpPlanner {
             .sensitivities
             .resolve(!context.model.friction().static_mu.is_zero());
         order.push(Linearisation::Fresh(first));
-        // The other kind is the last resort: the tangent sees nothing at a
-        // fold where every joint sticks, secants over 5 cm of single
+        // The other kinds are the last resort: the tangent sees nothing at
+        // a fold where every joint sticks, secants over 5 cm of single
         // motors miss how the cables of a half act together near the
-        // design; where one kind gives no confirmed step the other may.
-        order.push(Linearisation::Fresh(first.other()));
+        // design; where one kind gives no confirmed step, or cannot be
+        // computed (a singular or unstable tangent), another may.
+        order.extend(first.fallbacks().iter().map(|&k| Linearisation::Fresh(k)));
         let radius = self.trust_region_m;
         let mut kept = kept.map(|k| k.response);
         let mut last = None;
@@ -300,7 +314,12 @@ impl CommandPlanner for QpPlanner {
                 Linearisation::Fresh(kind) => {
                     match responses(context, state, kind, self.settings.sensitivity_step_m) {
                         Ok(r) => Some(r),
-                        Err(cause) => return Decision::Stop(PlanStatus::SolverFailure { cause }),
+                        // Another kind may still linearise here; the
+                        // failure is the status only if none does.
+                        Err(cause) => {
+                            last = Some(PlanStatus::SolverFailure { cause });
+                            None
+                        }
                     }
                 }
             };
@@ -322,6 +341,23 @@ impl CommandPlanner for QpPlanner {
             cause: NotReachable::NoLinearisation,
         }))
     }
+}
+
+/// The limits of `data` whose current value already lies beyond their
+/// bound, as the QP names its rows (`segment A_cc1[2] min`).
+fn beyond_bounds(data: &StepData) -> Vec<String> {
+    data.limits
+        .iter()
+        .filter_map(|l| {
+            if l.value < l.lower {
+                Some(format!("{} min", l.name))
+            } else if l.value > l.upper {
+                Some(format!("{} max", l.name))
+            } else {
+                None
+            }
+        })
+        .collect()
 }
 
 impl QpPlanner {
@@ -346,7 +382,9 @@ impl QpPlanner {
             match step.status {
                 QpStepStatus::Infeasible => {
                     return Err(StepFailure::Stop(PlanStatus::NotReachable {
-                        cause: NotReachable::QpInfeasible,
+                        cause: NotReachable::QpInfeasible {
+                            binding: beyond_bounds(&data),
+                        },
                     }))
                 }
                 // Degenerate responses (a tangent where every joint

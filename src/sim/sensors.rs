@@ -2,6 +2,7 @@
 //! state of the structure, resolved against the structure's ids.
 
 use crate::model::Structure;
+use crate::numerics::NumberRange;
 
 /// What a sensor measures, resolved against the structure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -59,6 +60,37 @@ impl Sensor {
         }
     }
 }
+
+impl SensorTarget {
+    /// The noise standard deviations a sensor of this kind may declare, in
+    /// its unit. The lower end is open: residuals are divided by the noise,
+    /// so zero would make them infinite. The upper end is where a reading
+    /// stops saying anything about the bridge, and past which the readings
+    /// the tools simulate with that noise stop being numbers a structure
+    /// can be put through (a position noise of 1e297 m made `replay --fit`
+    /// relax a bridge at positions of that size, past 60 s):
+    /// - positions: 0.1 m, three times the ±30 mm connection tolerance and
+    ///   a sixth of the deepest fold (60 cm);
+    /// - forces: 10 kN, above every design force of the reference bridge's
+    ///   members (the struts carry a few kN);
+    /// - temperature: 10 °C, the span of a day's air temperature.
+    pub fn noise_sd_range(&self) -> NumberRange {
+        match self {
+            SensorTarget::SegmentTension { .. } | SensorTarget::MemberForce { .. } => {
+                NumberRange::positive_up_to(MAX_FORCE_NOISE_N)
+            }
+            SensorTarget::Position { .. } => NumberRange::positive_up_to(MAX_POSITION_NOISE_M),
+            SensorTarget::Temperature => NumberRange::positive_up_to(MAX_TEMPERATURE_NOISE_C),
+        }
+    }
+}
+
+/// Largest noise SD of a force sensor, N (see [`SensorTarget::noise_sd_range`]).
+pub const MAX_FORCE_NOISE_N: f64 = 1e4;
+/// Largest noise SD of a position sensor, m.
+pub const MAX_POSITION_NOISE_M: f64 = 0.1;
+/// Largest noise SD of a temperature sensor, °C.
+pub const MAX_TEMPERATURE_NOISE_C: f64 = 10.0;
 
 /// Load-cell noise, N (seed: about 7 N).
 pub const LOAD_CELL_NOISE_N: f64 = 7.0;

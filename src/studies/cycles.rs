@@ -30,7 +30,8 @@ use crate::sim::{Plant, PlantError};
 pub struct CycleResult {
     /// Cycle number, 1 for the first.
     pub cycle: usize,
-    /// The deployment's status label (`connected`, …).
+    /// The deployment's verdict label ([`crate::plan::RunVerdict::label`]:
+    /// `connected`, `limits_broken`, …): what the truth did.
     pub status: String,
     /// Commands sent.
     pub commands: usize,
@@ -176,7 +177,10 @@ pub fn run_cycles(
         let case = Case::of_deployment(&d, structure, setup.sensors, setup.temperature_c);
         let result = CycleResult {
             cycle,
-            status: d.status.label().to_string(),
+            status: d
+                .verdict(setup.problem.connection_tolerance_m)
+                .label()
+                .to_string(),
             commands: d.records.len(),
             corrective_commands: d.corrective_commands,
             approach_commands: d.approach_commands,

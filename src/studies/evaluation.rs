@@ -6,7 +6,16 @@
 //! parameter of every hidden effect (effects in [`EffectKind::ALL`] order,
 //! parameters in the library's order), then the position-sensor noise,
 //! the load-cell noise, the start fold and, if a range is given, the
-//! temperature; each uniformly within its range `[low, high]`. The same
+//! temperature; each uniformly within its range `[low, high]`. Then, for
+//! every local fault listed (in [`FaultKind::ALL`] order), whether it is
+//! present (uniform on [0, 1) below its probability), where (a uniform
+//! `part_position` in [0, 1): the fault hits part ⌊position × parts⌋ of
+//! its kind on the controller's structure, so the draw needs no
+//! structure) and its parameters (drawn whether present or not, so that
+//! the stream does not depend on the outcome); then, if a range is given,
+//! the fold difference of half B. Draws are appended in this order so
+//! that a distribution without faults or uneven folds draws exactly what
+//! it drew before they existed. The same
 //! seed drives the scenario's sensor noise. Every policy meets the same
 //! truth and noise (paired scenarios). A scenario is a function of
 //! (distribution, seed, index) alone, so a shard that runs scenarios
@@ -31,9 +40,10 @@ use super::cycles::{run_cycles, CycleObserver, CycleResult};
 use super::statistics::{mcnemar_exact_p, median, percentile, scenario_seed, wilson_interval};
 use crate::control::{deploy_closed_loop, ClosedLoopSetup, Deployment};
 use crate::learn::{Case, CaseMemory};
-use crate::model::{EffectKind, Effects, ForwardModel, Structure};
+use crate::model::faults::node_halves;
+use crate::model::{EffectKind, Effects, FaultKind, Faults, ForwardModel, Half, Structure};
 use crate::numerics::NumberRange;
-use crate::plan::{DeploymentProblem, PerMotor, PlanStatus, Policy};
+use crate::plan::{DeploymentProblem, PerMotor, Policy};
 use crate::sim::{standard_sensors, EffectModel, Sensor, SensorTarget};
 
 /// Where the scenarios come from: a range per drawn quantity.
@@ -62,7 +72,35 @@ pub struct ScenarioDistribution {
     /// only with a hidden `thermal` effect.
     #[serde(default)]
     pub temperature_c: Option<[f64; 2]>,
+    /// Local faults ([`crate::model::faults`]): `[faults.NAME]` tables of
+    /// a `probability` (that a scenario has the fault, in [0, 1]) and
+    /// `parameter = [low, high]` for every parameter of the fault. The
+    /// faulty part is drawn uniformly among the parts of its kind. A
+    /// fault not listed never occurs.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub faults: BTreeMap<String, FaultDistribution>,
+    /// Uneven folds: half B's motors folded `fold_m + d` with `d` drawn
+    /// from this range, m, clamped to the `fold_m` range (half A's motors
+    /// fold `fold_m`); `None` (the default): every motor folds `fold_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fold_difference_m: Option<[f64; 2]>,
 }
+
+/// How one local fault is drawn (see [`ScenarioDistribution::faults`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FaultDistribution {
+    /// Probability that a scenario has the fault, in [0, 1].
+    pub probability: f64,
+    /// `parameter = [low, high]` for every parameter of the fault
+    /// ([`FaultKind::parameters`]).
+    #[serde(flatten)]
+    pub parameters: BTreeMap<String, [f64; 2]>,
+}
+
+/// The temperatures a deployment is drawn at when a distribution built by
+/// [`ScenarioDistribution::plausible`] hides a thermal effect, °C: a
+/// footbridge erected outdoors in a temperate climate, spring to autumn.
+pub const PLAUSIBLE_TEMPERATURE_C: [f64; 2] = [0.0, 40.0];
 
 fn default_position_noise() -> [f64; 2] {
     [0.001, 0.001]
@@ -79,7 +117,7 @@ impl ScenarioDistribution {
     /// its `[low, high]` must lie in (`None`: not drawn). An effect
     /// parameter's range is its admissible one
     /// ([`crate::model::effects::ParameterSpec::admissible`]).
-    pub fn ranges(&self) -> [(&'static str, Option<[f64; 2]>, NumberRange); 4] {
+    pub fn ranges(&self) -> [(&'static str, Option<[f64; 2]>, NumberRange); 5] {
         [
             (
                 "position_noise_m",
@@ -96,6 +134,11 @@ impl ScenarioDistribution {
                 "temperature_c",
                 self.temperature_c,
                 NumberRange::closed(-100.0, 100.0),
+            ),
+            (
+                "fold_difference_m",
+                self.fold_difference_m,
+                NumberRange::closed(-1.0, 1.0),
             ),
         ]
     }
@@ -127,7 +170,8 @@ pub struct DistributionError {
 
 impl ScenarioDistribution {
     /// `kinds` hidden over their plausible ranges, everything else at the
-    /// defaults.
+    /// defaults; with a thermal effect, the temperature drawn from
+    /// [`PLAUSIBLE_TEMPERATURE_C`].
     pub fn plausible(kinds: &[EffectKind]) -> Self {
         let effects = kinds
             .iter()
@@ -145,14 +189,21 @@ impl ScenarioDistribution {
             position_noise_m: default_position_noise(),
             load_cell_noise_n: default_load_cell_noise(),
             fold_m: default_fold(),
-            temperature_c: None,
+            temperature_c: kinds
+                .contains(&EffectKind::Thermal)
+                .then_some(PLAUSIBLE_TEMPERATURE_C),
+            faults: BTreeMap::new(),
+            fold_difference_m: None,
         }
     }
 
     /// Checks every range: finite, low ≤ high, inside the parameter's
     /// admissible range (noise ≥ 0, fold in [0, 1] m, temperature in
-    /// [−100, 100] °C); effect and parameter names known, every parameter
-    /// of a listed effect given.
+    /// [−100, 100] °C, fold difference in [−1, 1] m); effect, fault and
+    /// parameter names known, every parameter of a listed effect or fault
+    /// given, a fault's probability in [0, 1]. A thermal effect needs a
+    /// temperature range: without one the effect would silently do
+    /// nothing (the truth at its reference temperature).
     pub fn validate(&self) -> Result<(), DistributionError> {
         let range = |field: String, [a, b]: [f64; 2], within: NumberRange| {
             if within.contains(a) && within.contains(b) && a <= b {
@@ -208,7 +259,81 @@ impl ScenarioDistribution {
                 range(field.into(), r, within)?;
             }
         }
+        if self.effects.contains_key(EffectKind::Thermal.name()) && self.temperature_c.is_none() {
+            return Err(DistributionError {
+                field: "temperature_c".into(),
+                reason:
+                    "missing: a hidden thermal effect needs the temperature range it is drawn at"
+                        .into(),
+            });
+        }
+        for (name, fault) in &self.faults {
+            let kind = FaultKind::ALL
+                .into_iter()
+                .find(|k| k.name() == name)
+                .ok_or_else(|| DistributionError {
+                    field: format!("faults.{name}"),
+                    reason: format!(
+                        "unknown fault (known: {})",
+                        FaultKind::ALL.map(|k| k.name()).join(", ")
+                    ),
+                })?;
+            if !(0.0..=1.0).contains(&fault.probability) {
+                return Err(DistributionError {
+                    field: format!("faults.{name}.probability"),
+                    reason: format!("{} is not a probability in [0, 1]", fault.probability),
+                });
+            }
+            for p in fault.parameters.keys() {
+                if !kind.parameters().iter().any(|s| s.name == p) {
+                    return Err(DistributionError {
+                        field: format!("faults.{name}.{p}"),
+                        reason: format!(
+                            "unknown parameter of {name} (its parameters: probability, {})",
+                            kind.parameters()
+                                .iter()
+                                .map(|s| s.name)
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    });
+                }
+            }
+            for spec in kind.parameters() {
+                let field = format!("faults.{name}.{}", spec.name);
+                let r = fault
+                    .parameters
+                    .get(spec.name)
+                    .ok_or_else(|| DistributionError {
+                        field: field.clone(),
+                        reason: "missing: give every parameter of a drawn fault".into(),
+                    })?;
+                range(
+                    field,
+                    *r,
+                    NumberRange::closed(spec.admissible.0, spec.admissible.1),
+                )?;
+            }
+        }
         Ok(())
+    }
+
+    /// The drawn faults with their probabilities and ranges, in
+    /// [`FaultKind::ALL`] order (the draw order). Assumes
+    /// [`Self::validate`] passed.
+    fn fault_ranges(&self) -> Vec<(FaultKind, f64, Vec<[f64; 2]>)> {
+        FaultKind::ALL
+            .into_iter()
+            .filter_map(|k| {
+                let f = self.faults.get(k.name())?;
+                let ranges = k
+                    .parameters()
+                    .iter()
+                    .map(|s| f.parameters.get(s.name).copied().unwrap_or([s.neutral; 2]))
+                    .collect();
+                Some((k, f.probability, ranges))
+            })
+            .collect()
     }
 
     /// The hidden effects with their ranges, in [`EffectKind::ALL`] order
@@ -243,6 +368,24 @@ impl ScenarioDistribution {
         let load_cell_noise_n = draw(self.load_cell_noise_n);
         let fold_m = draw(self.fold_m);
         let temperature_c = self.temperature_c.map(&mut draw);
+        let faults = self
+            .fault_ranges()
+            .into_iter()
+            .map(|(kind, probability, ranges)| {
+                let present = draw([0.0, 1.0]) < probability;
+                let part_position = draw([0.0, 1.0]);
+                let values = ranges.into_iter().map(&mut draw).collect();
+                DrawnFault {
+                    kind,
+                    present,
+                    part_position,
+                    values,
+                }
+            })
+            .collect();
+        let fold_b_m = self
+            .fold_difference_m
+            .map(|r| (fold_m + draw(r)).clamp(self.fold_m[0], self.fold_m[1]));
         Scenario {
             index,
             seed,
@@ -251,6 +394,8 @@ impl ScenarioDistribution {
             load_cell_noise_n,
             fold_m,
             temperature_c,
+            faults,
+            fold_b_m,
         }
     }
 
@@ -274,6 +419,18 @@ impl ScenarioDistribution {
         if self.temperature_c.is_some() {
             names.push("temperature_c".into());
         }
+        for (kind, _, _) in self.fault_ranges() {
+            names.push(format!("faults.{}.present", kind.name()));
+            names.push(format!("faults.{}.part_position", kind.name()));
+            names.extend(
+                kind.parameters()
+                    .iter()
+                    .map(|p| format!("faults.{}.{}", kind.name(), p.name)),
+            );
+        }
+        if self.fold_difference_m.is_some() {
+            names.push("fold_b_m".into());
+        }
         names
     }
 }
@@ -295,12 +452,48 @@ pub struct Scenario {
     pub fold_m: f64,
     /// Temperature, °C, if drawn.
     pub temperature_c: Option<f64>,
+    /// Every fault of the distribution as drawn, present or not.
+    pub faults: Vec<DrawnFault>,
+    /// Start fold of half B's motors, m, if folds are uneven (half A's
+    /// fold `fold_m`).
+    pub fold_b_m: Option<f64>,
+}
+
+/// One local fault as a scenario drew it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DrawnFault {
+    /// Which fault.
+    pub kind: FaultKind,
+    /// Whether the scenario has it.
+    pub present: bool,
+    /// Where, in [0, 1): part ⌊position × parts⌋ of its kind.
+    pub part_position: f64,
+    /// Its parameters, in [`FaultKind::parameters`] order.
+    pub values: Vec<f64>,
+}
+
+impl DrawnFault {
+    /// The faulty part of `structure`: index ⌊position × parts⌋ among the
+    /// parts of the fault's kind ([`FaultKind::part_count`]).
+    pub fn part(&self, structure: &Structure) -> usize {
+        let count = self.kind.part_count(structure);
+        ((self.part_position * count as f64) as usize).min(count.saturating_sub(1))
+    }
 }
 
 impl Scenario {
-    /// The truth of this scenario on `structure`: its hidden effects.
+    /// The truth of this scenario on `structure`: its hidden effects and
+    /// the faults it has, on their parts of `structure`.
     pub fn truth(&self, structure: &Structure) -> EffectModel {
-        EffectModel::for_measurement(structure.clone(), self.effects)
+        let mut effects = self.effects;
+        effects.faults = self
+            .faults
+            .iter()
+            .filter(|f| f.present)
+            .fold(Faults::default(), |faults, f| {
+                faults.with_fault(f.kind, f.part(structure), &f.values)
+            });
+        EffectModel::for_measurement(structure.clone(), effects)
     }
 
     /// The standard sensors of `structure` with this scenario's noise.
@@ -317,10 +510,26 @@ impl Scenario {
             .collect()
     }
 
-    /// `base` with this scenario's start fold.
-    pub fn problem(&self, base: &DeploymentProblem) -> DeploymentProblem {
+    /// `base` with this scenario's start fold on `structure`: every
+    /// motor at `fold_m`, or, with uneven folds, the motors whose cable
+    /// starts in half B at `fold_b_m` (a structure without two halves
+    /// folds evenly).
+    pub fn problem(&self, base: &DeploymentProblem, structure: &Structure) -> DeploymentProblem {
+        let start_payout_m = match (self.fold_b_m, node_halves(structure)) {
+            (Some(fold_b), Ok(halves)) => PerMotor::Each(
+                structure
+                    .continuous_cables
+                    .iter()
+                    .map(|c| match halves[c.path[0]] {
+                        Some(Half::B) => fold_b,
+                        _ => self.fold_m,
+                    })
+                    .collect(),
+            ),
+            _ => PerMotor::All(self.fold_m),
+        };
         DeploymentProblem {
-            start_payout_m: PerMotor::All(self.fold_m),
+            start_payout_m,
             ..base.clone()
         }
     }
@@ -339,7 +548,7 @@ impl Scenario {
         let structure = model.structure();
         let truth = self.truth(structure);
         let sensors = self.sensors(structure);
-        let problem = self.problem(base);
+        let problem = self.problem(base, structure);
         run(&ClosedLoopSetup {
             model,
             problem: &problem,
@@ -361,6 +570,12 @@ impl Scenario {
             .collect();
         values.extend([self.position_noise_m, self.load_cell_noise_n, self.fold_m]);
         values.extend(self.temperature_c);
+        for f in &self.faults {
+            values.push(if f.present { 1.0 } else { 0.0 });
+            values.push(f.part_position);
+            values.extend(&f.values);
+        }
+        values.extend(self.fold_b_m);
         values
     }
 }
@@ -394,6 +609,10 @@ impl Shard {
     }
 }
 
+/// [`RunResult::status`] of a run that never started (its truth or setup
+/// failed).
+pub const NOT_STARTED: &str = "not_started";
+
 /// One policy on one scenario, reduced to plain numbers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunResult {
@@ -401,10 +620,14 @@ pub struct RunResult {
     pub scenario: usize,
     /// Policy index.
     pub policy: usize,
-    /// The final status's label ([`PlanStatus::label`]), or `not_started`.
+    /// The run's verdict label ([`crate::plan::RunVerdict::label`]:
+    /// `connected`, `limits_broken`, `not_reachable`, `command_limit`,
+    /// `solver_failure`, `gap_out_of_tolerance`, `limits_not_restored`),
+    /// `cycles_stopped` or `not_started`: what the truth did.
     pub status: String,
-    /// Connected by the controller, every true gap within the tolerance and
-    /// no truth limit broken.
+    /// The verdict is `connected`: connected by the controller, every true
+    /// gap within the tolerance, no truth limit broken and every limit the
+    /// start broke restored.
     pub succeeded: bool,
     /// Commands sent.
     pub commands: usize,
@@ -441,10 +664,8 @@ impl RunResult {
             Some(d) => RunResult {
                 scenario,
                 policy,
-                status: d.status.label().to_string(),
-                succeeded: matches!(d.status, PlanStatus::Connected)
-                    && d.final_true_gap_m().is_some_and(|g| g <= tolerance_m)
-                    && d.truth_limit_violations == 0,
+                status: d.verdict(tolerance_m).label().to_string(),
+                succeeded: d.verdict(tolerance_m).is_connected(),
                 commands: d.records.len(),
                 corrective_commands: d.corrective_commands,
                 final_measured_gap_m: d.final_measured_gap_m(),
@@ -469,7 +690,7 @@ impl RunResult {
             None => RunResult {
                 scenario,
                 policy,
-                status: "not_started".into(),
+                status: NOT_STARTED.into(),
                 succeeded: false,
                 commands: 0,
                 corrective_commands: None,
@@ -510,8 +731,9 @@ impl RunResult {
     /// start, `not_started`): the last cycle's figures, since the cycles
     /// before it are the learning, except that limits broken in any cycle
     /// count (`truth_violations` summed, `worst_utilisation` the largest)
-    /// and fail the run. A run whose truth could not be folded back before
-    /// the last cycle has the status `cycles_stopped` and did not succeed.
+    /// and fail the run (its status is then `limits_broken`). A run whose
+    /// truth could not be folded back before the last cycle has the status
+    /// `cycles_stopped` and did not succeed.
     pub fn of_cycles(
         scenario: usize,
         policy: usize,
@@ -527,7 +749,9 @@ impl RunResult {
         let Some(mut last) = per_cycle.into_iter().last() else {
             return RunResult::of(scenario, policy, None, 0.0);
         };
-        if ran < cycles {
+        if violations > 0 {
+            last.status = "limits_broken".into();
+        } else if ran < cycles {
             last.status = "cycles_stopped".into();
         }
         last.succeeded &= ran == cycles && violations == 0;
@@ -582,7 +806,7 @@ pub fn summarise_results(results: &[RunResult], policy: usize) -> PolicySummary 
     let started: Vec<&RunResult> = mine
         .iter()
         .copied()
-        .filter(|r| r.status != "not_started")
+        .filter(|r| r.status != NOT_STARTED)
         .collect();
     let ok: Vec<&RunResult> = mine.iter().copied().filter(|r| r.succeeded).collect();
     let commands = || ok.iter().map(|r| r.commands as f64).collect::<Vec<_>>();
@@ -786,7 +1010,7 @@ mod tests {
         assert_eq!(whole.truth_violations, 2);
         assert_eq!(whole.worst_utilisation, 0.9);
         assert!(!whole.succeeded);
-        assert_eq!(whole.status, "connected");
+        assert_eq!(whole.status, "limits_broken");
 
         let clean = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4), cycle(8, 0, 0.5)], 2);
         assert!(clean.succeeded);
@@ -836,6 +1060,79 @@ mod tests {
         }
     }
 
+    fn with_faults_and_uneven_folds(probability: f64) -> ScenarioDistribution {
+        let mut d = ScenarioDistribution::default();
+        for kind in FaultKind::ALL {
+            let parameters = kind
+                .parameters()
+                .iter()
+                .map(|p| (p.name.to_string(), [p.plausible.0, p.plausible.1]))
+                .collect();
+            d.faults.insert(
+                kind.name().into(),
+                FaultDistribution {
+                    probability,
+                    parameters,
+                },
+            );
+        }
+        d.fold_m = [0.1, 0.6];
+        d.fold_difference_m = Some([-0.15, 0.15]);
+        d
+    }
+
+    /// Faults and uneven folds are drawn after everything else, so the
+    /// effects, noise and fold of a scenario are what the distribution
+    /// without them draws; the faults land on real parts with their
+    /// parameters in range, and the truth carries the present ones.
+    #[test]
+    fn faults_and_uneven_folds_are_drawn_after_the_rest_and_reach_the_truth() {
+        let s =
+            crate::design::reference_bridge(&crate::design::BridgeParameters::default()).unwrap();
+        let plain = ScenarioDistribution {
+            fold_m: [0.1, 0.6],
+            ..ScenarioDistribution::default()
+        };
+        let always = with_faults_and_uneven_folds(1.0);
+        let never = with_faults_and_uneven_folds(0.0);
+        always.validate().unwrap();
+        let names = always.drawn_names();
+        for i in 0..20 {
+            let (a, b, n) = (plain.draw(3, i), always.draw(3, i), never.draw(3, i));
+            assert_eq!((a.effects, a.fold_m), (b.effects, b.fold_m));
+            assert_eq!(a.position_noise_m, b.position_noise_m);
+            assert_eq!(b.drawn_values(&always).len(), names.len());
+            let truth = b.truth(&s).effects.faults;
+            assert_eq!(truth.present(), FaultKind::ALL.to_vec());
+            assert!(n.truth(&s).effects.faults.is_empty());
+            for f in &b.faults {
+                let (part, values) = truth.part_and_parameters(f.kind).unwrap();
+                assert!(part < f.kind.part_count(&s));
+                for (v, spec) in values.iter().zip(f.kind.parameters()) {
+                    assert!(spec.plausible.0 <= *v && *v <= spec.plausible.1);
+                }
+            }
+            // Half A's motors at fold_m, half B's at fold_b_m, in range.
+            let fold_b = b.fold_b_m.unwrap();
+            assert!((0.1..=0.6).contains(&fold_b) && (fold_b - b.fold_m).abs() <= 0.15 + 1e-12);
+            let problem = b.problem(&DeploymentProblem::default(), &s);
+            for (c, cable) in s.continuous_cables.iter().enumerate() {
+                let want = if cable.id.starts_with('B') {
+                    fold_b
+                } else {
+                    b.fold_m
+                };
+                assert_eq!(problem.start_payout_m.get(c), Some(want), "{}", cable.id);
+            }
+        }
+        // With probability 0.3, about a third of the scenarios have each.
+        let some = with_faults_and_uneven_folds(0.3);
+        let had = (0..300)
+            .filter(|&i| some.draw(9, i).faults[0].present)
+            .count();
+        assert!((60..=120).contains(&had), "{had} of 300");
+    }
+
     #[test]
     fn validation_names_the_field() {
         let mut d = ScenarioDistribution::default();
@@ -858,5 +1155,29 @@ mod tests {
             ..ScenarioDistribution::default()
         };
         assert_eq!(d.validate().unwrap_err().field, "fold_m");
+        let d = ScenarioDistribution {
+            temperature_c: None,
+            ..ScenarioDistribution::plausible(&[EffectKind::Thermal])
+        };
+        assert_eq!(d.validate().unwrap_err().field, "temperature_c");
+        ScenarioDistribution::plausible(&[EffectKind::Thermal])
+            .validate()
+            .unwrap();
+        let mut d = with_faults_and_uneven_folds(0.5);
+        d.faults.get_mut("member_error").unwrap().probability = -0.1;
+        assert_eq!(
+            d.validate().unwrap_err().field,
+            "faults.member_error.probability"
+        );
+        let mut d = with_faults_and_uneven_folds(0.5);
+        d.faults
+            .get_mut("half_difference")
+            .unwrap()
+            .parameters
+            .remove("cable_scale");
+        assert_eq!(
+            d.validate().unwrap_err().field,
+            "faults.half_difference.cable_scale"
+        );
     }
 }

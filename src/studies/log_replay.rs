@@ -449,9 +449,13 @@ pub fn replay_log(
 /// The margins of a closed-loop run.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Margins {
-    /// Whether it connected.
+    /// Whether it connected: its verdict ([`crate::plan::RunVerdict`]) is
+    /// `connected`.
     pub connected: bool,
-    /// How it ended.
+    /// The verdict's label: what the truth did (`connected`,
+    /// `limits_broken`, …).
+    pub outcome: &'static str,
+    /// How the controller itself ended.
     pub status: PlanStatus,
     /// Commands sent.
     pub commands: usize,
@@ -469,10 +473,13 @@ pub struct Margins {
 }
 
 impl Margins {
-    /// The margins of `d`.
-    pub fn of(d: &Deployment) -> Margins {
+    /// The margins of `d`, judged against the connection tolerance
+    /// `tolerance_m`.
+    pub fn of(d: &Deployment, tolerance_m: f64) -> Margins {
+        let verdict = d.verdict(tolerance_m);
         Margins {
-            connected: d.status.is_connected(),
+            connected: verdict.is_connected(),
+            outcome: verdict.label(),
             status: d.status.clone(),
             commands: d.records.len(),
             final_measured_gap_m: d.final_measured_gap_m(),

@@ -1,6 +1,7 @@
 //! Loads the 7×7 cable-net reference (`tests/data/cable-net-7x7.json`, a copy
-//! of `../shared/reference/cable-net-7x7.json`). Shared by the verification
-//! test and the benchmark through `#[path]`.
+//! of `../shared/reference/cable-net-7x7.json`). Read by the verification
+//! test (`tests/cable_net_reference.rs`, through `mod common`) and by the
+//! relaxation benchmark (`benches/relaxation.rs`, through `#[path]`).
 
 use nalgebra::Vector3;
 use tensegrity_deploy::model::{Member, MemberKind, Node, Structure};

@@ -23,7 +23,9 @@ pub use command::{
 pub use counters::NewtonCounters;
 pub use forward_model::{ForwardModel, MemberForces};
 pub use relax::SolveMode;
-pub use sensitivity::{MotorDirection, MotorResponse, PayoutSensitivities, SensitivityError};
+pub use sensitivity::{
+    MotorDirection, MotorResponse, PayoutSensitivities, SensitivityError, SlipOnset,
+};
 pub use settings::{RelaxSettings, SettingsError};
 pub use status::{RelaxReport, RelaxStatus, PLAUSIBLE_STRAIN};
 pub use workspace::Workspace;

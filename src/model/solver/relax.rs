@@ -5,7 +5,7 @@
 //! damping: when the kinetic energy stops rising, the state steps back to the
 //! estimated energy peak, velocities are zeroed and the motion restarts.
 //! Continuous-cable sliding is relaxed every iteration by the return mapping
-//! of [`super::sliding`], so material moves only when a joint's capstan cone
+//! of [`crate::model::sliding`], so material moves only when a joint's capstan cone
 //! is exceeded.
 //!
 //! Fictitious masses make the explicit step stable by Gershgorin's bound on

@@ -89,6 +89,28 @@ impl MotorDirection {
     }
 }
 
+/// Which joints a payout response lets slide.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum SlipOnset {
+    /// As the state's cones say: joints strictly inside their cone hold,
+    /// joints on an edge slide where the motion loads them further. The
+    /// exact one-sided derivative: what the first millimetre of a move does
+    /// (at a state where every joint sticks, nothing slides at all).
+    #[default]
+    AtState,
+    /// Every joint with friction as if it were on the edge of its cone
+    /// that the motion loads it towards: a joint whose tension ratio the
+    /// motion moves faster than its cone widens may slide, keeping its
+    /// ratio (`d ln(T_high/T_low) = d ln b(θ)`), and the complementarity
+    /// problem decides which do. The response to a move large enough for
+    /// the joints it loads to reach their cone (the *slip-onset* tangent):
+    /// for a joint already on its edge it is the exact law; one strictly
+    /// inside is assumed to get there at once, so the response is that of
+    /// a move long against the millimetres a joint sticks for. A joint
+    /// with a slack segment holds.
+    Loaded,
+}
+
 /// Linear response of a converged state to one motor moving in one direction:
 /// derivatives with respect to that motor's payout p (m; positive pays out),
 /// taken one-sided: for PayOut as p increases, for ReelIn as p decreases
@@ -202,11 +224,20 @@ struct HeldTangent {
     /// with the geometry.
     clustered: Vec<bool>,
     edge: Vec<EdgeJoint>,
+    /// Which joints are edge joints.
+    onset: SlipOnset,
+    /// Per edge joint, whether both its segments are taut at the state
+    /// (a slip-onset joint with a slack segment holds).
+    eligible: Vec<bool>,
     /// Per edge joint, `K₀⁻¹·B_j`: the motion per metre slid over it.
     slide_dx: Vec<DVector<f64>>,
-    /// `W[(i, j)]`: violation rate of edge joint `i` per metre slid over
-    /// edge joint `j`, N/m.
+    /// `W[(i, j)]`: rate per metre slid over edge joint `j` of edge joint
+    /// `i`'s violation `T_high − b·T_low`, N/m ([`SlipOnset::AtState`]),
+    /// or of its log ratio `ln(T_high/T_low)`, 1/m ([`SlipOnset::Loaded`]).
     w: DMatrix<f64>,
+    /// [`SlipOnset::Loaded`]: the rate of each edge joint's log bound
+    /// `ln b(θ)` per metre slid over edge joint `j`, 1/m (empty otherwise).
+    w_bound: DMatrix<f64>,
     /// Per DOF row, its block.
     block_of_row: Vec<usize>,
 }
@@ -236,6 +267,19 @@ impl ForwardModel {
         state: &DeploymentState,
         ws: &mut Workspace,
     ) -> Result<PayoutSensitivities, SensitivityError> {
+        self.payout_sensitivities_with(state, ws, SlipOnset::AtState)
+    }
+
+    /// [`Self::payout_sensitivities`] with the joints that may slide chosen
+    /// by `onset`: [`SlipOnset::AtState`] is the exact derivative,
+    /// [`SlipOnset::Loaded`] the slip-onset tangent (every joint with
+    /// friction may slide in the direction the motion loads it).
+    pub fn payout_sensitivities_with(
+        &self,
+        state: &DeploymentState,
+        ws: &mut Workspace,
+        onset: SlipOnset,
+    ) -> Result<PayoutSensitivities, SensitivityError> {
         let mut from = state.clone();
         from.stick_all_joints();
         ws.fit(from.positions_m.len(), from.segment_rest_lengths_m.len());
@@ -258,7 +302,7 @@ impl ForwardModel {
         // are on their cone's edge (or frictionless).
         let mut mapped = from.clone();
         self.residual(&mut mapped, ws);
-        let held = self.held_tangent(&from, &mapped.joint_slip);
+        let held = self.held_tangent(&from, &mapped.joint_slip, onset);
         let n_cables = self.structure.continuous_cables.len();
         let mut out = PayoutSensitivities {
             pay_out: Vec::with_capacity(n_cables),
@@ -280,7 +324,12 @@ impl ForwardModel {
 
     /// Factorises the tangent with the edge joints held and computes what
     /// sliding each of them does.
-    fn held_tangent(&self, from: &DeploymentState, mapped_slip: &[JointSlip]) -> HeldTangent {
+    fn held_tangent(
+        &self,
+        from: &DeploymentState,
+        mapped_slip: &[JointSlip],
+        onset: SlipOnset,
+    ) -> HeldTangent {
         let x = &from.positions_m;
         let dofs = self.free_dofs();
         let blocks = self.dof_blocks();
@@ -298,21 +347,25 @@ impl ForwardModel {
             for (j, w) in cable.path.windows(3).enumerate() {
                 let joint = o + j + 1;
                 let slide = mapped_slip[joint];
-                if slide == JointSlip::Stuck {
-                    continue;
-                }
                 let theta = interior_angle(
                     &(x[w[1]] - x[w[0]]).normalize(),
                     &(x[w[2]] - x[w[1]]).normalize(),
                 );
-                if self.friction.ratio_bound(theta, true) == 1.0
-                    && self.friction.ratio_bound(theta, false) == 1.0
-                {
+                let frictionless = self.friction.ratio_bound(theta, true) == 1.0
+                    && self.friction.ratio_bound(theta, false) == 1.0;
+                if slide == JointSlip::Stuck && (onset == SlipOnset::AtState || frictionless) {
+                    continue;
+                }
+                if frictionless {
                     labels[joint] = slide;
                     clustered[c] = true;
                     continue;
                 }
-                let (high, low) = if slide == JointSlip::TowardsMotor {
+                // Slip-onset joints are oriented towards the motor (a
+                // negative slide moves material the other way); edge
+                // joints towards the side the mapping slid them.
+                let (high, low) = if onset == SlipOnset::Loaded || slide == JointSlip::TowardsMotor
+                {
                     (joint - 1, joint)
                 } else {
                     (joint, joint - 1)
@@ -333,17 +386,29 @@ impl ForwardModel {
         let factors = (0..blocks.len())
             .map(|b| BlockLu::new(&k, &blocks[b..=b]))
             .collect();
+        // A slip-onset joint with a slack segment has no ratio to keep.
+        let eligible = edge
+            .iter()
+            .map(|j| {
+                let (_, high, low) = self.joint_tensions(from, j);
+                high > 0.0 && low > 0.0
+            })
+            .collect();
         let mut held = HeldTangent {
             factors,
             labels,
             clustered,
             edge,
+            onset,
+            eligible,
             slide_dx: Vec::new(),
             w: DMatrix::zeros(0, 0),
+            w_bound: DMatrix::zeros(0, 0),
             block_of_row,
         };
         let n_edge = held.edge.len();
         let mut w = DMatrix::zeros(n_edge, n_edge);
+        let mut w_bound = DMatrix::zeros(n_edge, n_edge);
         let mut slide_dx = Vec::with_capacity(n_edge);
         for (j, joint) in held.edge.iter().enumerate() {
             let mut ds = vec![0.0; from.segment_rest_lengths_m.len()];
@@ -355,15 +420,64 @@ impl ForwardModel {
                 .solve_all(&load)
                 .unwrap_or_else(|| DVector::zeros(load.len()));
             let motion = Motion { dx, ds };
-            w.set_column(
-                j,
-                &DVector::from_vec(self.violation_rates(from, &held, &motion)),
-            );
+            match onset {
+                SlipOnset::AtState => w.set_column(
+                    j,
+                    &DVector::from_vec(self.violation_rates(from, &held, &motion)),
+                ),
+                SlipOnset::Loaded => {
+                    let (ratio, bound) = self.log_ratio_rates(from, &held, &motion);
+                    w.set_column(j, &DVector::from_vec(ratio));
+                    w_bound.set_column(j, &DVector::from_vec(bound));
+                }
+            }
             slide_dx.push(motion.dx);
         }
         held.w = w;
+        held.w_bound = w_bound;
         held.slide_dx = slide_dx;
         held
+    }
+
+    /// The slide over each edge joint (m per metre of `motion`, positive
+    /// into its `high` segment) that the complementarity problem of
+    /// `held`'s onset gives; `None` where it has no solution.
+    fn edge_slides(
+        &self,
+        from: &DeploymentState,
+        held: &HeldTangent,
+        motion: &Motion,
+    ) -> Option<Vec<f64>> {
+        match held.onset {
+            SlipOnset::AtState => {
+                let v0 = self.violation_rates(from, held, motion);
+                solve_complementarity(&v0, &held.w)
+            }
+            SlipOnset::Loaded => {
+                // Each taut joint on the edge its ratio moves towards:
+                // direction d = sign(d ln(T_high/T_low)), violation rate
+                // d·ℓ' − β' (ℓ the log ratio, β the log bound).
+                let (ratio, bound) = self.log_ratio_rates(from, held, motion);
+                let candidates: Vec<usize> = (0..held.edge.len())
+                    .filter(|&i| held.eligible[i] && ratio[i] != 0.0)
+                    .collect();
+                let d = |i: usize| ratio[i].signum();
+                let v0: Vec<f64> = candidates
+                    .iter()
+                    .map(|&i| d(i) * ratio[i] - bound[i])
+                    .collect();
+                let w = DMatrix::from_fn(candidates.len(), candidates.len(), |a, b| {
+                    let (i, j) = (candidates[a], candidates[b]);
+                    d(j) * (d(i) * held.w[(i, j)] - held.w_bound[(i, j)])
+                });
+                let q = solve_complementarity(&v0, &w)?;
+                let mut slides = vec![0.0; held.edge.len()];
+                for (a, &i) in candidates.iter().enumerate() {
+                    slides[i] = d(i) * q[a];
+                }
+                Some(slides)
+            }
+        }
     }
 
     /// The response of `from` to `motor` moving in `direction`; `None`
@@ -384,12 +498,11 @@ impl ForwardModel {
         let load = self.start_change_load(from, held, &ds);
         let dx = held.solve_all(&load)?;
         let mut motion = Motion { dx, ds };
-        let v0 = self.violation_rates(from, held, &motion);
-        let q = solve_complementarity(&v0, &held.w)?;
+        let q = self.edge_slides(from, held, &motion)?;
         let Motion { dx, ds } = &mut motion;
         let mut sliding_joints = 0;
         for (j, (qj, joint)) in q.iter().zip(&held.edge).enumerate() {
-            if *qj > 0.0 {
+            if *qj != 0.0 {
                 dx.axpy(*qj, &held.slide_dx[j], 1.0);
                 ds[joint.high] += qj;
                 ds[joint.low] -= qj;
@@ -561,9 +674,45 @@ impl ForwardModel {
             .collect()
     }
 
-    /// `T_high − b(θ)·T_low` of an edge joint in `state`, N (kinetic bound:
-    /// the law it slides by).
-    fn violation(&self, state: &DeploymentState, joint: &EdgeJoint) -> f64 {
+    /// Rates along `motion` (per metre of it, central differences) of
+    /// each edge joint's log tension ratio `ln(T_high/T_low)` and log
+    /// kinetic bound `ln b(θ)`; zero for a joint with a slack segment.
+    fn log_ratio_rates(
+        &self,
+        from: &DeploymentState,
+        held: &HeldTangent,
+        motion: &Motion,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let (lo, hi) = (
+            self.moved(from, held, motion, -STEP_M),
+            self.moved(from, held, motion, STEP_M),
+        );
+        held.edge
+            .iter()
+            .map(|j| match (self.log_ratio(&lo, j), self.log_ratio(&hi, j)) {
+                (Some((r0, b0)), Some((r1, b1))) => {
+                    ((r1 - r0) / (2.0 * STEP_M), (b1 - b0) / (2.0 * STEP_M))
+                }
+                _ => (0.0, 0.0),
+            })
+            .unzip()
+    }
+
+    /// `(ln(T_high/T_low), ln b(θ))` of an edge joint in `state` (kinetic
+    /// bound); `None` with a slack segment.
+    fn log_ratio(&self, state: &DeploymentState, joint: &EdgeJoint) -> Option<(f64, f64)> {
+        let (theta, t_high, t_low) = self.joint_tensions(state, joint);
+        (t_high > 0.0 && t_low > 0.0).then(|| {
+            (
+                t_high.ln() - t_low.ln(),
+                self.friction.ratio_bound(theta, true).ln(),
+            )
+        })
+    }
+
+    /// Interior angle, rad, and high- and low-side tensions, N, of an edge
+    /// joint in `state`.
+    fn joint_tensions(&self, state: &DeploymentState, joint: &EdgeJoint) -> (f64, f64, f64) {
         let x = &state.positions_m;
         let (d_in, d_out) = (
             x[joint.node] - x[joint.before],
@@ -577,9 +726,18 @@ impl ForwardModel {
         } else {
             (d_out.norm(), d_in.norm())
         };
-        segment_tension(joint.ea_n, l_high, rest[joint.high])
-            - self.friction.ratio_bound(theta, true)
-                * segment_tension(joint.ea_n, l_low, rest[joint.low])
+        (
+            theta,
+            segment_tension(joint.ea_n, l_high, rest[joint.high]),
+            segment_tension(joint.ea_n, l_low, rest[joint.low]),
+        )
+    }
+
+    /// `T_high − b(θ)·T_low` of an edge joint in `state`, N (kinetic bound:
+    /// the law it slides by).
+    fn violation(&self, state: &DeploymentState, joint: &EdgeJoint) -> f64 {
+        let (theta, t_high, t_low) = self.joint_tensions(state, joint);
+        t_high - self.friction.ratio_bound(theta, true) * t_low
     }
 }
 

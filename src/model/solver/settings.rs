@@ -10,7 +10,7 @@ use crate::numerics::{check_ranges, FieldError, NumberRange, Ranged};
 #[serde(default, deny_unknown_fields)]
 pub struct RelaxSettings {
     /// Largest number of DR iterations per solve. Default 200 000.
-    /// A solve that reaches it reports [`RelaxStatus::IterationLimit`].
+    /// A solve that reaches it reports [`super::RelaxStatus::IterationLimit`].
     pub max_iter: usize,
     /// Out-of-balance force tolerance relative to the largest member force.
     /// Default 1e-6. Smaller: more accurate, more iterations (about a
@@ -30,10 +30,10 @@ pub struct RelaxSettings {
     pub mass_update_resets: usize,
     /// A solve that moves any node farther than this fraction of the
     /// structure's bounding-box diagonal stops with
-    /// [`RelaxStatus::UnstableMechanism`]. Default 0.5.
+    /// [`super::RelaxStatus::UnstableMechanism`]. Default 0.5.
     pub max_displacement_rel: f64,
     /// Newton–Raphson iterations per solve before DR takes over, with the
-    /// consistent tangent of the friction mapping ([`super::stiffness`]).
+    /// consistent tangent of the friction mapping ([`crate::model::stiffness`]).
     /// Default 16 (a converging solve takes 3 to 9, but one that revises
     /// the joints' slip states restarts from a residual raised by the
     /// revision and needs up to about 8 more: at 12, 6 of the 40 increments

@@ -6,7 +6,7 @@ use super::counters::NewtonCounters;
 use crate::model::state::{DeploymentState, JointSlip};
 use crate::numerics::{BlockLayout, BlockLu, BlockMatrix};
 
-/// Reusable buffers for [`ForwardModel::relax`]; one per thread.
+/// Reusable buffers for [`super::ForwardModel::relax`]; one per thread.
 #[derive(Debug, Clone, Default)]
 pub struct Workspace {
     pub(super) force: Vec<Vector3<f64>>,

@@ -39,19 +39,35 @@ pub use trust_region::TrustRegion;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::numerics::{check_ranges, FieldError, NumberRange, Ranged};
+use crate::numerics::{check_label, check_ranges, FieldError, NumberRange, Ranged};
+
+/// Smallest [`Policy::increment_m`], m: the longest payout change a
+/// problem allows in one solve (10 m) over the solver's increments per
+/// command.
+pub const SMALLEST_INCREMENT_M: f64 =
+    10.0 / crate::model::solver::command::MAX_INCREMENTS_PER_COMMAND as f64;
+
+/// Largest [`Policy::max_commands`].
+pub const MAX_COMMANDS: usize = 10_000;
 
 /// A control policy.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Policy {
-    /// Name for reports.
+    /// Name for reports: one printable line of 1 to 64 characters
+    /// ([`crate::numerics::check_label`]), since it is a column of
+    /// `runs.csv` and of the printed tables. Default `qp`.
     pub name: String,
     /// Largest number of commands, 1 to 10 000. Default 40: five times the
     /// nominal sequence's 8 steps for a 40 cm fold.
     pub max_commands: usize,
-    /// Largest payout increment of a forward solve, m, in (0, 1]. Default
-    /// 0.01: the seed's 1 cm actuation step, as every model command uses.
+    /// Largest payout increment of a forward solve, m, in [0.001, 1].
+    /// Default 0.01: the seed's 1 cm actuation step, as every model command
+    /// uses. At least 1 mm so that any payout change a problem allows in
+    /// one solve (a command's step or the fold, each at most 10 m: the
+    /// problem's ranges) needs no more than the solver's 10 000 increments
+    /// per command
+    /// ([`crate::model::solver::command::MAX_INCREMENTS_PER_COMMAND`]).
     pub increment_m: f64,
     /// Which planner, with its settings. Default the QP planner.
     pub planner: PlannerSettings,
@@ -71,12 +87,12 @@ impl Policy {
             Ranged::count(
                 "max_commands",
                 self.max_commands,
-                NumberRange::count(1, 10_000),
+                NumberRange::count(1, MAX_COMMANDS),
             ),
             Ranged::real(
                 "increment_m",
                 self.increment_m,
-                NumberRange::positive_up_to(1.0),
+                NumberRange::closed(SMALLEST_INCREMENT_M, 1.0),
             ),
         ]
     }
@@ -118,6 +134,7 @@ impl From<FieldError> for PolicyError {
 impl Policy {
     /// Checks every field: finite and in range, section by section.
     pub fn validate(&self) -> Result<(), PolicyError> {
+        check_label("name", &self.name)?;
         check_ranges(&self.ranges())?;
         self.planner.validate().map_err(|e| e.within("planner"))?;
         self.margins.validate().map_err(|e| e.within("margins"))?;
@@ -185,6 +202,15 @@ mod tests {
             ..Policy::default()
         };
         assert_eq!(p.validate().unwrap_err().field, "max_commands");
+        // Issue 25: 1e-9 passed and failed later, naming neither the file
+        // nor the field ("…needs more than 10000 increments").
+        let p = Policy {
+            increment_m: 1e-9,
+            ..Policy::default()
+        };
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "increment_m");
+        assert!(e.reason.contains("[0.001, 1]"), "{}", e.reason);
         let p = Policy {
             planner: PlannerSettings::GreedyTree(GreedyTreeSettings {
                 move_m: 0.01,

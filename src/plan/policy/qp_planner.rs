@@ -18,6 +18,26 @@ pub enum SensitivityKind {
     /// bridge folded 40 cm with μ = 0.2 they predict that no command
     /// closes the gaps, and the plan stops where it starts.
     Tangent,
+    /// The slip-onset tangent (`model::SlipOnset::Loaded`): the tangent in
+    /// which every joint with friction may slide the way the move loads
+    /// it, a complementarity problem deciding which do; the response of a
+    /// move long against the millimetres a joint sticks for, at the
+    /// tangent's cost (~1 ms). From the 40 cm fold with μ = 0.2 along a
+    /// deployment (`examples/friction_responses.rs`) it predicts the
+    /// model's own 1–5 cm trials with a median gap error of 24 % (worst
+    /// 60 %) and a reduction ratio of 0.75–1.3, where single-motor 5 cm
+    /// secants give 57 % (worst 136 %) and ratios of 0.42–0.72. But it
+    /// decides each joint's slide per motor, and a command mixing motors
+    /// that load a joint opposite ways is not the sum of their columns: in
+    /// closed loop on the default truth (controller's model μ = 0.2) its
+    /// per-motor differences led the QP to spread commands that stalled at
+    /// a 121 mm gap with 22 truth limits broken. Not what `Auto` uses.
+    SlipOnset,
+    /// The tangent of the model with its friction removed, at the
+    /// equilibrium it relaxes the state to (`PayoutResponse::sliding_tangent`):
+    /// every joint slides both ways, the limit of a move long against the
+    /// millimetres a joint sticks for; one linear map, so motors superpose.
+    SlidingTangent,
     /// One-sided secants over `sensitivity_step_m`: every motor moved both
     /// ways through the friction model (20 forward solves per command on
     /// the reference bridge, ~100 times the tangent's cost). Near the
@@ -27,9 +47,8 @@ pub enum SensitivityKind {
     Secant,
     /// The tangent on a frictionless model (where it is the exact
     /// response, and the deployment experiment connects 100 % of its
-    /// scenarios against 88 % with secants), the secants on a model with
-    /// joint friction (where the open-loop plan of the μ = 0.2 model
-    /// stalls at a 128 mm gap on tangents and connects on secants).
+    /// scenarios against 88 % with secants), the slip-onset tangent on a
+    /// model with joint friction (see [`SensitivityKind::SlipOnset`]).
     Auto,
 }
 
@@ -38,18 +57,29 @@ impl SensitivityKind {
     /// joint friction; any other kind is itself.
     pub fn resolve(self, model_has_friction: bool) -> Self {
         match self {
-            SensitivityKind::Auto if model_has_friction => SensitivityKind::Secant,
+            SensitivityKind::Auto if model_has_friction => SensitivityKind::SlidingTangent,
             SensitivityKind::Auto => SensitivityKind::Tangent,
             kind => kind,
         }
     }
 
-    /// The other concrete kind (the planner's fallback when this one gives
-    /// no confirmed step); `Auto` must be resolved first.
-    pub fn other(self) -> Self {
+    /// The concrete kinds the planner tries, in order, when this one gives
+    /// no confirmed step or cannot be computed (a singular or unstable
+    /// tangent); `Auto` must be resolved first. The tangents see nothing,
+    /// or the wrong joints sliding, where the secants see the model's own
+    /// moves, and the secants over single motors miss how a half's cables
+    /// act together where the tangents do not. The exact tangent falls
+    /// back on the secants only (without friction the slip-onset tangent
+    /// is the exact one).
+    pub fn fallbacks(self) -> &'static [SensitivityKind] {
         match self {
-            SensitivityKind::Tangent => SensitivityKind::Secant,
-            SensitivityKind::Secant | SensitivityKind::Auto => SensitivityKind::Tangent,
+            SensitivityKind::Tangent => &[SensitivityKind::Secant],
+            SensitivityKind::SlipOnset | SensitivityKind::SlidingTangent => {
+                &[SensitivityKind::Secant, SensitivityKind::Tangent]
+            }
+            SensitivityKind::Secant | SensitivityKind::Auto => {
+                &[SensitivityKind::SlipOnset, SensitivityKind::Tangent]
+            }
         }
     }
 }
@@ -218,5 +248,36 @@ impl Weights {
             n if n == pairs => Some(self.gap.clone()),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whatever kind a planner starts from, its fallbacks reach the
+    /// secants (the model's own moves) and a tangent, never repeat the
+    /// first kind, and never hold `Auto`: a linearisation that cannot be
+    /// computed or confirmed leaves another to try.
+    #[test]
+    fn every_kind_falls_back_to_the_secants_and_a_tangent_without_repeating_itself() {
+        use SensitivityKind::*;
+        for friction in [false, true] {
+            for kind in [Tangent, SlipOnset, SlidingTangent, Secant, Auto] {
+                let first = kind.resolve(friction);
+                assert_ne!(first, Auto);
+                let rest = first.fallbacks();
+                assert!(!rest.contains(&first) && !rest.contains(&Auto), "{first:?}");
+                let all: Vec<_> = std::iter::once(first).chain(rest.iter().copied()).collect();
+                assert!(all.contains(&Secant), "{all:?}");
+                assert!(
+                    all.iter()
+                        .any(|k| matches!(k, Tangent | SlipOnset | SlidingTangent)),
+                    "{all:?}"
+                );
+            }
+        }
+        assert_eq!(Auto.resolve(false), Tangent);
+        assert_eq!(Auto.resolve(true), SlidingTangent);
     }
 }

@@ -1,0 +1,39 @@
+//! The description of one parameter of an effect or a local fault: name,
+//! unit, neutral value, plausible and admissible ranges.
+
+/// One parameter of an effect ([`super::effects`]) or a local fault
+/// ([`super::faults`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParameterSpec {
+    /// Name, as in model files.
+    pub name: &'static str,
+    /// Unit.
+    pub unit: &'static str,
+    /// The value that leaves the model as without the effect.
+    pub neutral: f64,
+    /// Plausible range for the real structure (a fit outside it is
+    /// suspect; a synthetic truth draws from it).
+    pub plausible: (f64, f64),
+    /// Physically admissible range (what [`super::Effects::validate`] and
+    /// [`super::Faults::validate`] accept).
+    pub admissible: (f64, f64),
+}
+
+impl ParameterSpec {
+    /// Why `value` is not admissible ([`Self::admissible`], and finite);
+    /// `None` if it is.
+    pub fn admissible_reason(&self, value: f64) -> Option<String> {
+        let (lo, hi) = self.admissible;
+        if !value.is_finite() {
+            Some(format!("must be a finite number, got {value}"))
+        } else if value < lo || value > hi {
+            Some(match (lo.is_finite(), hi.is_finite()) {
+                (true, true) => format!("must lie in [{lo}, {hi}], got {value}"),
+                (true, false) => format!("must be ≥ {lo}, got {value}"),
+                _ => format!("must be ≤ {hi}, got {value}"),
+            })
+        } else {
+            None
+        }
+    }
+}
