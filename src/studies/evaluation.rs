@@ -513,8 +513,31 @@ impl Scenario {
     /// `base` with this scenario's start fold on `structure`: every
     /// motor at `fold_m`, or, with uneven folds, the motors whose cable
     /// starts in half B at `fold_b_m` (a structure without two halves
-    /// folds evenly).
+    /// folds evenly). A motor's stroke is widened to its start where the
+    /// fold lies beyond it: the folded start is a payout the drum reached,
+    /// so its stroke holds it (a distribution drawing 60 cm folds against
+    /// the default 50 cm stroke would otherwise never start those runs).
     pub fn problem(&self, base: &DeploymentProblem, structure: &Structure) -> DeploymentProblem {
+        let folded = self.folded_problem(base, structure);
+        let motors = structure.continuous_cables.len();
+        let (Some(start), Some(max)) = (
+            folded.start_payout_m.expand(motors),
+            folded.max_payout_m.expand(motors),
+        ) else {
+            // A list of the wrong length: the problem's own check says so.
+            return folded;
+        };
+        if start.iter().zip(&max).all(|(s, m)| s <= m) {
+            return folded;
+        }
+        DeploymentProblem {
+            max_payout_m: PerMotor::Each(start.iter().zip(&max).map(|(s, m)| s.max(*m)).collect()),
+            ..folded
+        }
+    }
+
+    /// `base` with this scenario's start fold (see [`Self::problem`]).
+    fn folded_problem(&self, base: &DeploymentProblem, structure: &Structure) -> DeploymentProblem {
         let start_payout_m = match (self.fold_b_m, node_halves(structure)) {
             (Some(fold_b), Ok(halves)) => PerMotor::Each(
                 structure
@@ -1123,7 +1146,21 @@ mod tests {
                     b.fold_m
                 };
                 assert_eq!(problem.start_payout_m.get(c), Some(want), "{}", cable.id);
+                // The stroke holds the fold the drum reached, and is the
+                // default 0.50 m where the fold lies inside it.
+                assert_eq!(
+                    problem.max_payout_m.get(c),
+                    Some(want.max(0.5)),
+                    "{}",
+                    cable.id
+                );
             }
+            let limits = problem.motor_limits(s.continuous_cables.len()).unwrap();
+            assert!(limits
+                .start_payout_m
+                .iter()
+                .zip(&limits.max_payout_m)
+                .all(|(p, m)| p <= m));
         }
         // With probability 0.3, about a third of the scenarios have each.
         let some = with_faults_and_uneven_folds(0.3);
