@@ -577,7 +577,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.starts_with("w.toml: line 62, field `faults.drum_zero_error.probability`"),
+            e.starts_with("w.toml: line 61, field `faults.drum_zero_error.probability`"),
             "{e}"
         );
         let bad = text.replace("offset_m = [-0.015, 0.015]", "offset = [-0.015, 0.015]");
@@ -586,7 +586,7 @@ mod tests {
             .to_string();
         assert!(
             e.starts_with(
-                "w.toml: line 63, field `faults.drum_zero_error.offset`: unknown parameter"
+                "w.toml: line 62, field `faults.drum_zero_error.offset`: unknown parameter"
             ),
             "{e}"
         );

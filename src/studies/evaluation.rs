@@ -41,6 +41,7 @@ use super::statistics::{mcnemar_exact_p, median, percentile, scenario_seed, wils
 use crate::control::{deploy_closed_loop, ClosedLoopSetup, Deployment};
 use crate::learn::{Case, CaseMemory};
 use crate::model::faults::node_halves;
+use crate::model::parameter_spec::ParameterSpec;
 use crate::model::{EffectKind, Effects, FaultKind, Faults, ForwardModel, Half, Structure};
 use crate::numerics::NumberRange;
 use crate::plan::{DeploymentProblem, PerMotor, Policy};
@@ -205,16 +206,6 @@ impl ScenarioDistribution {
     /// temperature range: without one the effect would silently do
     /// nothing (the truth at its reference temperature).
     pub fn validate(&self) -> Result<(), DistributionError> {
-        let range = |field: String, [a, b]: [f64; 2], within: NumberRange| {
-            if within.contains(a) && within.contains(b) && a <= b {
-                Ok(())
-            } else {
-                Err(DistributionError {
-                    field,
-                    reason: format!("[{a}, {b}] is not a range [low, high] within {within}"),
-                })
-            }
-        };
         for (name, params) in &self.effects {
             let kind = EffectKind::ALL
                 .into_iter()
@@ -226,33 +217,13 @@ impl ScenarioDistribution {
                         EffectKind::ALL.map(|k| k.name()).join(", ")
                     ),
                 })?;
-            for p in params.keys() {
-                if !kind.parameters().iter().any(|s| s.name == p) {
-                    return Err(DistributionError {
-                        field: format!("effects.{name}.{p}"),
-                        reason: format!(
-                            "unknown parameter of {name} (its parameters: {})",
-                            kind.parameters()
-                                .iter()
-                                .map(|s| s.name)
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ),
-                    });
-                }
-            }
-            for spec in kind.parameters() {
-                let field = format!("effects.{name}.{}", spec.name);
-                let r = params.get(spec.name).ok_or_else(|| DistributionError {
-                    field: field.clone(),
-                    reason: "missing: give every parameter of a hidden effect".into(),
-                })?;
-                range(
-                    field,
-                    *r,
-                    NumberRange::closed(spec.admissible.0, spec.admissible.1),
-                )?;
-            }
+            check_parameter_ranges(
+                &format!("effects.{name}"),
+                kind.parameters(),
+                params,
+                "",
+                "hidden effect",
+            )?;
         }
         for (field, r, within) in self.ranges() {
             if let Some(r) = r {
@@ -284,36 +255,13 @@ impl ScenarioDistribution {
                     reason: format!("{} is not a probability in [0, 1]", fault.probability),
                 });
             }
-            for p in fault.parameters.keys() {
-                if !kind.parameters().iter().any(|s| s.name == p) {
-                    return Err(DistributionError {
-                        field: format!("faults.{name}.{p}"),
-                        reason: format!(
-                            "unknown parameter of {name} (its parameters: probability, {})",
-                            kind.parameters()
-                                .iter()
-                                .map(|s| s.name)
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ),
-                    });
-                }
-            }
-            for spec in kind.parameters() {
-                let field = format!("faults.{name}.{}", spec.name);
-                let r = fault
-                    .parameters
-                    .get(spec.name)
-                    .ok_or_else(|| DistributionError {
-                        field: field.clone(),
-                        reason: "missing: give every parameter of a drawn fault".into(),
-                    })?;
-                range(
-                    field,
-                    *r,
-                    NumberRange::closed(spec.admissible.0, spec.admissible.1),
-                )?;
-            }
+            check_parameter_ranges(
+                &format!("faults.{name}"),
+                kind.parameters(),
+                &fault.parameters,
+                "probability, ",
+                "drawn fault",
+            )?;
         }
         Ok(())
     }
@@ -433,6 +381,59 @@ impl ScenarioDistribution {
         }
         names
     }
+}
+
+/// `Ok` if `[a, b]` is a range `low ≤ high` inside `within`, else the
+/// error on `field`.
+fn range(field: String, [a, b]: [f64; 2], within: NumberRange) -> Result<(), DistributionError> {
+    if within.contains(a) && within.contains(b) && a <= b {
+        Ok(())
+    } else {
+        Err(DistributionError {
+            field,
+            reason: format!("[{a}, {b}] is not a range [low, high] within {within}"),
+        })
+    }
+}
+
+/// Checks the parameter table `params` of an effect or fault at `section`
+/// (`effects.motor`): every key one of `specs` (`other_keys` lists the
+/// section's keys besides its parameters, for the message), every
+/// parameter given, each range inside its admissible range. `what` names
+/// the section in the message for a missing parameter.
+fn check_parameter_ranges(
+    section: &str,
+    specs: &[ParameterSpec],
+    params: &BTreeMap<String, [f64; 2]>,
+    other_keys: &str,
+    what: &str,
+) -> Result<(), DistributionError> {
+    for p in params.keys() {
+        if !specs.iter().any(|s| s.name == p) {
+            let names: Vec<&str> = specs.iter().map(|s| s.name).collect();
+            return Err(DistributionError {
+                field: format!("{section}.{p}"),
+                reason: format!(
+                    "unknown parameter of {} (its parameters: {other_keys}{})",
+                    section.rsplit('.').next().unwrap_or(section),
+                    names.join(", ")
+                ),
+            });
+        }
+    }
+    for spec in specs {
+        let field = format!("{section}.{}", spec.name);
+        let r = params.get(spec.name).ok_or_else(|| DistributionError {
+            field: field.clone(),
+            reason: format!("missing: give every parameter of a {what}"),
+        })?;
+        range(
+            field,
+            *r,
+            NumberRange::closed(spec.admissible.0, spec.admissible.1),
+        )?;
+    }
+    Ok(())
 }
 
 /// One scenario: its seed and everything drawn for it.
