@@ -40,18 +40,31 @@ impl DeployObserver for Seen {
 /// controller, default problem and policy, with `sensors` (the standard
 /// layout when `None`).
 fn deploy(sensors: Option<Vec<Sensor>>, observer: &mut dyn DeployObserver) -> Deployment {
-    let model = frictionless_reference_model();
     let truth = default_truth(reference_structure());
     let sensors = sensors.unwrap_or_else(|| standard_sensors(&truth.structure));
     let (problem, policy) = (DeploymentProblem::default(), Policy::default());
+    deploy_on(&truth, &sensors, &problem, &policy, 1, observer)
+}
+
+/// A closed-loop deployment of `truth` read by `sensors`, the controller
+/// planning on the frictionless reference model.
+fn deploy_on(
+    truth: &EffectModel,
+    sensors: &[Sensor],
+    problem: &DeploymentProblem,
+    policy: &Policy,
+    seed: u64,
+    observer: &mut dyn DeployObserver,
+) -> Deployment {
+    let model = frictionless_reference_model();
     let setup = ClosedLoopSetup {
         model: &model,
-        problem: &problem,
-        policy: &policy,
-        truth: &truth,
-        sensors: &sensors,
+        problem,
+        policy,
+        truth,
+        sensors,
         temperature_c: None,
-        seed: 1,
+        seed,
     };
     deploy_closed_loop(&setup, observer).unwrap()
 }
@@ -396,24 +409,20 @@ fn bad_policy_and_problem_files_exit_2_naming_file_line_and_field() {
 /// Deploys a truth hiding `effects` (parameters per kind, in the effects
 /// library's order) with the default controller, or with `policy`.
 fn deploy_hidden(effects: &[(EffectKind, &[f64])], policy: &Policy) -> Deployment {
-    let model = frictionless_reference_model();
     let mut hidden = Effects::default();
     for (kind, values) in effects {
         hidden = hidden.with_parameters(*kind, values);
     }
     let truth = EffectModel::for_measurement(reference_structure(), hidden);
     let sensors = standard_sensors(&truth.structure);
-    let problem = DeploymentProblem::default();
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
+    deploy_on(
+        &truth,
+        &sensors,
+        &DeploymentProblem::default(),
         policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: None,
-        seed: 9,
-    };
-    deploy_closed_loop(&setup, &mut ()).unwrap()
+        9,
+        &mut (),
+    )
 }
 
 fn broken_limits(d: &Deployment) -> usize {
@@ -605,24 +614,13 @@ fn a_run_that_broke_limits_is_not_connected() {
 /// restored.
 #[test]
 fn a_limit_broken_at_the_start_is_reported_with_whether_the_run_restored_it() {
-    let model = frictionless_reference_model();
     let truth = default_truth(reference_structure());
     let sensors = standard_sensors(&truth.structure);
     let problem = DeploymentProblem {
         min_tension_n: 10.0,
         ..DeploymentProblem::default()
     };
-    let policy = Policy::default();
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy: &policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: None,
-        seed: 1,
-    };
-    let d = deploy_closed_loop(&setup, &mut ()).unwrap();
+    let d = deploy_on(&truth, &sensors, &problem, &Policy::default(), 1, &mut ());
     assert!(!d.truth_start_broken.is_empty());
     let end = tensegrity_deploy::plan::limits::force_rows(
         &truth.forward_model().unwrap(),
@@ -660,7 +658,6 @@ fn a_limit_broken_at_the_start_is_reported_with_whether_the_run_restored_it() {
 /// seeds 2 and 3 stop safely on a `cc1` segment).
 #[test]
 fn folds_of_48_and_50_cm_connect_or_stop_safely_without_breaking_a_limit() {
-    let model = frictionless_reference_model();
     let truth = default_truth(reference_structure());
     let sensors = standard_sensors(&truth.structure);
     let policy = Policy::default();
@@ -677,16 +674,7 @@ fn folds_of_48_and_50_cm_connect_or_stop_safely_without_breaking_a_limit() {
             max_payout_m: tensegrity_deploy::plan::PerMotor::All(0.7),
             ..DeploymentProblem::default()
         };
-        let setup = ClosedLoopSetup {
-            model: &model,
-            problem: &problem,
-            policy: &policy,
-            truth: &truth,
-            sensors: &sensors,
-            temperature_c: None,
-            seed,
-        };
-        let d = deploy_closed_loop(&setup, &mut ()).unwrap();
+        let d = deploy_on(&truth, &sensors, &problem, &policy, seed, &mut ());
         let v = d.verdict(problem.connection_tolerance_m);
         let words = format!("fold {fold_m} seed {seed}: {}", v.describe());
         assert_eq!(v.violations, 0, "{words}");
