@@ -47,8 +47,11 @@ pub enum SensitivityKind {
     Secant,
     /// The tangent on a frictionless model (where it is the exact
     /// response, and the deployment experiment connects 100 % of its
-    /// scenarios against 88 % with secants), the slip-onset tangent on a
-    /// model with joint friction (see [`SensitivityKind::SlipOnset`]).
+    /// scenarios against 88 % with secants), the sliding-limit tangent
+    /// ([`SensitivityKind::SlidingTangent`]) on a model with joint
+    /// friction: the model error it covers is the stick-slip the exact
+    /// one-sided tangent cannot see (at a state where every joint sticks it
+    /// says nothing slides, far too stiff for a 5 cm command).
     Auto,
 }
 
