@@ -33,7 +33,7 @@ use tensegrity_deploy::studies::evaluation::{
     evaluate, EvaluationSetup, ScenarioDistribution, Shard,
 };
 
-use super::evaluation_table::print_and_write;
+use super::evaluation_table::{all_policies, print_and_write};
 use super::inputs::{planning_model, policy_or_default, problem_or_default};
 use super::progress::{Progress, Unit};
 use super::{value, with_threads, Outcome};
@@ -198,17 +198,14 @@ pub fn run(o: &Options) -> Result<Outcome> {
     })?;
     progress.finish();
     let runs = EvaluationRuns::new(&distribution, names, &scenarios, results);
-    let violations = print_and_write(&record, &runs, folder.path())?;
+    let limits = print_and_write(&record, &runs, folder.path())?;
     folder.commit()?;
     say!(
         "results in {} (evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg; planning times in timing.csv)",
         o.out.display()
     );
-    Ok(if violations == 0 {
-        Outcome::GoalReached
-    } else {
-        Outcome::GoalMissed(format!(
-            "{violations} truth limit violations over the runs (must be 0)"
-        ))
+    Ok(match all_policies(&limits).failure() {
+        None => Outcome::GoalReached,
+        Some(why) => Outcome::GoalMissed(why),
     })
 }

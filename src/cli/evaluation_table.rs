@@ -11,6 +11,7 @@ use anyhow::Result;
 use tensegrity_deploy::io::evaluation_files::{EvaluationRecord, EvaluationRuns};
 use tensegrity_deploy::io::evaluation_summary::write_evaluation;
 use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::plan::RunOutcome;
 use tensegrity_deploy::report::evaluation_figure::evaluation_svg;
 use tensegrity_deploy::studies::evaluation::{
     first_against_others, summarise_results, PolicySummary,
@@ -26,13 +27,45 @@ fn num(v: Option<f64>, digits: usize) -> String {
     v.map_or("-".into(), |x| format!("{x:.digits$}"))
 }
 
+/// What the truth's limits came to over one policy's runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TruthLimits {
+    /// Truth limit violations (increments that broke a limit), over the runs.
+    pub violations: usize,
+    /// Runs that ended with a limit the fold had broken still broken
+    /// (`limits_not_restored`): no increment broke it, but the run left it.
+    pub not_restored: usize,
+}
+
+impl TruthLimits {
+    /// Why the runs fail the evaluation's standard (every truth limit kept
+    /// and every start-broken one restored), or `None`.
+    pub fn failure(&self) -> Option<String> {
+        (self.violations > 0 || self.not_restored > 0).then(|| {
+            format!(
+                "{} truth limit violations over the runs, {} runs left a limit the fold broke unrestored (both must be 0)",
+                self.violations, self.not_restored
+            )
+        })
+    }
+}
+
+/// The [`TruthLimits`] of every policy together.
+pub fn all_policies(limits: &[TruthLimits]) -> TruthLimits {
+    TruthLimits {
+        violations: limits.iter().map(|l| l.violations).sum(),
+        not_restored: limits.iter().map(|l| l.not_restored).sum(),
+    }
+}
+
 /// Prints the summary of `runs` and writes every file of the set into
-/// `folder` (which must exist). Returns how many runs broke a truth limit.
+/// `folder` (which must exist). Returns what the truth's limits came to,
+/// per policy.
 pub fn print_and_write(
     record: &EvaluationRecord,
     runs: &EvaluationRuns,
     folder: &Path,
-) -> Result<usize> {
+) -> Result<Vec<TruthLimits>> {
     let names = &runs.policy_names;
     let summaries: Vec<PolicySummary> = (0..names.len())
         .map(|p| summarise_results(&runs.results, p))
@@ -91,5 +124,19 @@ pub fn print_and_write(
     let svg = evaluation_svg(names, &summaries, runs.scenarios.len())?;
     write_evaluation(folder, record, runs, &summaries, &pairs)?;
     write_atomically(&folder.join("evaluation.svg"), svg.as_bytes())?;
-    Ok(summaries.iter().map(|s| s.violations).sum())
+    Ok(summaries
+        .iter()
+        .enumerate()
+        .map(|(p, s)| TruthLimits {
+            violations: s.violations,
+            not_restored: runs
+                .results
+                .iter()
+                .filter(|r| {
+                    r.policy == p
+                        && RunOutcome::LimitsNotRestored.label() == Some(r.status.as_str())
+                })
+                .count(),
+        })
+        .collect())
 }

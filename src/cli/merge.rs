@@ -20,7 +20,7 @@ use tensegrity_deploy::io::evaluation_files::{
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::studies::evaluation::Shard;
 
-use super::evaluation_table::print_and_write;
+use super::evaluation_table::{all_policies, print_and_write};
 use super::{value, Outcome};
 
 /// The `merge` subcommand's arguments.
@@ -152,14 +152,11 @@ pub fn run(o: &Options) -> Result<Outcome> {
         runs.scenarios.len(),
         runs.policy_names.len()
     );
-    let violations = print_and_write(&whole, &runs, folder.path())?;
+    let limits = print_and_write(&whole, &runs, folder.path())?;
     folder.commit()?;
     say!("results in {}", o.out.display());
-    Ok(if violations == 0 {
-        Outcome::GoalReached
-    } else {
-        Outcome::GoalMissed(format!(
-            "{violations} truth limit violations over the runs (must be 0)"
-        ))
+    Ok(match all_policies(&limits).failure() {
+        None => Outcome::GoalReached,
+        Some(why) => Outcome::GoalMissed(why),
     })
 }

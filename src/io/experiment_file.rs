@@ -150,7 +150,10 @@ pub struct FrictionEffectExperiment {
 /// Policies on the same seeded deployment scenarios.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeploymentExperiment {
-    /// Policy files, resolved against the experiment file's folder.
+    /// Policy files, resolved against the experiment file's folder. The
+    /// first is the policy under test: the experiment exits 1 if its runs
+    /// broke a truth limit or left one the fold broke unrestored; the
+    /// others are baselines to compare with.
     pub policies: Vec<PathBuf>,
     /// Number of scenarios.
     pub scenarios: usize,

@@ -100,6 +100,20 @@ pub enum RunOutcome {
     LimitsNotRestored,
 }
 
+impl RunOutcome {
+    /// The label the tables write for this outcome; `None` for
+    /// [`RunOutcome::Stopped`], which writes the controller's status.
+    pub fn label(self) -> Option<&'static str> {
+        match self {
+            RunOutcome::Connected => Some("connected"),
+            RunOutcome::LimitsBroken => Some("limits_broken"),
+            RunOutcome::Stopped => None,
+            RunOutcome::GapOutOfTolerance => Some("gap_out_of_tolerance"),
+            RunOutcome::LimitsNotRestored => Some("limits_not_restored"),
+        }
+    }
+}
+
 /// The verdict on one run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunVerdict {
@@ -166,13 +180,7 @@ impl RunVerdict {
     /// controller's stop ([`PlanStatus::label`]), `gap_out_of_tolerance`
     /// or `limits_not_restored`.
     pub fn label(&self) -> &'static str {
-        match self.outcome() {
-            RunOutcome::Connected => "connected",
-            RunOutcome::LimitsBroken => "limits_broken",
-            RunOutcome::Stopped => self.status.label(),
-            RunOutcome::GapOutOfTolerance => "gap_out_of_tolerance",
-            RunOutcome::LimitsNotRestored => "limits_not_restored",
-        }
+        self.outcome().label().unwrap_or(self.status.label())
     }
 
     /// Plain words naming what decided the verdict, e.g. `connected, but
