@@ -31,6 +31,9 @@ fn tiny(limits: Vec<LinearLimit>) -> StepData {
         // different (friction) rate; motor 1 moves y only.
         gap_pay_out: DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 0.5, 0.0, 0.0]),
         gap_reel_in: DMatrix::from_row_slice(3, 2, &[2.0, 0.0, 0.0, 0.4, 0.0, 0.0]),
+        design_offsets_m: vec![],
+        design_pay_out: DMatrix::zeros(0, 2),
+        design_reel_in: DMatrix::zeros(0, 2),
         limits,
         payout_m: vec![0.3, 0.3],
         min_payout_m: vec![-0.1, -0.1],
@@ -42,6 +45,7 @@ fn tiny(limits: Vec<LinearLimit>) -> StepData {
 }
 
 const WEIGHTS: StepWeights = StepWeights {
+    design_position: 0.0,
     regularisation: 1e-5,
     split_penalty: 1e-6,
     soft_limit_penalty: None,

@@ -240,6 +240,7 @@ impl PolicyV1 {
                     trust_region: self.trust_region.unwrap_or(qp.trust_region),
                     weights: Weights {
                         gap: w.gap.unwrap_or(qp.weights.gap),
+                        design_position: qp.weights.design_position,
                         regularisation: w.regularisation.unwrap_or(qp.weights.regularisation),
                         split_penalty: w.split_penalty.unwrap_or(qp.weights.split_penalty),
                         soft_limit_penalty: w

@@ -32,6 +32,13 @@ pub struct PlanContext<'a> {
     pub limits: Limits,
     /// Weight of each midspan pair's squared gap.
     pub gap_weights: Vec<f64>,
+    /// The midspan nodes, pair by pair (first node, then second).
+    pub design_nodes: Vec<usize>,
+    /// Their designed positions: the model's reference state, m.
+    pub design_positions_m: Vec<nalgebra::Vector3<f64>>,
+    /// Weight η of their squared offsets from the design in the merit
+    /// (the QP planner's `design_position`; 0 for other planners).
+    pub design_weight: f64,
     /// Offsets from the last measurement added to every prediction
     /// (zeros open loop; see [`ModelCorrection`]).
     pub correction: ModelCorrection,
@@ -63,6 +70,12 @@ impl<'a> PlanContext<'a> {
             })?;
         let correction =
             ModelCorrection::none(s.midspan_pairs.len(), s.members.len() + s.segment_count());
+        let design_nodes: Vec<usize> = s.midspan_pairs.iter().flatten().copied().collect();
+        let design = model.reference_state();
+        let design_positions_m = design_nodes
+            .iter()
+            .map(|n| design.positions_m[*n])
+            .collect();
         Ok(PlanContext {
             model,
             problem,
@@ -70,6 +83,9 @@ impl<'a> PlanContext<'a> {
             motors,
             limits: Limits::new(model, problem, start),
             gap_weights,
+            design_nodes,
+            design_positions_m,
+            design_weight: policy.design_position_weight(),
             correction,
         })
     }
@@ -93,12 +109,35 @@ impl<'a> PlanContext<'a> {
         self.gap_vectors(state).iter().map(|g| g.norm()).collect()
     }
 
-    /// Weighted sum of squared gaps, m²: the merit the QP planner reduces.
-    pub fn gap_merit(&self, gaps: &[nalgebra::Vector3<f64>]) -> f64 {
-        gaps.iter()
+    /// Offset of each midspan node ([`Self::design_nodes`]) from its
+    /// designed position in `state`, m.
+    pub fn design_offsets(&self, state: &DeploymentState) -> Vec<nalgebra::Vector3<f64>> {
+        self.design_nodes
+            .iter()
+            .zip(&self.design_positions_m)
+            .map(|(n, d)| state.positions_m[*n] - d)
+            .collect()
+    }
+
+    /// The merit the QP planner reduces, m²: the weighted sum of squared
+    /// `gaps` plus η times the squared midspan `offsets` from the design.
+    pub fn merit(
+        &self,
+        gaps: &[nalgebra::Vector3<f64>],
+        offsets: &[nalgebra::Vector3<f64>],
+    ) -> f64 {
+        let gap: f64 = gaps
+            .iter()
             .zip(&self.gap_weights)
             .map(|(g, w)| w * g.norm_squared())
-            .sum()
+            .sum();
+        let design: f64 = offsets.iter().map(|d| d.norm_squared()).sum();
+        gap + self.design_weight * design
+    }
+
+    /// [`Self::merit`] of `state`, m².
+    pub fn state_merit(&self, state: &DeploymentState) -> f64 {
+        self.merit(&self.gap_vectors(state), &self.design_offsets(state))
     }
 
     /// Holds every start-broken limit that `state` (the end of a command,

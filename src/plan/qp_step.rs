@@ -6,11 +6,23 @@
 //! (3 rows per midspan pair) and `g` the current gap vectors:
 //!
 //! ```text
-//! minimise   Σ_pairs w_p ‖g_p + G⁺_p u⁺ − G⁻_p u⁻‖²  +  ρ‖u‖²  +  κ·Σ(u⁺ + u⁻)
+//! minimise   Σ_pairs w_p ‖g_p + G⁺_p u⁺ − G⁻_p u⁻‖²
+//!            + η Σ_nodes ‖d_n + D⁺_n u⁺ − D⁻_n u⁻‖²  +  ρ‖u‖²  +  κ·Σ(u⁺ + u⁻)
 //! subject to lower_i ≤ f_i + a⁺_i u⁺ − a⁻_i u⁻ ≤ upper_i     (member limits, clearances)
 //!            min_c ≤ p_c + u⁺_c − u⁻_c ≤ max_c              (motor stroke)
 //!            0 ≤ u±_c ≤ min(Δ, max_step_c)                  (per-command limit, trust region)
 //! ```
+//! The gaps are relative: the two halves' midspan nodes can meet anywhere,
+//! and far from the design the steepest way to close a gap is often to
+//! pay one half *out* towards the other (an uneven fold: the less folded
+//! half sags back to meet the more folded one), which slackens that
+//! half's cables and leads away from the only place the halves connect
+//! with every member in its designed prestress. The η term, on each
+//! midspan node's offset `d_n` from its designed position (responses
+//! `D±`), makes the step close the gaps by moving both halves towards the
+//! design; it vanishes where the gaps do in the designed state, so it
+//! does not move the connection (see [`StepWeights::design_position`]).
+//!
 //! The small κ keeps the QP from using both directions of one motor at
 //! once; should it still do so (the two one-sided slopes differ, so a
 //! net-zero pair could look useful), the step is solved again with each
@@ -62,6 +74,13 @@ pub struct StepData {
     pub gap_pay_out: DMatrix<f64>,
     /// d(gap)/dp for reeling in, same shape.
     pub gap_reel_in: DMatrix<f64>,
+    /// Offset of each midspan node (both halves, pair by pair) from its
+    /// designed position, m.
+    pub design_offsets_m: Vec<Vector3<f64>>,
+    /// d(offset)/dp for paying out: 3 rows per node, one column per motor.
+    pub design_pay_out: DMatrix<f64>,
+    /// d(offset)/dp for reeling in, same shape.
+    pub design_reel_in: DMatrix<f64>,
     /// Linearised limits.
     pub limits: Vec<LinearLimit>,
     /// Current payout of each motor, m.
@@ -81,6 +100,9 @@ pub struct StepData {
 /// Weights of the step's objective.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepWeights {
+    /// η on the midspan nodes' squared offsets from their designed
+    /// positions, relative to a gap weight of 1 (see the module notes).
+    pub design_position: f64,
     /// ρ on ‖u‖², dimensionless (gaps and commands both in m).
     pub regularisation: f64,
     /// κ on Σ(u⁺ + u⁻), m.
@@ -172,15 +194,31 @@ pub fn formulate(
     let n = data.payout_m.len();
     let n_lim = data.limits.len();
     let nv = 2 * n + if softened { n_lim } else { 0 };
-    // J = [G⁺, −G⁻], W per row.
-    let mut j = DMatrix::zeros(data.gap_pay_out.nrows(), 2 * n);
-    j.columns_mut(0, n).copy_from(&data.gap_pay_out);
-    j.columns_mut(n, n).copy_from(&(-&data.gap_reel_in));
+    // J = [G⁺, −G⁻; D⁺, −D⁻], W per row.
+    let (gap_rows, design_rows) = (data.gap_pay_out.nrows(), data.design_pay_out.nrows());
+    let mut j = DMatrix::zeros(gap_rows + design_rows, 2 * n);
+    j.view_mut((0, 0), (gap_rows, n))
+        .copy_from(&data.gap_pay_out);
+    j.view_mut((0, n), (gap_rows, n))
+        .copy_from(&(-&data.gap_reel_in));
+    j.view_mut((gap_rows, 0), (design_rows, n))
+        .copy_from(&data.design_pay_out);
+    j.view_mut((gap_rows, n), (design_rows, n))
+        .copy_from(&(-&data.design_reel_in));
     let g = DVector::from_iterator(
-        3 * data.gaps_m.len(),
-        data.gaps_m.iter().flat_map(|v| v.iter().copied()),
+        gap_rows + design_rows,
+        data.gaps_m
+            .iter()
+            .chain(&data.design_offsets_m)
+            .flat_map(|v| v.iter().copied()),
     );
-    let w = DVector::from_iterator(g.len(), data.gap_weights.iter().flat_map(|w| [*w; 3]));
+    let w = DVector::from_iterator(
+        g.len(),
+        data.gap_weights
+            .iter()
+            .flat_map(|w| [*w; 3])
+            .chain(std::iter::repeat_n(weights.design_position, design_rows)),
+    );
     let wj = DMatrix::from_fn(j.nrows(), j.ncols(), |r, c| w[r] * j[(r, c)]);
     let mut hessian = DMatrix::zeros(nv, nv);
     let jwj = j.transpose() * &wj;
@@ -349,6 +387,9 @@ pub struct QpStep {
     pub command_m: Vec<f64>,
     /// Gap vectors the linear model predicts after the command, m.
     pub predicted_gaps_m: Vec<Vector3<f64>>,
+    /// Midspan node offsets from the design the linear model predicts
+    /// after the command, m.
+    pub predicted_design_offsets_m: Vec<Vector3<f64>>,
     /// Names of the constraints active at the solution (non-negativity
     /// rows left out).
     pub active_constraints: Vec<String>,
@@ -373,17 +414,34 @@ pub fn step_solver_settings() -> QpSettings {
 /// Predicted gap vectors after net commands `command_m`, each motor with
 /// the slope of its own direction, m.
 pub fn predicted_gaps(data: &StepData, command_m: &[f64]) -> Vec<Vector3<f64>> {
-    data.gaps_m
-        .iter()
+    predicted_vectors(&data.gaps_m, &data.gap_pay_out, &data.gap_reel_in, command_m)
+}
+
+/// Predicted midspan node offsets from the design after net commands
+/// `command_m`, each motor with the slope of its own direction, m.
+pub fn predicted_design_offsets(data: &StepData, command_m: &[f64]) -> Vec<Vector3<f64>> {
+    predicted_vectors(
+        &data.design_offsets_m,
+        &data.design_pay_out,
+        &data.design_reel_in,
+        command_m,
+    )
+}
+
+/// `now` (3-vectors) moved linearly by `command_m`, with the `pay_out`
+/// or `reel_in` column of each motor's direction (3 rows per vector).
+fn predicted_vectors(
+    now: &[Vector3<f64>],
+    pay_out: &DMatrix<f64>,
+    reel_in: &DMatrix<f64>,
+    command_m: &[f64],
+) -> Vec<Vector3<f64>> {
+    now.iter()
         .enumerate()
         .map(|(p, g)| {
             let mut out = *g;
             for (c, &d) in command_m.iter().enumerate() {
-                let m = if d >= 0.0 {
-                    &data.gap_pay_out
-                } else {
-                    &data.gap_reel_in
-                };
+                let m = if d >= 0.0 { pay_out } else { reel_in };
                 for k in 0..3 {
                     out[k] += d * m[(3 * p + k, c)];
                 }
@@ -454,6 +512,7 @@ pub fn solve_step(data: &StepData, weights: &StepWeights, settings: &QpSettings)
         status,
         command_m: vec![0.0; n],
         predicted_gaps_m: data.gaps_m.clone(),
+        predicted_design_offsets_m: data.design_offsets_m.clone(),
         active_constraints: vec![],
         qp_solves,
     };
@@ -528,6 +587,7 @@ pub fn solve_step(data: &StepData, weights: &StepWeights, settings: &QpSettings)
     QpStep {
         status,
         predicted_gaps_m: predicted_gaps(data, &command_m),
+        predicted_design_offsets_m: predicted_design_offsets(data, &command_m),
         active_constraints: active_names(&f, data, &x),
         command_m,
         qp_solves: solves,

@@ -427,6 +427,25 @@ impl PayoutResponse {
         }
         m
     }
+
+    /// d(position)/dp of `nodes`, for paying out or reeling in: 3 rows per
+    /// node, one column per motor.
+    pub fn node_matrix(&self, nodes: &[usize], pay_out: bool) -> DMatrix<f64> {
+        let effects = if pay_out {
+            &self.pay_out
+        } else {
+            &self.reel_in
+        };
+        let mut m = DMatrix::zeros(3 * nodes.len(), effects.len());
+        for (c, e) in effects.iter().enumerate() {
+            for (i, n) in nodes.iter().enumerate() {
+                for k in 0..3 {
+                    m[(3 * i + k, c)] = e.positions_m_per_m[*n][k];
+                }
+            }
+        }
+        m
+    }
 }
 
 #[cfg(test)]

@@ -4,7 +4,8 @@
 //! no limit at any increment; otherwise shrink the region and plan again
 //! from the same linearisation. Re-linearise after every accepted step.
 //!
-//! Acceptance: with merit `m = Σ w‖g‖²`, the ratio ρ = (m₀ − m_actual) /
+//! Acceptance: with merit `m = Σ w‖g‖² + η Σ‖d‖²` (the QP's objective
+//! without its regularisation: gaps and midspan offsets from the design), the ratio ρ = (m₀ − m_actual) /
 //! (m₀ − m_predicted) decides, by the rule of the QP planner's
 //! [`crate::plan::TrustRegion`], whether the step is accepted and how the
 //! radius changes. The region collapsing below its minimum, or a step
@@ -206,6 +207,9 @@ pub fn step_data(
         gap_weights: context.gap_weights.clone(),
         gap_pay_out: response.pair_matrix(&s.midspan_pairs, true),
         gap_reel_in: response.pair_matrix(&s.midspan_pairs, false),
+        design_offsets_m: context.design_offsets(state),
+        design_pay_out: response.node_matrix(&context.design_nodes, true),
+        design_reel_in: response.node_matrix(&context.design_nodes, false),
         limits,
         payout_m: state.payout_m.clone(),
         min_payout_m: motors.min_payout_m.clone(),
@@ -219,6 +223,7 @@ pub fn step_data(
 /// The step weights of the QP planner's `weights`.
 pub fn step_weights(weights: &Weights) -> StepWeights {
     StepWeights {
+        design_position: weights.design_position,
         regularisation: weights.regularisation,
         split_penalty: weights.split_penalty,
         soft_limit_penalty: weights.soft_limit_penalty,
@@ -374,7 +379,7 @@ impl QpPlanner {
         let tr = self.settings.trust_region;
         let mut data = step_data(context, state, response, self.trust_region_m);
         let weights = step_weights(&self.settings.weights);
-        let merit0 = context.gap_merit(&data.gaps_m);
+        let merit0 = context.merit(&data.gaps_m, &data.design_offsets_m);
         let mut rejected = 0;
         loop {
             data.trust_region_m = self.trust_region_m;
@@ -397,7 +402,8 @@ impl QpPlanner {
                 }
                 _ => {}
             }
-            let predicted = merit0 - context.gap_merit(&step.predicted_gaps_m);
+            let predicted =
+                merit0 - context.merit(&step.predicted_gaps_m, &step.predicted_design_offsets_m);
             let largest = step.command_m.iter().fold(0.0f64, |a, d| a.max(d.abs()));
             if !(predicted > NO_REDUCTION_M2) || largest < 1e-6 {
                 return Err(StepFailure::Unconfirmed(PlanStatus::NotReachable {
@@ -415,7 +421,7 @@ impl QpPlanner {
                 }));
             }
             let trial = context.trial(state, &step.command_m);
-            let actual = merit0 - context.gap_merit(&context.gap_vectors(&trial.state));
+            let actual = merit0 - context.state_merit(&trial.state);
             let ratio = actual / predicted;
             if trial.admissible() && tr.accepts(ratio) {
                 let radius = self.trust_region_m;

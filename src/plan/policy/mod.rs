@@ -155,6 +155,16 @@ impl Policy {
             _ => Weights::default().gap_weights(pairs),
         }
     }
+
+    /// Weight η of the midspan nodes' offsets from the design in the
+    /// merit: the QP planner's `design_position`; 0 for the other
+    /// planners, which reduce the gaps alone.
+    pub fn design_position_weight(&self) -> f64 {
+        match &self.planner {
+            PlannerSettings::Qp(q) => q.weights.design_position,
+            _ => 0.0,
+        }
+    }
 }
 
 #[cfg(test)]
