@@ -2,16 +2,17 @@
 //! what happened at every command: the tool for finding out why a
 //! scenario failed.
 //!
-//! `cargo run --release --example deployment_scenario -- POLICY SEED [--cycles N] [--distribution D.toml] SCENARIO...`
+//! `cargo run --release --example deployment_scenario -- POLICY SEED [--cycles N] [--distribution D.toml] [--model M.toml] SCENARIO...`
 //! (the scenarios of `tdeploy evaluate`: the default distribution or D, each
 //! scenario's fold, sensors and temperature; the controller plans on the
-//! frictionless model). With `--cycles N` every scenario runs N
+//! frictionless model, or on M). With `--cycles N` every scenario runs N
 //! deployment-fold cycles as `tdeploy evaluate --cycles N` does, and each
 //! cycle's commands are printed.
 
 use tensegrity_deploy::control::{deploy_closed_loop, Deployment};
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::evaluation_files::read_distribution;
+use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
@@ -42,8 +43,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         distribution = read_distribution(std::path::Path::new(path))?;
         args.drain(k..k + 2);
     }
+    let mut model = ForwardModel::new(
+        reference_bridge(&BridgeParameters::default())?,
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )?;
+    if let Some(k) = args.iter().position(|a| a == "--model") {
+        let path = args.get(k + 1).ok_or("--model needs a file")?;
+        model = read_model(std::path::Path::new(path))?
+            .measurement_model()?
+            .forward_model()?;
+        args.drain(k..k + 2);
+    }
     if args.len() < 3 {
-        return Err("usage: POLICY SEED [--cycles N] [--distribution D.toml] SCENARIO...".into());
+        return Err(
+            "usage: POLICY SEED [--cycles N] [--distribution D.toml] [--model M.toml] SCENARIO..."
+                .into(),
+        );
     }
     let policy = read_policy(std::path::Path::new(&args[0]))?;
     let seed: u64 = args[1].parse()?;
@@ -51,11 +67,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|a| a.parse())
         .collect::<Result<_, _>>()?;
-    let model = ForwardModel::new(
-        reference_bridge(&BridgeParameters::default())?,
-        JointFriction::frictionless(),
-        RelaxSettings::default(),
-    )?;
     let base_problem = DeploymentProblem::default();
     for s in wanted.iter().map(|&i| distribution.draw(seed, i)) {
         println!("== scenario {} effects {:?}", s.index, s.effects);

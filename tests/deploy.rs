@@ -694,3 +694,36 @@ fn folds_of_48_and_50_cm_connect_or_stop_safely_without_breaking_a_limit() {
         }
     }
 }
+
+/// The uneven fold of the lab (half A folded 45 cm, half B 33 cm) on the
+/// default truth. The gaps-only QP closed the gaps by paying half B out
+/// towards half A, and its cables went slack in the truth (147 violations
+/// on seed 1, 127–146 on seeds 2–3, ending "not reachable"); planning
+/// towards the design (`weights.design_position`) connects on every seed
+/// without breaking a limit. The gaps-only planner is run on seed 1 too,
+/// so that this test fails if the fold stops exercising the flaw.
+#[test]
+fn an_uneven_fold_connects_without_breaking_a_limit() {
+    let truth = default_truth(reference_structure());
+    let sensors = standard_sensors(&truth.structure);
+    let mut fold = vec![0.45; 5];
+    fold.extend([0.33; 5]);
+    let problem = DeploymentProblem {
+        start_payout_m: tensegrity_deploy::plan::PerMotor::Each(fold),
+        ..DeploymentProblem::default()
+    };
+    let policy = Policy::default();
+    for seed in 1..=3 {
+        let d = deploy_on(&truth, &sensors, &problem, &policy, seed, &mut ());
+        let v = d.verdict(problem.connection_tolerance_m);
+        assert!(v.is_connected(), "seed {seed}: {}", v.describe());
+        assert_eq!(v.violations, 0, "seed {seed}: {}", v.describe());
+    }
+    let mut gaps_only = Policy::default();
+    if let tensegrity_deploy::plan::PlannerSettings::Qp(q) = &mut gaps_only.planner {
+        q.weights.design_position = 0.0;
+    }
+    let d = deploy_on(&truth, &sensors, &problem, &gaps_only, 1, &mut ());
+    let v = d.verdict(problem.connection_tolerance_m);
+    assert!(v.violations > 10, "gaps only: {}", v.describe());
+}

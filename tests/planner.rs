@@ -557,3 +557,59 @@ fn a_slack_cable_is_taken_up_before_the_qp_plans_on_it() {
         Decision::Stop(s) => panic!("{}", s.describe()),
     }
 }
+
+/// The gaps are relative: on an uneven fold (half A's midspan node 30 cm
+/// from its design, half B's 20 cm; gap 10 cm) paying half B out closes
+/// the gap as fast as reeling half A in, and the gaps-only step shares
+/// the work, moving half B *away* from the design (the uneven-fold
+/// failure: its cables slackened in the truth). With the design-position
+/// weight the step reels both halves in.
+#[test]
+fn an_uneven_fold_is_closed_towards_the_design_not_by_paying_one_half_out() {
+    // One pair along x; motor 0 moves node a, motor 1 node b, 1 m per m of
+    // payout either way.
+    let motion_a = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let motion_b = DMatrix::from_row_slice(3, 2, &[0.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+    let gap = &motion_a - &motion_b;
+    let mut nodes = DMatrix::zeros(6, 2);
+    nodes.view_mut((0, 0), (3, 2)).copy_from(&motion_a);
+    nodes.view_mut((3, 0), (3, 2)).copy_from(&motion_b);
+    let data = StepData {
+        gaps_m: vec![Vector3::new(0.1, 0.0, 0.0)],
+        gap_weights: vec![1.0],
+        gap_pay_out: gap.clone(),
+        gap_reel_in: gap,
+        design_offsets_m: vec![Vector3::new(0.3, 0.0, 0.0), Vector3::new(0.2, 0.0, 0.0)],
+        design_pay_out: nodes.clone(),
+        design_reel_in: nodes,
+        limits: vec![],
+        payout_m: vec![0.3, 0.2],
+        min_payout_m: vec![-0.1, -0.1],
+        max_payout_m: vec![0.5, 0.5],
+        max_step_m: vec![0.05, 0.05],
+        trust_region_m: 0.04,
+        motor_names: vec!["A".into(), "B".into()],
+    };
+    let gaps_only = solve_step(&data, &WEIGHTS, &step_solver_settings());
+    assert_eq!(gaps_only.status, QpStepStatus::Solved);
+    assert!(gaps_only.command_m[0] < -0.01, "{:?}", gaps_only.command_m);
+    assert!(gaps_only.command_m[1] > 0.01, "{:?}", gaps_only.command_m);
+    let towards_design = StepWeights {
+        design_position: 0.5,
+        ..WEIGHTS
+    };
+    let step = solve_step(&data, &towards_design, &step_solver_settings());
+    assert_eq!(step.status, QpStepStatus::Solved);
+    // Half A reels in at the trust region; half B reels in too, less.
+    assert!(
+        (step.command_m[0] + 0.04).abs() < 1e-6,
+        "{:?}",
+        step.command_m
+    );
+    assert!(step.command_m[1] < 0.0, "{:?}", step.command_m);
+    // The prediction carries the offsets: each node moved by its motor.
+    let d = &step.predicted_design_offsets_m;
+    assert!((d[0].x - (0.3 + step.command_m[0])).abs() < 1e-12);
+    assert!((d[1].x - (0.2 + step.command_m[1])).abs() < 1e-12);
+    assert!(step.predicted_gaps_m[0].x < 0.1);
+}

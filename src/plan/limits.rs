@@ -30,21 +30,32 @@
 //! # Which limits matter
 //! Every upper (overload) limit is a deployment limit, wherever the member
 //! is. The minimum tension is there to keep a member straight and bracing
-//! its nodes. For a member whose two nodes are both fixed in every
-//! direction (with rigid supports: a cable of the abutment ring, joining
-//! two supported joints) no command can change its length, so its force
-//! is a constant of the assembly ([`Limits::fixed_length`]; a test checks
-//! it): a minimum on it is vacuous, and a slack one changes neither the
-//! geometry nor the bracing, since the supports hold both nodes in every
-//! direction. Its minimum is therefore not a deployment limit (its lower
-//! bound is `-inf`; its upper bound is kept). With flexible supports the
-//! same member joins two *elastically* supported nodes (the truth's
-//! supports are free nodes on foundation springs): its force follows the
-//! supports' deformation, and its tension is what holds the abutment ring
-//! together (a test checks that the force changes with the commands).
-//! There its minimum is a deployment limit like any other, and a ring
-//! cable the fold already slackened is a start-broken limit, restored when
-//! the halves deploy.
+//! its nodes, and a continuous cable seated over its joints. It is no
+//! deployment limit for a cable or spring whose two nodes are both *held
+//! by the abutment* in every direction ([`abutment_held_nodes`]): a cable
+//! of the abutment ring, joining two supported joints.
+//! - With rigid supports no command can change its length, so its force is
+//!   a constant of the assembly (a test checks it): a minimum on it is
+//!   vacuous.
+//! - With flexible supports (the truth's supports are free nodes on
+//!   foundation bars of stiffness `1/c`, 20 to 100 kN/m over the plausible
+//!   compliances) its force follows the supports' deformation `c·ΔR`, and
+//!   it does go slack: the folded bridge's reactions differ from the
+//!   as-built ones by hundreds of newtons, and the ring's supports close
+//!   in by millimetres. Measured on the reference bridge
+//!   (`examples/ring_force_probe.rs`, a test checks it): along a uniform
+//!   reel-in from the 40 cm fold the smallest ring cable force is 0 N from
+//!   35 cm to 20 cm of payout at every plausible compliance, already 0.8 N
+//!   in the folded state at 3e-5 m/N, and back at its 300 N design
+//!   prestress at the design. No command sequence the planner finds keeps
+//!   it at 5 N (a planner told of the compliance stops "not reachable" at
+//!   the first command). A slack ring cable is no hazard the deployment
+//!   can cause or avoid: both its nodes stay held in every direction by the
+//!   foundation bars (the truth solves stably with it slack); it is a
+//!   discontinuous cable, seated over no joint; and its ends move by
+//!   millimetres, so it sags by as much. Its minimum is therefore not a
+//!   deployment limit (its lower bound is `-inf`); its upper bound is kept,
+//!   and its force is reported with every other in `deployment.csv`.
 //!
 //! Strut pairs that the designed geometry itself holds closer than the
 //! clearance limit are held only to the smaller of their designed and
@@ -96,9 +107,10 @@ pub struct Limits {
     pub start_n: Vec<f64>,
     /// Per force row, whether the start breaks its required bounds.
     pub start_broken: Vec<bool>,
-    /// Per force row, whether it is a member between two nodes fixed in
-    /// every direction (its force is a constant of the assembly).
-    pub fixed_length: Vec<bool>,
+    /// Per force row, whether it is a tension member between two nodes
+    /// held by the abutment in every direction (no minimum: see the module
+    /// notes).
+    pub between_supports: Vec<bool>,
     /// Euler load per force row, N (`None` except for struts).
     pub euler_n: Vec<Option<f64>>,
     /// Pairs of struts (member indices) that share no joint; the nodes of
@@ -452,6 +464,43 @@ pub fn strut_clearance(
     )
 }
 
+/// Per node, whether the abutment holds it in every direction: it is
+/// fixed in every direction, or struts join it to nodes fixed in every
+/// direction along three independent directions (the foundation bars of
+/// flexible supports, [`crate::model::flexible_supports`]). Struts, not
+/// cables: a cable braces only while taut.
+pub fn abutment_held_nodes(structure: &Structure) -> Vec<bool> {
+    let grounded = |n: usize| structure.nodes[n].fixed.iter().all(|f| *f);
+    let mut directions: Vec<Vec<Vector3<f64>>> = vec![Vec::new(); structure.nodes.len()];
+    for m in &structure.members {
+        if !matches!(m.kind, MemberKind::Strut { .. }) {
+            continue;
+        }
+        let [a, b] = m.nodes;
+        let d = structure.nodes[b].position_m - structure.nodes[a].position_m;
+        let Some(d) = d.try_normalize(1e-12) else {
+            continue;
+        };
+        if grounded(a) && !grounded(b) {
+            directions[b].push(d);
+        }
+        if grounded(b) && !grounded(a) {
+            directions[a].push(d);
+        }
+    }
+    (0..structure.nodes.len())
+        .map(|n| {
+            grounded(n) || {
+                let d = &directions[n];
+                d.len() >= 3 && {
+                    let m = nalgebra::DMatrix::from_fn(3, d.len(), |r, c| d[c][r]);
+                    m.rank(1e-6) == 3
+                }
+            }
+        })
+        .collect()
+}
+
 impl Limits {
     /// The limits of `problem` on `model`'s structure, with the rows that
     /// `start` already breaks (see the module notes).
@@ -459,12 +508,13 @@ impl Limits {
         let s = model.structure();
         let mut required = Vec::new();
         let mut euler_n = Vec::new();
-        let mut fixed_length = Vec::new();
+        let mut between_supports = Vec::new();
+        let held = abutment_held_nodes(s);
         for m in &s.members {
             let e = euler_load_n(&m.kind, m.rest_length_m);
             euler_n.push(e);
-            let fixed = m.nodes.iter().all(|&n| s.nodes[n].fixed.iter().all(|f| *f));
-            fixed_length.push(fixed);
+            let fixed = m.nodes.iter().all(|&n| held[n]);
+            between_supports.push(fixed);
             required.push(match e {
                 Some(e) => ForceBounds {
                     lower_n: -problem.max_strut_buckling_utilisation * e,
@@ -482,7 +532,7 @@ impl Limits {
         }
         for _ in 0..s.segment_count() {
             euler_n.push(None);
-            fixed_length.push(false);
+            between_supports.push(false);
             required.push(ForceBounds {
                 lower_n: problem.min_tension_n,
                 upper_n: problem.max_tension_n,
@@ -533,7 +583,7 @@ impl Limits {
             required,
             start_n,
             start_broken,
-            fixed_length,
+            between_supports,
             euler_n,
             strut_pairs,
             min_clearance_m,
@@ -763,7 +813,7 @@ mod tests {
             required: vec![b(5.0, 100.0), b(5.0, 100.0)],
             start_n: vec![2.0, 50.0],
             start_broken: vec![true, false],
-            fixed_length: vec![false, false],
+            between_supports: vec![false, false],
             euler_n: vec![None, None],
             strut_pairs: Vec::new(),
             min_clearance_m: Vec::new(),

@@ -414,7 +414,12 @@ pub fn step_solver_settings() -> QpSettings {
 /// Predicted gap vectors after net commands `command_m`, each motor with
 /// the slope of its own direction, m.
 pub fn predicted_gaps(data: &StepData, command_m: &[f64]) -> Vec<Vector3<f64>> {
-    predicted_vectors(&data.gaps_m, &data.gap_pay_out, &data.gap_reel_in, command_m)
+    predicted_vectors(
+        &data.gaps_m,
+        &data.gap_pay_out,
+        &data.gap_reel_in,
+        command_m,
+    )
 }
 
 /// Predicted midspan node offsets from the design after net commands
