@@ -162,6 +162,7 @@ impl<'a> Controller<'a> {
         let mut force_filter = ForceOffsetFilter::new(
             s.members.len() + s.segment_count(),
             policy.control.force_model_error_fraction,
+            policy.control.load_cell_bias_prior_sd_n,
         );
         context.correction = model_correction(
             model,

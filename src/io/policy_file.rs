@@ -275,6 +275,7 @@ impl PolicyV1 {
                 force_model_error_fraction: self
                     .force_model_error_fraction
                     .unwrap_or(control.force_model_error_fraction),
+                load_cell_bias_prior_sd_n: control.load_cell_bias_prior_sd_n,
             },
             memory: self.memory,
         };

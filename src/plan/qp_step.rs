@@ -27,7 +27,9 @@
 //! once; should it still do so (the two one-sided slopes differ, so a
 //! net-zero pair could look useful), the step is solved again with each
 //! motor held to the direction of its net move, so the command and its
-//! prediction always use the slope of the way the motor really turns.
+//! prediction always use the slope of the way the motor really turns. If
+//! only the split met the limits (the slopes' difference did, not a
+//! motion), the held step is softened like an infeasible one.
 //!
 //! If the member limits cannot be met (an infeasible QP), the step is
 //! solved again with every limit softened by a slack variable that costs
@@ -393,7 +395,7 @@ pub struct QpStep {
     /// Names of the constraints active at the solution (non-negativity
     /// rows left out).
     pub active_constraints: Vec<String>,
-    /// QPs solved for this step (1 to 3).
+    /// QPs solved for this step (1 to 4).
     pub qp_solves: usize,
 }
 
@@ -508,9 +510,12 @@ fn net_command(n: usize, x: &DVector<f64>) -> Vec<f64> {
     (0..n).map(|c| x[c] - x[n + c]).collect()
 }
 
-/// Solves a step: the hard QP; if it splits a motor both ways, again with
-/// each motor held to its net direction; if it is infeasible, the
-/// softened QP (when allowed). A failure holds (zero command).
+/// Solves a step: the hard QP; if it is infeasible, the softened QP (when
+/// allowed); if the solution splits a motor both ways, again with each
+/// motor held to its net direction, softened (when allowed) if only the
+/// split met the limits. A failure holds (zero command): infeasible
+/// limits as [`QpStepStatus::Infeasible`], anything else as numerical
+/// trouble.
 pub fn solve_step(data: &StepData, weights: &StepWeights, settings: &QpSettings) -> QpStep {
     let n = data.payout_m.len();
     let hold = |status, qp_solves| QpStep {
@@ -566,14 +571,39 @@ pub fn solve_step(data: &StepData, weights: &StepWeights, settings: &QpSettings)
             .collect();
         let (f2, s2) = run(&directions, f.softened);
         solves += 1;
+        let softening = |x: &DVector<f64>| (2 * n..x.len()).map(|k| x[k]).fold(0.0, f64::max);
         match s2 {
             Ok(s2) if s2.status.is_solved() => {
                 f = f2;
                 x = s2.x;
             }
-            // The first solution's net move, priced with one-sided slopes,
-            // is not always admissible here; rather than send a command
-            // whose prediction used the wrong slopes, hold.
+            // Only the split met the limits: the difference between the
+            // one-sided slopes did, not a motion any motor can make. The
+            // limits are softened as for an infeasible step.
+            Ok(s2)
+                if s2.status == QpStatus::Infeasible
+                    && !f.softened
+                    && weights.soft_limit_penalty.is_some() =>
+            {
+                let (f3, s3) = run(&directions, true);
+                solves += 1;
+                match s3 {
+                    Ok(s3) if s3.status.is_solved() => {
+                        status = QpStepStatus::SoftenedLimits {
+                            max_softening: softening(&s3.x),
+                        };
+                        f = f3;
+                        x = s3.x;
+                    }
+                    Ok(s3) if s3.status == QpStatus::Infeasible => {
+                        return hold(QpStepStatus::Infeasible, solves)
+                    }
+                    _ => return hold(QpStepStatus::NumericalTrouble, solves),
+                }
+            }
+            Ok(s2) if s2.status == QpStatus::Infeasible => {
+                return hold(QpStepStatus::Infeasible, solves)
+            }
             _ => return hold(QpStepStatus::NumericalTrouble, solves),
         }
     }

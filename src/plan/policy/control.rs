@@ -44,12 +44,35 @@ pub struct ControlSettings {
     /// and mass errors of the plausible ranges move forces by up to about
     /// a fifth. Larger trusts each reading more.
     pub force_model_error_fraction: f64,
+    /// Prior standard deviation of a bias common to the load cells, N, in
+    /// (0, 10 000]: the closed loop separates it from the model's force
+    /// error, so that a load cell zeroed off is not read as a member
+    /// force (see [`crate::control::ForceOffsetFilter`]). It covers the
+    /// sensor error of the effect `load_cell_bias`. Default
+    /// [`load_cell_bias_prior_sd_n`]: that effect's plausible range
+    /// (±50 N) as a uniform prior, 28.9 N. Off (`None`): every offset is
+    /// the model's error (the filter before issue 22).
+    #[serde(with = "super::off")]
+    pub load_cell_bias_prior_sd_n: Option<f64>,
+}
+
+/// The default prior standard deviation of the load cells' common bias,
+/// N: the plausible range of the effect `load_cell_bias` as a uniform
+/// distribution, `(high − low)/√12`.
+pub fn load_cell_bias_prior_sd_n() -> f64 {
+    let (low, high) = crate::model::EffectKind::LoadCellBias.parameters()[0].plausible;
+    (high - low) / 12f64.sqrt()
 }
 
 impl ControlSettings {
     /// Every number of the settings with its admissible range.
-    pub fn ranges(&self) -> [Ranged; 3] {
+    pub fn ranges(&self) -> [Ranged; 4] {
         [
+            Ranged::optional(
+                "load_cell_bias_prior_sd_n",
+                self.load_cell_bias_prior_sd_n,
+                NumberRange::positive_up_to(1e4),
+            ),
             Ranged::optional(
                 "payout_scale_prior_sd",
                 self.payout_scale_prior_sd,
@@ -76,6 +99,7 @@ impl Default for ControlSettings {
             payout_scale_prior_sd: Some(0.05),
             payout_scale_drift_sd: 0.02,
             force_model_error_fraction: 0.2,
+            load_cell_bias_prior_sd_n: Some(load_cell_bias_prior_sd_n()),
         }
     }
 }
