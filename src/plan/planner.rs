@@ -244,7 +244,13 @@ impl PlanContext<'_> {
             .zip(&self.limits.force)
             .enumerate()
         {
-            if self.limits.euler_n[r].is_some() || self.correction.force_row_measured(r) {
+            // A row held at 0 N (slack at the start) cannot fall below its
+            // bound: a tension is never negative, so there is nothing for
+            // the margin to protect.
+            if self.limits.euler_n[r].is_some()
+                || self.correction.force_row_measured(r)
+                || b.lower_n <= 0.0
+            {
                 continue;
             }
             let fall = f0 - f;
