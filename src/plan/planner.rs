@@ -244,13 +244,7 @@ impl PlanContext<'_> {
             .zip(&self.limits.force)
             .enumerate()
         {
-            // A row held at 0 N (slack at the start) cannot fall below its
-            // bound: a tension is never negative, so there is nothing for
-            // the margin to protect.
-            if self.limits.euler_n[r].is_some()
-                || self.correction.force_row_measured(r)
-                || b.lower_n <= 0.0
-            {
+            if self.limits.euler_n[r].is_some() || self.correction.force_row_measured(r) {
                 continue;
             }
             let fall = f0 - f;
