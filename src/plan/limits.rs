@@ -67,7 +67,7 @@ use nalgebra::Vector3;
 use serde::{Serialize, Serializer};
 
 use super::problem::DeploymentProblem;
-use crate::model::{DeploymentState, ForwardModel, Member, MemberKind, NodeIndex, Structure};
+use crate::model::{DeploymentState, ForwardModel, MemberKind, NodeIndex, Structure};
 
 /// Euler buckling load π²EI/L0² of a strut (rest length), N; `None` for
 /// cables and springs. (The same formula as the `buckling_utilisation`
@@ -435,34 +435,17 @@ pub fn force_rows(model: &ForwardModel, state: &DeploymentState) -> Vec<f64> {
 }
 
 /// [`force_rows`] plus `offsets_n` (one per row, measured minus
-/// predicted; missing ones count as 0), N. A tension-only row (cable,
-/// spring, continuous-cable segment) is never below 0 N: an offset
-/// measured while it was taut cannot make it compressive once slack, and
-/// a slack one read below zero is the reading's noise, not a force.
+/// predicted; missing ones count as 0), N.
 pub fn corrected_force_rows(
     model: &ForwardModel,
     state: &DeploymentState,
     offsets_n: &[f64],
 ) -> Vec<f64> {
-    let members = &model.structure().members;
     let mut rows = force_rows(model, state);
-    for (r, (f, o)) in rows.iter_mut().zip(offsets_n).enumerate() {
-        *f = corrected_force(members, r, *f, *o);
+    for (f, o) in rows.iter_mut().zip(offsets_n) {
+        *f += o;
     }
     rows
-}
-
-/// Force row `row` (model force `model_n`) with its measured offset
-/// `offset_n`, N: see [`corrected_force_rows`].
-pub fn corrected_force(members: &[Member], row: usize, model_n: f64, offset_n: f64) -> f64 {
-    let tension_only = members
-        .get(row)
-        .is_none_or(|m| !matches!(m.kind, MemberKind::Strut { .. }));
-    if tension_only {
-        (model_n + offset_n).max(0.0)
-    } else {
-        model_n + offset_n
-    }
 }
 
 /// The clearance of strut pair `[a, b]` in `positions`, m, with the

@@ -15,7 +15,7 @@
 use nalgebra::Vector3;
 
 use super::causes::{NotReachable, SolverFailure, TrialRejection};
-use super::limits::{corrected_force, force_row_name, force_rows, strut_clearance};
+use super::limits::{force_row_name, force_rows, strut_clearance};
 use super::outcome::PlanStatus;
 use super::planner::{CommandPlanner, Decision, PlanContext, PlannedCommand};
 use super::policy::{QpPlannerSettings, SensitivityKind, Weights};
@@ -84,7 +84,7 @@ pub fn step_data(
     let mut limits = Vec::new();
     let forces = force_rows(context.model, state);
     for (r, (&model_f, b)) in forces.iter().zip(&context.limits.force).enumerate() {
-        let f = corrected_force(&s.members, r, model_f, context.correction.force_offset_n(r));
+        let f = model_f + context.correction.force_offset_n(r);
         let out: Vec<f64> = response
             .pay_out
             .iter()
