@@ -26,6 +26,9 @@ use std::time::Instant;
 
 use std::collections::VecDeque;
 
+use super::drum_offsets::{
+    apply_drum_offsets, estimate_drum_offsets, DrumOffsetEstimate, DrumOffsetPrior,
+};
 use super::estimation::PayoutScaleEstimator;
 use super::force_offset_filter::ForceOffsetFilter;
 use super::guidance::Guidance;
@@ -121,6 +124,8 @@ pub struct Controller<'a> {
     /// Without a feedforward, the number of the first command predicted
     /// to connect.
     first_connecting: Option<usize>,
+    /// The drum offsets estimated at the start (`None`: not estimated).
+    drum_offsets: Option<DrumOffsetEstimate>,
 }
 
 impl<'a> Controller<'a> {
@@ -157,7 +162,26 @@ impl<'a> Controller<'a> {
         guidance: &Guidance,
     ) -> Result<Self, PlanError> {
         let s = model.structure();
-        let state = folded_start(model, problem, policy.increment_m)?;
+        let mut state = folded_start(model, problem, policy.increment_m)?;
+        // How much material each cable holds, from the start readings.
+        let drum_offsets = policy
+            .control
+            .drum_offset_prior_sd_m
+            .and_then(|offset_sd_m| {
+                let prior = DrumOffsetPrior {
+                    offset_sd_m,
+                    load_cell_bias_sd_n: policy.control.load_cell_bias_prior_sd_n,
+                    force_error_fraction: policy.control.force_model_error_fraction,
+                };
+                estimate_drum_offsets(model, &state, sensors, start_readings, &prior)
+            });
+        if let Some(e) = &drum_offsets {
+            // A model that cannot hold the estimated material plans on
+            // what the drums say.
+            if let Ok(moved) = apply_drum_offsets(model, &state, &e.offset_m, policy.increment_m) {
+                state = moved;
+            }
+        }
         let mut context = PlanContext::new(model, problem, policy, &state)?;
         let mut force_filter = ForceOffsetFilter::new(
             s.members.len() + s.segment_count(),
@@ -209,7 +233,14 @@ impl<'a> Controller<'a> {
             guided_approach: !guidance.feedforward_m.is_empty(),
             feedforward_sent: 0,
             first_connecting: None,
+            drum_offsets,
         })
+    }
+
+    /// The drum offsets it estimated from the start readings and planned
+    /// with (`None` with the estimate off or impossible).
+    pub fn drum_offsets(&self) -> Option<&DrumOffsetEstimate> {
+        self.drum_offsets.as_ref()
     }
 
     /// The model state the controller believes the bridge is in.

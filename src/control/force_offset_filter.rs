@@ -80,7 +80,8 @@ impl ForceOffsetFilter {
     /// The estimated common load-cell bias and its standard deviation, N
     /// (`None` when the bias is not estimated).
     pub fn bias_n(&self) -> Option<(f64, f64)> {
-        self.bias.then(|| (self.x[0], self.p[(0, 0)].max(0.0).sqrt()))
+        self.bias
+            .then(|| (self.x[0], self.p[(0, 0)].max(0.0).sqrt()))
     }
 
     /// Replaces `correction`'s raw force offsets (measured − predicted, one
@@ -140,7 +141,12 @@ impl ForceOffsetFilter {
             self.p -= &gain * ph.transpose();
         }
         for (row, offset) in correction.force_offsets_n.iter_mut().enumerate() {
-            *offset = self.index.get(row).copied().flatten().map_or(0.0, |k| self.x[k]);
+            *offset = self
+                .index
+                .get(row)
+                .copied()
+                .flatten()
+                .map_or(0.0, |k| self.x[k]);
         }
     }
 }
@@ -199,13 +205,21 @@ mod tests {
             c.force_offsets_n = r.to_vec();
             plain.filter(&mut c, &[10.0; 4], &[Some(sd); 4]);
         }
-        assert!(c.force_offsets_n.iter().all(|o| *o < -4.0), "{:?}", c.force_offsets_n);
+        assert!(
+            c.force_offsets_n.iter().all(|o| *o < -4.0),
+            "{:?}",
+            c.force_offsets_n
+        );
         // Near the design, row 0 carries 150 N more than its 1000 N.
         for _ in 0..5 {
             c.force_offsets_n = vec![110.0, -40.0, -40.0, -40.0];
             f.filter(&mut c, &[1000.0, 10.0, 10.0, 10.0], &[Some(sd); 4]);
         }
-        assert!((c.force_offsets_n[0] - 150.0).abs() < 10.0, "{:?}", c.force_offsets_n);
+        assert!(
+            (c.force_offsets_n[0] - 150.0).abs() < 10.0,
+            "{:?}",
+            c.force_offsets_n
+        );
         let (bias, _) = f.bias_n().unwrap();
         assert!((bias + 40.0).abs() < 5.0, "{bias}");
     }

@@ -21,6 +21,7 @@
 pub mod closed_loop;
 pub mod controller;
 pub mod deployment;
+pub mod drum_offsets;
 pub mod estimation;
 pub mod force_offset_filter;
 pub mod guidance;

@@ -276,6 +276,7 @@ impl PolicyV1 {
                     .force_model_error_fraction
                     .unwrap_or(control.force_model_error_fraction),
                 load_cell_bias_prior_sd_n: control.load_cell_bias_prior_sd_n,
+                drum_offset_prior_sd_m: control.drum_offset_prior_sd_m,
             },
             memory: self.memory,
         };

@@ -54,6 +54,29 @@ pub struct ControlSettings {
     /// the model's error (the filter before issue 22).
     #[serde(with = "super::off")]
     pub load_cell_bias_prior_sd_n: Option<f64>,
+    /// Prior standard deviation of each motor's drum zero error, m, in
+    /// (0, 0.1]: before the first command the controller estimates from
+    /// the start readings how much material each cable holds beyond what
+    /// its drum says, and plans on a model that holds it (see
+    /// [`crate::control::drum_offsets`]). It covers the fault
+    /// `drum_zero_error`; [`drum_offset_prior_sd_m`] gives that fault's
+    /// plausible range (±15 mm) as a uniform prior, 8.7 mm. Default off
+    /// (`None`: the model holds what the drums say). Measured on seed 301
+    /// of `scenarios/wide.toml` (200 scenarios): on, 138 connected and 32
+    /// runs with broken limits; off, 145 and 14. The midspan positions
+    /// hardly identify one drum's offset (6 mm moves them 0.5 mm at a
+    /// 30 cm fold) and only four cables have load cells, so the estimate
+    /// mostly moves material to explain what the model lacks elsewhere.
+    #[serde(with = "super::off")]
+    pub drum_offset_prior_sd_m: Option<f64>,
+}
+
+/// The default prior standard deviation of a drum zero error, m: the
+/// plausible range of the fault `drum_zero_error` as a uniform
+/// distribution, `(high − low)/√12`.
+pub fn drum_offset_prior_sd_m() -> f64 {
+    let (low, high) = crate::model::FaultKind::DrumZeroError.parameters()[0].plausible;
+    (high - low) / 12f64.sqrt()
 }
 
 /// The default prior standard deviation of the load cells' common bias,
@@ -66,8 +89,13 @@ pub fn load_cell_bias_prior_sd_n() -> f64 {
 
 impl ControlSettings {
     /// Every number of the settings with its admissible range.
-    pub fn ranges(&self) -> [Ranged; 4] {
+    pub fn ranges(&self) -> [Ranged; 5] {
         [
+            Ranged::optional(
+                "drum_offset_prior_sd_m",
+                self.drum_offset_prior_sd_m,
+                NumberRange::positive_up_to(0.1),
+            ),
             Ranged::optional(
                 "load_cell_bias_prior_sd_n",
                 self.load_cell_bias_prior_sd_n,
@@ -100,6 +128,7 @@ impl Default for ControlSettings {
             payout_scale_drift_sd: 0.02,
             force_model_error_fraction: 0.2,
             load_cell_bias_prior_sd_n: Some(load_cell_bias_prior_sd_n()),
+            drum_offset_prior_sd_m: None,
         }
     }
 }
