@@ -262,6 +262,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
             ),
             _ => say!("the largest measured gap never came below 60 mm"),
         }
+        if let Some(line) = estimates_line(&d) {
+            say!("{line}");
+        }
         if d.truth_limit_violations == 0 {
             say!(
                 "the truth kept every limit at every increment ({} increments checked)",
@@ -283,4 +286,22 @@ pub fn run(o: &Options) -> Result<Outcome> {
     } else {
         Outcome::GoalMissed(verdict)
     })
+}
+
+/// What the controller estimated by the end, in words: the payout scale of
+/// each bridge half and the load cells' common bias (`None` with neither).
+fn estimates_line(d: &Deployment) -> Option<String> {
+    let mut parts = Vec::new();
+    if !d.final_payout_scale.is_empty() {
+        let scales: Vec<String> = d
+            .final_payout_scale
+            .iter()
+            .map(|s| format!("{:+.1} %", 100.0 * s))
+            .collect();
+        parts.push(format!("payout scale per half {}", scales.join(", ")));
+    }
+    if let Some((mean, sd)) = d.final_load_cell_bias_n {
+        parts.push(format!("load cells' common bias {mean:.1} ± {sd:.1} N"));
+    }
+    (!parts.is_empty()).then(|| format!("estimated: {}", parts.join("; ")))
 }

@@ -306,6 +306,7 @@ pub fn deploy_guided(
     Ok(Deployment {
         approach_commands: controller.approach_commands(),
         final_payout_scale: controller.part_payout_scale(),
+        final_load_cell_bias_n: controller.load_cell_bias_n(),
         status,
         truth_limit_violations: records.iter().map(|r| r.truth_violations.len()).sum(),
         truth_start_broken: truth_limits.start_broken_limits(

@@ -137,6 +137,10 @@ pub struct Deployment {
     /// The payout scale of each independent part as estimated at the end
     /// (index = part id; empty without an estimator), 1.
     pub final_payout_scale: Vec<f64>,
+    /// The load cells' common bias as estimated at the end: mean and
+    /// standard deviation, N (`None` without the estimate; see
+    /// [`super::ForceOffsetFilter`]).
+    pub final_load_cell_bias_n: Option<(f64, f64)>,
 }
 
 impl Deployment {

@@ -142,6 +142,21 @@ pub struct DeploymentSummary<'a> {
     pub first_command_below_60_mm: Option<usize>,
     /// Commands after that one.
     pub corrective_commands: Option<usize>,
+    /// The payout scale `ŝ` of each bridge half as the controller
+    /// estimated it at the end (empty without the estimate), 1.
+    pub estimated_payout_scale: &'a [f64],
+    /// The load cells' common bias as the controller estimated it at the
+    /// end (`null` without the estimate), N.
+    pub estimated_load_cell_bias_n: Option<Estimate>,
+}
+
+/// An estimate with its standard deviation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Estimate {
+    /// Posterior mean.
+    pub mean: f64,
+    /// Posterior standard deviation.
+    pub sd: f64,
 }
 
 impl<'a> DeploymentSummary<'a> {
@@ -190,6 +205,10 @@ impl<'a> DeploymentSummary<'a> {
             truth_increments_checked: d.records.iter().map(|r| r.truth_increments_checked).sum(),
             first_command_below_60_mm: d.first_below_corrective_gap,
             corrective_commands: d.corrective_commands,
+            estimated_payout_scale: &d.final_payout_scale,
+            estimated_load_cell_bias_n: d
+                .final_load_cell_bias_n
+                .map(|(mean, sd)| Estimate { mean, sd }),
         }
     }
 }
