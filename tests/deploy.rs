@@ -676,11 +676,14 @@ fn a_limit_broken_at_the_start_is_reported_with_whether_the_run_restored_it() {
 /// up first, every run either connects with every start-broken limit
 /// restored and no truth limit broken, or stops "not reachable safely"
 /// naming what binds, also without breaking a truth limit; the 48 cm fold
-/// connects on all three seeds, and since the controller takes its
-/// start-broken limits from its corrected start forces (a slack segment
-/// read a fraction of a newton below 0 N no longer stops it) so does the
-/// 50 cm fold (before: seed 1 only, seeds 2 and 3 stopped on a `cc1`
-/// segment).
+/// connects on all three seeds. The 50 cm fold connected on seed 1 until
+/// the load-cell bias estimate (issue 22, second session): now a slack
+/// `cc1` segment's corrected force sits 0.1 N below the 0 N start value
+/// the planner holds it to, and all three seeds stop safely. Taking the
+/// start value from the corrected forces (`Limits::start_from`, tried)
+/// connected all six here, but on the wide distribution it let folds of
+/// 50–60 cm go on and break limits (runs with broken limits 16 → 28, 13
+/// → 23, 11 → 21 on seeds 101, 102, 401), so it is not in.
 #[test]
 fn folds_of_48_and_50_cm_connect_or_stop_safely_without_breaking_a_limit() {
     let truth = default_truth(reference_structure());
@@ -690,9 +693,9 @@ fn folds_of_48_and_50_cm_connect_or_stop_safely_without_breaking_a_limit() {
         (0.48, 1, true),
         (0.48, 2, true),
         (0.48, 3, true),
-        (0.50, 1, true),
-        (0.50, 2, true),
-        (0.50, 3, true),
+        (0.50, 1, false),
+        (0.50, 2, false),
+        (0.50, 3, false),
     ] {
         let problem = DeploymentProblem {
             start_payout_m: tensegrity_deploy::plan::PerMotor::All(fold_m),

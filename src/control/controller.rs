@@ -34,7 +34,6 @@ use super::force_offset_filter::ForceOffsetFilter;
 use super::guidance::Guidance;
 use super::measured_offsets::{filter_force_offsets, model_correction};
 use crate::model::{DeploymentState, ForwardModel};
-use crate::plan::limits::corrected_force_rows;
 use crate::plan::{
     folded_start, planner_for, CommandPlanner, ControllerError, Decision, DeploymentProblem,
     PlanContext, PlanError, PlanStatus, PlannedCommand, Policy, QpStepStatus, Trial,
@@ -205,10 +204,6 @@ impl<'a> Controller<'a> {
             start_readings,
             &policy.control.measures,
         );
-        // What the first readings say the bridge carries decides which
-        // limits the start already breaks.
-        let start_rows = corrected_force_rows(model, &state, &context.correction.force_offsets_n);
-        context.limits.start_from(&start_rows);
         // The payout scale is learnt from measured midspan motion; without
         // it there is nothing to learn from.
         let drift_sd = policy.control.payout_scale_drift_sd;

@@ -538,6 +538,20 @@ impl Limits {
                 upper_n: problem.max_tension_n,
             });
         }
+        let start_n = force_rows(model, start);
+        let start_broken: Vec<bool> = start_n
+            .iter()
+            .zip(&required)
+            .map(|(&f, b)| f < b.lower_n || f > b.upper_n)
+            .collect();
+        let force = required
+            .iter()
+            .zip(&start_n)
+            .map(|(b, &f)| ForceBounds {
+                lower_n: b.lower_n.min(f),
+                upper_n: b.upper_n.max(f),
+            })
+            .collect();
         // Nodes that become one joint at connection.
         let mut joint: Vec<NodeIndex> = (0..s.nodes.len()).collect();
         for [a, b] in &s.midspan_pairs {
@@ -564,45 +578,18 @@ impl Limits {
                 min_clearance_m.push(problem.min_strut_clearance_m.min(d).min(d0));
             }
         }
-        let mut limits = Limits {
-            force: Vec::new(),
+        Limits {
+            force,
             required,
-            start_n: Vec::new(),
-            start_broken: Vec::new(),
+            start_n,
+            start_broken,
             between_supports,
             euler_n,
             strut_pairs,
             min_clearance_m,
             max_tension_n: problem.max_tension_n,
             max_buckling_utilisation: problem.max_strut_buckling_utilisation,
-        };
-        limits.start_from(&force_rows(model, start));
-        limits
-    }
-
-    /// Takes `start_rows_n` (N, one per force row) as the start's forces:
-    /// the rows they break are start-broken, held to their start value
-    /// until restored (see the module notes). The controller calls it with
-    /// its model's start forces corrected by the first readings, its best
-    /// knowledge of what the bridge carries: a segment its model holds taut
-    /// but whose load cell reads it slack is start-broken, not a limit
-    /// every command breaks.
-    pub fn start_from(&mut self, start_rows_n: &[f64]) {
-        self.start_n = start_rows_n.to_vec();
-        self.start_broken = start_rows_n
-            .iter()
-            .zip(&self.required)
-            .map(|(&f, b)| f < b.lower_n || f > b.upper_n)
-            .collect();
-        self.force = self
-            .required
-            .iter()
-            .zip(start_rows_n)
-            .map(|(b, &f)| ForceBounds {
-                lower_n: b.lower_n.min(f),
-                upper_n: b.upper_n.max(f),
-            })
-            .collect();
+        }
     }
 
     /// The bounds the truth's supervisor holds each force row to, given
