@@ -62,9 +62,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             _ => None,
         })
         .collect();
-    let tension_only = |r: usize| {
-        r >= members || !matches!(structure.members[r].kind, MemberKind::Strut { .. })
-    };
+    let tension_only =
+        |r: usize| r >= members || !matches!(structure.members[r].kind, MemberKind::Strut { .. });
     let mut ratios = Vec::new();
     let mut skipped = 0;
     for i in 0..count {
@@ -84,16 +83,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let truth_members = plant.model().structure().members.len();
         // The truth's row of model row `r` (appended foundation bars shift
         // its segment rows).
-        let truth_row = |r: usize| if r < members { r } else { r - members + truth_members };
+        let truth_row = |r: usize| {
+            if r < members {
+                r
+            } else {
+                r - members + truth_members
+            }
+        };
         let steps = (scenario.fold_m / -STEP_M).round() as usize;
         for _ in 0..steps {
-            let (m0, t0) = (force_rows(&model, &state), force_rows(plant.model(), plant.state()));
+            let (m0, t0) = (
+                force_rows(&model, &state),
+                force_rows(plant.model(), plant.state()),
+            );
             model.apply_payout(&mut state, &mut ws, &vec![STEP_M; n], 0.01, &mut ())?;
             if plant.apply(&vec![STEP_M; n], None, &mut ()).is_err() {
                 skipped += 1;
                 break;
             }
-            let (m1, t1) = (force_rows(&model, &state), force_rows(plant.model(), plant.state()));
+            let (m1, t1) = (
+                force_rows(&model, &state),
+                force_rows(plant.model(), plant.state()),
+            );
             for r in (0..m0.len()).filter(|&r| tension_only(r) && !read.contains(&r)) {
                 let model_fall = m0[r] - m1[r];
                 if model_fall > MIN_FALL_N {
