@@ -558,30 +558,22 @@ fn a_slack_cable_is_taken_up_before_the_qp_plans_on_it() {
     }
 }
 
-/// The gaps are relative: on an uneven fold (half A's midspan node 30 cm
-/// from its design, half B's 20 cm; gap 10 cm) paying half B out closes
-/// the gap as fast as reeling half A in, and the gaps-only step shares
-/// the work, moving half B *away* from the design (the uneven-fold
-/// failure: its cables slackened in the truth). With the design-position
-/// weight the step reels both halves in.
-#[test]
-fn an_uneven_fold_is_closed_towards_the_design_not_by_paying_one_half_out() {
-    // One pair along x; motor 0 moves node a, motor 1 node b, 1 m per m of
-    // payout either way.
+/// One pair along x; motor 0 moves node a, motor 1 node b, 1 m per m of
+/// payout either way: the step data with gap `gap_m` and the pair's
+/// midpoint `midpoint_m` from its designed position.
+fn one_pair(gap_m: f64, midpoint_m: f64) -> StepData {
     let motion_a = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
     let motion_b = DMatrix::from_row_slice(3, 2, &[0.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
     let gap = &motion_a - &motion_b;
-    let mut nodes = DMatrix::zeros(6, 2);
-    nodes.view_mut((0, 0), (3, 2)).copy_from(&motion_a);
-    nodes.view_mut((3, 0), (3, 2)).copy_from(&motion_b);
-    let data = StepData {
-        gaps_m: vec![Vector3::new(0.1, 0.0, 0.0)],
+    let midpoint = (&motion_a + &motion_b) * 0.5;
+    StepData {
+        gaps_m: vec![Vector3::new(gap_m, 0.0, 0.0)],
         gap_weights: vec![1.0],
         gap_pay_out: gap.clone(),
         gap_reel_in: gap,
-        design_offsets_m: vec![Vector3::new(0.3, 0.0, 0.0), Vector3::new(0.2, 0.0, 0.0)],
-        design_pay_out: nodes.clone(),
-        design_reel_in: nodes,
+        design_offsets_m: vec![Vector3::new(midpoint_m, 0.0, 0.0)],
+        design_pay_out: midpoint.clone(),
+        design_reel_in: midpoint,
         limits: vec![],
         payout_m: vec![0.3, 0.2],
         min_payout_m: vec![-0.1, -0.1],
@@ -589,13 +581,24 @@ fn an_uneven_fold_is_closed_towards_the_design_not_by_paying_one_half_out() {
         max_step_m: vec![0.05, 0.05],
         trust_region_m: 0.04,
         motor_names: vec!["A".into(), "B".into()],
-    };
+    }
+}
+
+/// The gaps are relative: on an uneven fold (half A's midspan node 30 cm
+/// from its design, half B's 20 cm; gap 10 cm, midpoint 25 cm) paying
+/// half B out closes the gap as fast as reeling half A in, and the
+/// gaps-only step shares the work, moving half B *away* from the design
+/// (the uneven-fold failure: its cables slackened in the truth). With the
+/// design-position weight the step reels both halves in.
+#[test]
+fn an_uneven_fold_is_closed_towards_the_design_not_by_paying_one_half_out() {
+    let data = one_pair(0.1, 0.25);
     let gaps_only = solve_step(&data, &WEIGHTS, &step_solver_settings());
     assert_eq!(gaps_only.status, QpStepStatus::Solved);
     assert!(gaps_only.command_m[0] < -0.01, "{:?}", gaps_only.command_m);
     assert!(gaps_only.command_m[1] > 0.01, "{:?}", gaps_only.command_m);
     let towards_design = StepWeights {
-        design_position: 0.5,
+        design_position: 1.0,
         ..WEIGHTS
     };
     let step = solve_step(&data, &towards_design, &step_solver_settings());
@@ -607,9 +610,34 @@ fn an_uneven_fold_is_closed_towards_the_design_not_by_paying_one_half_out() {
         step.command_m
     );
     assert!(step.command_m[1] < 0.0, "{:?}", step.command_m);
-    // The prediction carries the offsets: each node moved by its motor.
+    // The prediction carries the midpoint: half of each motor's motion.
     let d = &step.predicted_design_offsets_m;
-    assert!((d[0].x - (0.3 + step.command_m[0])).abs() < 1e-12);
-    assert!((d[1].x - (0.2 + step.command_m[1])).abs() < 1e-12);
+    let expected = 0.25 + 0.5 * (step.command_m[0] + step.command_m[1]);
+    assert!((d[0].x - expected).abs() < 1e-12);
     assert!(step.predicted_gaps_m[0].x < 0.1);
+}
+
+/// The η term never holds a gap open. In closed loop the gaps carry the
+/// measured offsets: here the model stands at the design (midpoint 0) but
+/// the measurement says the pair is 10 mm apart. The midpoint is
+/// orthogonal to the gap, so one step closes the measured gap to the
+/// solver's tolerance and leaves the midpoint at the design. (With the
+/// nodes' own offsets from the design in place of the midpoint, the step
+/// stalled with a fifth of the measured gap open at η = 0.5: found in
+/// review.)
+#[test]
+fn the_design_term_does_not_hold_a_measured_gap_open() {
+    let data = one_pair(0.01, 0.0);
+    let weights = StepWeights {
+        design_position: 1.0,
+        ..WEIGHTS
+    };
+    let step = solve_step(&data, &weights, &step_solver_settings());
+    assert_eq!(step.status, QpStepStatus::Solved);
+    assert!(
+        step.predicted_gaps_m[0].norm() < 1e-6,
+        "{:?}",
+        step.predicted_gaps_m
+    );
+    assert!(step.predicted_design_offsets_m[0].norm() < 1e-6);
 }

@@ -23,9 +23,12 @@
 //!
 //! with `J` the pay-out response of each reading to each motor, `l` 1 on
 //! the load cells, `σ_i` the sensor noise and `m_i` the model's error the
-//! offset does not explain: `model_position_error_m` on a position, the
-//! force filter's `fraction·|F| + 1 N` on a force
-//! ([`super::ForceOffsetFilter`]). The posterior mean and covariance are
+//! offsets do not explain: on a force the force filter's `fraction·|F| +
+//! 1 N` ([`super::ForceOffsetFilter`]); on a position the readings' own
+//! excess spread, `m² = max(0, mean(z²) − mean(σ²))` over the position
+//! residuals `z` (an empirical-Bayes level; it also holds what the offsets
+//! explain, so it errs towards trusting the positions less). The posterior
+//! mean and covariance are
 //!
 //! ```text
 //!     Σ = (JᵀR⁻¹J + Σ₀⁻¹)⁻¹,    x̂ = Σ·JᵀR⁻¹(y − h).
@@ -68,7 +71,9 @@ pub struct DrumOffsetEstimate {
     /// The load cells' common bias (posterior mean, N) and its standard
     /// deviation; `None` when not estimated.
     pub load_cell_bias_n: Option<(f64, f64)>,
-    /// Readings that took part.
+    /// Readings that took part (finite, with a finite variance). Load
+    /// cells on members (`MemberForce`) are not used: a drum offset acts
+    /// on its continuous cable's segments.
     pub readings_used: usize,
 }
 
@@ -139,10 +144,8 @@ pub fn estimate_drum_offsets(
     }
     let mut information = DMatrix::<f64>::zeros(unknowns, unknowns);
     let mut score = DVector::<f64>::zeros(unknowns);
+    rows.retain(|(z, variance, _)| *variance > 0.0 && variance.is_finite() && z.is_finite());
     for (z, variance, j) in &rows {
-        if !(*variance > 0.0 && variance.is_finite() && z.is_finite()) {
-            continue;
-        }
         for a in 0..unknowns {
             score[a] += j[a] * z / variance;
             for b in 0..unknowns {

@@ -78,10 +78,11 @@ impl ForceOffsetFilter {
     }
 
     /// The estimated common load-cell bias and its standard deviation, N
-    /// (`None` when the bias is not estimated).
+    /// (`None` when the bias is not estimated or no load cell was read).
     pub fn bias_n(&self) -> Option<(f64, f64)> {
-        self.bias
-            .then(|| (self.x[0], self.p[(0, 0)].max(0.0).sqrt()))
+        // Before any load cell is read the bias is only its prior.
+        let read = self.x.len() > self.bias as usize;
+        (self.bias && read).then(|| (self.x[0], self.p[(0, 0)].max(0.0).sqrt()))
     }
 
     /// Replaces `correction`'s raw force offsets (measured − predicted, one
@@ -133,12 +134,16 @@ impl ForceOffsetFilter {
             }
             let hph = ph[k] + if self.bias { ph[0] } else { 0.0 };
             let s = hph + sd * sd;
-            if !(s > 0.0) {
+            // A reading that is not a number would spread through the
+            // shared bias to every row: skipped.
+            if !(s > 0.0 && s.is_finite() && raw.is_finite()) {
                 continue;
             }
             let gain = &ph / s;
             self.x += &gain * (raw - predicted);
             self.p -= &gain * ph.transpose();
+            // Kept symmetric to the last bit.
+            self.p = (&self.p + self.p.transpose()) * 0.5;
         }
         for (row, offset) in correction.force_offsets_n.iter_mut().enumerate() {
             *offset = self

@@ -107,9 +107,10 @@ pub struct Limits {
     pub start_n: Vec<f64>,
     /// Per force row, whether the start breaks its required bounds.
     pub start_broken: Vec<bool>,
-    /// Per force row, whether it is a tension member between two nodes
-    /// held by the abutment in every direction (no minimum: see the module
-    /// notes).
+    /// Per force row, whether it is a member between two nodes held by the
+    /// abutment in every direction: a cable or spring there has no minimum
+    /// (see the module notes); a strut (a foundation bar) keeps its
+    /// buckling bound.
     pub between_supports: Vec<bool>,
     /// Euler load per force row, N (`None` except for struts).
     pub euler_n: Vec<Option<f64>>,

@@ -32,12 +32,12 @@ pub struct PlanContext<'a> {
     pub limits: Limits,
     /// Weight of each midspan pair's squared gap.
     pub gap_weights: Vec<f64>,
-    /// The midspan nodes, pair by pair (first node, then second).
-    pub design_nodes: Vec<usize>,
-    /// Their designed positions: the model's reference state, m.
-    pub design_positions_m: Vec<nalgebra::Vector3<f64>>,
-    /// Weight η of their squared offsets from the design in the merit
-    /// (the QP planner's `design_position`; 0 for other planners).
+    /// The designed midpoint of each midspan pair (the model's reference
+    /// state), m.
+    pub design_midpoints_m: Vec<nalgebra::Vector3<f64>>,
+    /// Weight η of the pairs' squared midpoint offsets from the design in
+    /// the merit and the QP step (the QP planner's `design_position`; 0
+    /// for other planners).
     pub design_weight: f64,
     /// Offsets from the last measurement added to every prediction
     /// (zeros open loop; see [`ModelCorrection`]).
@@ -70,11 +70,11 @@ impl<'a> PlanContext<'a> {
             })?;
         let correction =
             ModelCorrection::none(s.midspan_pairs.len(), s.members.len() + s.segment_count());
-        let design_nodes: Vec<usize> = s.midspan_pairs.iter().flatten().copied().collect();
         let design = model.reference_state();
-        let design_positions_m = design_nodes
+        let design_midpoints_m = s
+            .midspan_pairs
             .iter()
-            .map(|n| design.positions_m[*n])
+            .map(|[a, b]| 0.5 * (design.positions_m[*a] + design.positions_m[*b]))
             .collect();
         Ok(PlanContext {
             model,
@@ -83,8 +83,7 @@ impl<'a> PlanContext<'a> {
             motors,
             limits: Limits::new(model, problem, start),
             gap_weights,
-            design_nodes,
-            design_positions_m,
+            design_midpoints_m,
             design_weight: policy.design_position_weight(),
             correction,
         })
@@ -109,18 +108,21 @@ impl<'a> PlanContext<'a> {
         self.gap_vectors(state).iter().map(|g| g.norm()).collect()
     }
 
-    /// Offset of each midspan node ([`Self::design_nodes`]) from its
-    /// designed position in `state`, m.
+    /// Offset of each midspan pair's midpoint `½(x_a + x_b)` from its
+    /// designed position in `state`, m. Orthogonal to the gap `x_a − x_b`,
+    /// so the measured gap offsets, which the gaps carry, do not move it.
     pub fn design_offsets(&self, state: &DeploymentState) -> Vec<nalgebra::Vector3<f64>> {
-        self.design_nodes
+        self.model
+            .structure()
+            .midspan_pairs
             .iter()
-            .zip(&self.design_positions_m)
-            .map(|(n, d)| state.positions_m[*n] - d)
+            .zip(&self.design_midpoints_m)
+            .map(|([a, b], m)| 0.5 * (state.positions_m[*a] + state.positions_m[*b]) - m)
             .collect()
     }
 
     /// The merit the QP planner reduces, m²: the weighted sum of squared
-    /// `gaps` plus η times the squared midspan `offsets` from the design.
+    /// `gaps` plus η times the squared midpoint `offsets` from the design.
     pub fn merit(
         &self,
         gaps: &[nalgebra::Vector3<f64>],

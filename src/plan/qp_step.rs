@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! minimise   Σ_pairs w_p ‖g_p + G⁺_p u⁺ − G⁻_p u⁻‖²
-//!            + η Σ_nodes ‖d_n + D⁺_n u⁺ − D⁻_n u⁻‖²  +  ρ‖u‖²  +  κ·Σ(u⁺ + u⁻)
+//!            + η Σ_pairs ‖d_p + D⁺_p u⁺ − D⁻_p u⁻‖²  +  ρ‖u‖²  +  κ·Σ(u⁺ + u⁻)
 //! subject to lower_i ≤ f_i + a⁺_i u⁺ − a⁻_i u⁻ ≤ upper_i     (member limits, clearances)
 //!            min_c ≤ p_c + u⁺_c − u⁻_c ≤ max_c              (motor stroke)
 //!            0 ≤ u±_c ≤ min(Δ, max_step_c)                  (per-command limit, trust region)
@@ -18,10 +18,12 @@
 //! half sags back to meet the more folded one), which slackens that
 //! half's cables and leads away from the only place the halves connect
 //! with every member in its designed prestress. The η term, on each
-//! midspan node's offset `d_n` from its designed position (responses
-//! `D±`), makes the step close the gaps by moving both halves towards the
-//! design; it vanishes where the gaps do in the designed state, so it
-//! does not move the connection (see [`StepWeights::design_position`]).
+//! midspan pair's midpoint offset `d_p = ½(x_a + x_b) − M_p` from its
+//! designed position (responses `D±`), makes the step close the gaps by
+//! moving both halves towards the design. The midpoint is orthogonal to
+//! the gap, so the term never competes with closing it, also when the
+//! measured gap offsets shift the gaps the planner closes (see
+//! [`StepWeights::design_position`]).
 //!
 //! The small κ keeps the QP from using both directions of one motor at
 //! once; should it still do so (the two one-sided slopes differ, so a
@@ -76,10 +78,10 @@ pub struct StepData {
     pub gap_pay_out: DMatrix<f64>,
     /// d(gap)/dp for reeling in, same shape.
     pub gap_reel_in: DMatrix<f64>,
-    /// Offset of each midspan node (both halves, pair by pair) from its
+    /// Offset of each midspan pair's midpoint `½(x_a + x_b)` from its
     /// designed position, m.
     pub design_offsets_m: Vec<Vector3<f64>>,
-    /// d(offset)/dp for paying out: 3 rows per node, one column per motor.
+    /// d(offset)/dp for paying out: 3 rows per pair, one column per motor.
     pub design_pay_out: DMatrix<f64>,
     /// d(offset)/dp for reeling in, same shape.
     pub design_reel_in: DMatrix<f64>,
@@ -102,8 +104,9 @@ pub struct StepData {
 /// Weights of the step's objective.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepWeights {
-    /// η on the midspan nodes' squared offsets from their designed
-    /// positions, relative to a gap weight of 1 (see the module notes).
+    /// η on the midspan pairs' squared midpoint offsets from their designed
+    /// positions, dimensionless, relative to a gap weight of 1 (see the
+    /// module notes).
     pub design_position: f64,
     /// ρ on ‖u‖², dimensionless (gaps and commands both in m).
     pub regularisation: f64,
@@ -389,8 +392,8 @@ pub struct QpStep {
     pub command_m: Vec<f64>,
     /// Gap vectors the linear model predicts after the command, m.
     pub predicted_gaps_m: Vec<Vector3<f64>>,
-    /// Midspan node offsets from the design the linear model predicts
-    /// after the command, m.
+    /// Midpoint offsets from the design the linear model predicts after
+    /// the command, m.
     pub predicted_design_offsets_m: Vec<Vector3<f64>>,
     /// Names of the constraints active at the solution (non-negativity
     /// rows left out).
@@ -424,7 +427,7 @@ pub fn predicted_gaps(data: &StepData, command_m: &[f64]) -> Vec<Vector3<f64>> {
     )
 }
 
-/// Predicted midspan node offsets from the design after net commands
+/// Predicted midpoint offsets from the design after net commands
 /// `command_m`, each motor with the slope of its own direction, m.
 pub fn predicted_design_offsets(data: &StepData, command_m: &[f64]) -> Vec<Vector3<f64>> {
     predicted_vectors(

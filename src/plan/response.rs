@@ -428,19 +428,20 @@ impl PayoutResponse {
         m
     }
 
-    /// d(position)/dp of `nodes`, for paying out or reeling in: 3 rows per
-    /// node, one column per motor.
-    pub fn node_matrix(&self, nodes: &[usize], pay_out: bool) -> DMatrix<f64> {
+    /// d(½(x_a + x_b))/dp of every node pair, stacked (3 rows per pair),
+    /// one column per motor, for one direction.
+    pub fn midpoint_matrix(&self, pairs: &[[usize; 2]], pay_out: bool) -> DMatrix<f64> {
         let effects = if pay_out {
             &self.pay_out
         } else {
             &self.reel_in
         };
-        let mut m = DMatrix::zeros(3 * nodes.len(), effects.len());
+        let mut m = DMatrix::zeros(3 * pairs.len(), effects.len());
         for (c, e) in effects.iter().enumerate() {
-            for (i, n) in nodes.iter().enumerate() {
+            for (p, [a, b]) in pairs.iter().enumerate() {
+                let d = 0.5 * (e.positions_m_per_m[*a] + e.positions_m_per_m[*b]);
                 for k in 0..3 {
-                    m[(3 * i + k, c)] = e.positions_m_per_m[*n][k];
+                    m[(3 * p + k, c)] = d[k];
                 }
             }
         }

@@ -5,7 +5,8 @@
 //! from the same linearisation. Re-linearise after every accepted step.
 //!
 //! Acceptance: with merit `m = Σ w‖g‖² + η Σ‖d‖²` (the QP's objective
-//! without its regularisation: gaps and midspan offsets from the design), the ratio ρ = (m₀ − m_actual) /
+//! without its regularisation and split penalty: the gaps and the pairs'
+//! midpoint offsets from the design), the ratio ρ = (m₀ − m_actual) /
 //! (m₀ − m_predicted) decides, by the rule of the QP planner's
 //! [`crate::plan::TrustRegion`], whether the step is accepted and how the
 //! radius changes. The region collapsing below its minimum, or a step
@@ -208,8 +209,8 @@ pub fn step_data(
         gap_pay_out: response.pair_matrix(&s.midspan_pairs, true),
         gap_reel_in: response.pair_matrix(&s.midspan_pairs, false),
         design_offsets_m: context.design_offsets(state),
-        design_pay_out: response.node_matrix(&context.design_nodes, true),
-        design_reel_in: response.node_matrix(&context.design_nodes, false),
+        design_pay_out: response.midpoint_matrix(&s.midspan_pairs, true),
+        design_reel_in: response.midpoint_matrix(&s.midspan_pairs, false),
         limits,
         payout_m: state.payout_m.clone(),
         min_payout_m: motors.min_payout_m.clone(),
@@ -378,7 +379,11 @@ impl QpPlanner {
     ) -> Result<(Box<PlannedCommand>, f64), StepFailure> {
         let tr = self.settings.trust_region;
         let mut data = step_data(context, state, response, self.trust_region_m);
-        let weights = step_weights(&self.settings.weights);
+        // η from the context, which the merit below uses too.
+        let weights = StepWeights {
+            design_position: context.design_weight,
+            ..step_weights(&self.settings.weights)
+        };
         let merit0 = context.merit(&data.gaps_m, &data.design_offsets_m);
         let mut rejected = 0;
         loop {

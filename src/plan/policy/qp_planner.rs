@@ -166,8 +166,9 @@ pub struct Weights {
     /// Weight of each midspan pair's squared gap: one value for all or one
     /// per pair; each at least 0, one positive. Default 1.
     pub gap: Vec<f64>,
-    /// η on the midspan nodes' squared offsets from their designed
-    /// positions (m², like a gap weight of 1), in [0, 10]. Default 0.5.
+    /// η on the squared offsets of the midspan pairs' midpoints
+    /// `½(x_a + x_b)` from their designed positions, dimensionless (the
+    /// merit's terms are m², like a gap weight's), in [0, 10]. Default 1.
     ///
     /// The model error it covers is none: it covers a planning flaw. The
     /// gaps are relative, and far from the design the steepest way to
@@ -175,10 +176,11 @@ pub struct Weights {
     /// uneven fold (half A 45 cm, half B 33 cm) the gaps-only QP paid half
     /// B out by up to 2.5 cm, slackening its cables by ~5 N in the truth
     /// (147 truth violations on the default truth, 3 of 3 seeds). With η
-    /// the step closes the gaps by moving both halves towards the design,
-    /// where the gaps vanish as well, so it does not move the connection:
-    /// near it η only shares the work between the halves. 0 plans on the
-    /// gaps alone (the planner before issue 22).
+    /// the step closes the gaps by moving both halves towards the design.
+    /// The midpoint is orthogonal to the gap, so the term never holds a
+    /// gap open, also when the measured gap offsets shift the gaps. The
+    /// value was not swept: 1 gives the midpoints the weight the gaps have;
+    /// 0 plans on the gaps alone (the planner before issue 22).
     pub design_position: f64,
     /// ρ on ‖u‖², dimensionless, in (0, 1] (positive keeps the QP
     /// strictly convex). Default 1e-5: far below the squared gap
@@ -230,7 +232,7 @@ impl Default for Weights {
     fn default() -> Self {
         Weights {
             gap: vec![1.0],
-            design_position: 0.5,
+            design_position: 1.0,
             regularisation: 1e-5,
             split_penalty: 1e-6,
             soft_limit_penalty: Some(10.0),
