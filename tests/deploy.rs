@@ -10,10 +10,12 @@ mod common;
 
 use common::cli::{failed_with, stderr, stdout, tdeploy, tdeploy_with, RunOptions};
 use common::files::{files, read_json};
-use common::fixtures::{frictionless_reference_model, reference_structure};
+use common::fixtures::{
+    deploy_frictionless_controller, frictionless_reference_model, reference_structure,
+};
 use tensegrity_deploy::control::CORRECTIVE_PHASE_GAP_M;
 use tensegrity_deploy::control::{
-    deploy_closed_loop, ClosedLoopSetup, DeployObserver, DeployRecord, DeployStart, Deployment,
+    deploy_closed_loop, DeployObserver, DeployRecord, DeployStart, Deployment,
 };
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::model::{EffectKind, Effects};
@@ -56,17 +58,7 @@ fn deploy_on(
     seed: u64,
     observer: &mut dyn DeployObserver,
 ) -> Deployment {
-    let model = frictionless_reference_model();
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem,
-        policy,
-        truth,
-        sensors,
-        temperature_c: None,
-        seed,
-    };
-    deploy_closed_loop(&setup, observer).unwrap()
+    deploy_frictionless_controller(truth, sensors, problem, policy, None, seed, observer)
 }
 
 #[test]

@@ -12,8 +12,8 @@ mod common;
 
 use std::path::Path;
 
-use common::fixtures::frictionless_reference_model;
-use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup, Deployment};
+use common::fixtures::deploy_frictionless_controller;
+use tensegrity_deploy::control::Deployment;
 use tensegrity_deploy::io::model_file::parse_model;
 use tensegrity_deploy::plan::{DeploymentProblem, Policy, RunVerdict};
 use tensegrity_deploy::sim::standard_sensors;
@@ -25,19 +25,16 @@ fn deploy(text: &str, temperature_c: Option<f64>, seed: u64) -> (Deployment, Run
         .measurement_model()
         .unwrap();
     let sensors = standard_sensors(&truth.structure);
-    let model = frictionless_reference_model();
     let problem = DeploymentProblem::default();
-    let policy = Policy::default();
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy: &policy,
-        truth: &truth,
-        sensors: &sensors,
+    let d = deploy_frictionless_controller(
+        &truth,
+        &sensors,
+        &problem,
+        &Policy::default(),
         temperature_c,
         seed,
-    };
-    let d = deploy_closed_loop(&setup, &mut ()).unwrap();
+        &mut (),
+    );
     let v = d.verdict(problem.connection_tolerance_m);
     (d, v)
 }

@@ -411,26 +411,23 @@ impl PayoutResponse {
     /// d(x_a − x_b)/dp of every node pair, stacked (3 rows per pair), one
     /// column per motor, for one direction.
     pub fn pair_matrix(&self, pairs: &[[usize; 2]], pay_out: bool) -> DMatrix<f64> {
-        let effects = if pay_out {
-            &self.pay_out
-        } else {
-            &self.reel_in
-        };
-        let mut m = DMatrix::zeros(3 * pairs.len(), effects.len());
-        for (c, e) in effects.iter().enumerate() {
-            for (p, [a, b]) in pairs.iter().enumerate() {
-                let d = e.positions_m_per_m[*a] - e.positions_m_per_m[*b];
-                for k in 0..3 {
-                    m[(3 * p + k, c)] = d[k];
-                }
-            }
-        }
-        m
+        self.pair_rows(pairs, pay_out, |a, b| a - b)
     }
 
     /// d(½(x_a + x_b))/dp of every node pair, stacked (3 rows per pair),
     /// one column per motor, for one direction.
     pub fn midpoint_matrix(&self, pairs: &[[usize; 2]], pay_out: bool) -> DMatrix<f64> {
+        self.pair_rows(pairs, pay_out, |a, b| 0.5 * (a + b))
+    }
+
+    /// `combine` of each pair's two node responses, stacked (3 rows per
+    /// pair), one column per motor, for one direction.
+    fn pair_rows(
+        &self,
+        pairs: &[[usize; 2]],
+        pay_out: bool,
+        combine: impl Fn(Vector3<f64>, Vector3<f64>) -> Vector3<f64>,
+    ) -> DMatrix<f64> {
         let effects = if pay_out {
             &self.pay_out
         } else {
@@ -439,7 +436,7 @@ impl PayoutResponse {
         let mut m = DMatrix::zeros(3 * pairs.len(), effects.len());
         for (c, e) in effects.iter().enumerate() {
             for (p, [a, b]) in pairs.iter().enumerate() {
-                let d = 0.5 * (e.positions_m_per_m[*a] + e.positions_m_per_m[*b]);
+                let d = combine(e.positions_m_per_m[*a], e.positions_m_per_m[*b]);
                 for k in 0..3 {
                     m[(3 * p + k, c)] = d[k];
                 }

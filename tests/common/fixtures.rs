@@ -1,10 +1,12 @@
 //! Inputs several tests build the same way.
 
+use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup, DeployObserver, Deployment};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles};
 use tensegrity_deploy::measure::log::MeasurementLog;
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Structure};
-use tensegrity_deploy::sim::{standard_sensors, EffectModel};
+use tensegrity_deploy::plan::{DeploymentProblem, Policy};
+use tensegrity_deploy::sim::{standard_sensors, EffectModel, Sensor};
 
 use super::cli::{succeeded, tdeploy};
 
@@ -77,6 +79,31 @@ pub fn frictionless_reference_model() -> ForwardModel {
         RelaxSettings::default(),
     )
     .unwrap()
+}
+
+/// A closed-loop deployment of `truth` read by `sensors` at
+/// `temperature_c`, the controller planning on
+/// [`frictionless_reference_model`].
+pub fn deploy_frictionless_controller(
+    truth: &EffectModel,
+    sensors: &[Sensor],
+    problem: &DeploymentProblem,
+    policy: &Policy,
+    temperature_c: Option<f64>,
+    seed: u64,
+    observer: &mut dyn DeployObserver,
+) -> Deployment {
+    let model = frictionless_reference_model();
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem,
+        policy,
+        truth,
+        sensors,
+        temperature_c,
+        seed,
+    };
+    deploy_closed_loop(&setup, observer).unwrap()
 }
 
 /// The cycles of the diagnosis tests' lab logs, m: both halves of a
