@@ -36,18 +36,16 @@ use tensegrity_deploy::io::deployment_files::{
     write_deployment, DeploymentSet, DeploymentSources, DeploymentSummary,
 };
 use tensegrity_deploy::io::json_text;
-use tensegrity_deploy::io::model_file::{read_model, ModelFile, StructureSource};
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::model::JointFriction;
 use tensegrity_deploy::plan::RunVerdict;
 use tensegrity_deploy::report::deployment_figure::deployment_svg;
-use tensegrity_deploy::sim::default_truth::{default_truth, default_truth_effects};
-use tensegrity_deploy::sim::{standard_sensors, EffectModel, PlantError};
+use tensegrity_deploy::sim::{standard_sensors, PlantError};
 
 use super::inputs::{
     absolute, controller_model_file, deployment_temperature, planning_model, policy_or_default,
-    problem_or_default,
+    problem_or_default, truth_or_default,
 };
 use super::progress::{Progress, Unit};
 use super::words::{commands_count, mm};
@@ -114,35 +112,6 @@ impl Options {
     }
 }
 
-/// The truth: its model file (structure made absolute), the model it
-/// loads as, and how the summary names it. Without `--truth`, the
-/// controller's bridge with the default effects.
-fn truth(o: &Options) -> Result<(ModelFile, EffectModel, String)> {
-    Ok(match &o.truth {
-        Some(p) => {
-            let file = absolute(read_model(p)?)?;
-            let model = file.measurement_model()?;
-            (file, model, p.display().to_string())
-        }
-        None => {
-            let structure = match &o.model {
-                Some(p) => absolute(read_model(p)?)?.structure,
-                None => StructureSource::Reference,
-            };
-            let file = ModelFile {
-                structure,
-                effects: default_truth_effects(),
-            };
-            let model = default_truth(file.load_structure()?);
-            (
-                file,
-                model,
-                "default (μ = 0.2 wrap angle, 3 mm backlash)".to_string(),
-            )
-        }
-    })
-}
-
 /// The verdict line.
 fn verdict(v: &RunVerdict, d: &Deployment) -> String {
     format!(
@@ -159,7 +128,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
     // Claimed before the work, so that a refusal costs nothing; the set
     // is written whole (old or new, never a mix).
     let folder = ResultsFolder::claim(&o.out, "deploy", o.force)?;
-    let (truth_file, truth, truth_words) = truth(o)?;
+    let (truth_file, truth, truth_words) =
+        truth_or_default(o.truth.as_deref(), o.model.as_deref())?;
     let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &truth_words)?;
     let (model_file, model_words) = controller_model_file(o.model.as_deref())?;
     let model_file = absolute(model_file)?;

@@ -15,6 +15,7 @@ use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::problem_file::read_problem_for;
 use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::{DeploymentProblem, Policy};
+use tensegrity_deploy::sim::default_truth::{default_truth, default_truth_effects};
 use tensegrity_deploy::sim::EffectModel;
 
 /// The model a controller plans on: a model file's structure with its
@@ -110,5 +111,38 @@ pub fn problem_or_default(path: Option<&Path>, motors: usize) -> Result<Deployme
     Ok(match path {
         Some(p) => read_problem_for(p, motors)?,
         None => DeploymentProblem::default(),
+    })
+}
+
+/// The truth a simulated deployment runs on: its model file (structure
+/// made absolute), the model it loads as, and how summaries name it.
+/// Without a truth file, the controller's bridge (`model`'s structure, or
+/// the reference) with the default effects.
+pub fn truth_or_default(
+    truth: Option<&Path>,
+    model: Option<&Path>,
+) -> Result<(ModelFile, EffectModel, String)> {
+    Ok(match truth {
+        Some(p) => {
+            let file = absolute(read_model(p)?)?;
+            let model = file.measurement_model()?;
+            (file, model, p.display().to_string())
+        }
+        None => {
+            let structure = match model {
+                Some(p) => absolute(read_model(p)?)?.structure,
+                None => StructureSource::Reference,
+            };
+            let file = ModelFile {
+                structure,
+                effects: default_truth_effects(),
+            };
+            let model = default_truth(file.load_structure()?);
+            (
+                file,
+                model,
+                "default (μ = 0.2 wrap angle, 3 mm backlash)".to_string(),
+            )
+        }
     })
 }

@@ -66,6 +66,8 @@ mod plan;
 mod policy;
 mod progress;
 mod replay;
+mod rig;
+mod session;
 mod simulate;
 mod structure;
 mod words;
@@ -115,6 +117,8 @@ pub fn command() -> Command {
         .subcommand(cycles::command())
         .subcommand(policy::command())
         .subcommand(memory::command())
+        .subcommand(session::command())
+        .subcommand(rig::command())
 }
 
 /// The typed options of one subcommand.
@@ -150,6 +154,10 @@ pub enum Options {
     Policy(policy::Options),
     /// `tdeploy memory`.
     Memory(memory::Options),
+    /// `tdeploy session`.
+    Session(session::Options),
+    /// `tdeploy rig`.
+    Rig(rig::Options),
 }
 
 impl Options {
@@ -171,6 +179,8 @@ impl Options {
             Some(("cycles", a)) => Options::Cycles(cycles::Options::from_matches(a)?),
             Some(("policy", a)) => Options::Policy(policy::Options::from_matches(a)?),
             Some(("memory", a)) => Options::Memory(memory::Options::from_matches(a)?),
+            Some(("session", a)) => Options::Session(session::Options::from_matches(a)?),
+            Some(("rig", a)) => Options::Rig(rig::Options::from_matches(a)?),
             Some((other, _)) => bail!("unknown subcommand `{other}`"),
             None => bail!("a subcommand is required"),
         })
@@ -195,6 +205,8 @@ pub fn run(options: &Options) -> Result<Outcome> {
         Options::Cycles(o) => cycles::run(o),
         Options::Policy(o) => policy::run(o),
         Options::Memory(o) => memory::run(o),
+        Options::Session(o) => session::run(o),
+        Options::Rig(o) => rig::run(o),
     }
 }
 

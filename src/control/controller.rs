@@ -102,6 +102,8 @@ pub struct Observation {
 struct Pending {
     command: Box<PlannedCommand>,
     proposal: Proposal,
+    /// Whether it is a feedforward command (not the planner's).
+    feedforward: bool,
 }
 
 /// The controller of a closed-loop deployment (see the module notes).
@@ -365,6 +367,7 @@ impl<'a> Controller<'a> {
         // make it, as far as the estimate knows. The step limit binds the
         // drum, which the planner's check (on cable motion) does not see.
         // A feedforward command is sent as it was learnt.
+        let is_feedforward = feedforward_m.is_some();
         let sent_m = match (feedforward_m, &self.estimator) {
             (Some(sent), _) => sent,
             (None, Some(e)) => e
@@ -389,8 +392,27 @@ impl<'a> Controller<'a> {
         self.pending = Some(Pending {
             command: c,
             proposal: proposal.clone(),
+            feedforward: is_feedforward,
         });
         ControllerDecision::Send(proposal)
+    }
+
+    /// The last decision was rejected before it was sent (an operator
+    /// refused it): it is forgotten, the planner is told
+    /// ([`crate::plan::CommandPlanner::on_command_rejected`]) and the next
+    /// [`Self::decide`] plans again from the same state. A rejected
+    /// feedforward command is given up, as one beyond a limit is. Returns
+    /// whether there was a decision to reject.
+    pub fn reject(&mut self) -> bool {
+        let Some(p) = self.pending.take() else {
+            return false;
+        };
+        if p.feedforward {
+            self.feedforward.clear();
+        } else {
+            self.planner.on_command_rejected(&p.command);
+        }
+        true
     }
 
     /// The next feedforward command (drum, cable motion `sent·(1 + ŝ)`,

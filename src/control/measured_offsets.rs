@@ -39,7 +39,7 @@ pub fn measured_gap_vectors(
 
 /// The force row (members, then segments) a load cell reads on `model`,
 /// if the model has it.
-fn load_cell_row(
+pub(crate) fn load_cell_row(
     model: &ForwardModel,
     state: &DeploymentState,
     target: SensorTarget,

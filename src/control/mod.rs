@@ -10,6 +10,8 @@
 //!   the model's predictions; [`force_offset_filter`]: the load-cell
 //!   offsets smoothed across measurements;
 //! - [`guidance`]: what past cycles tell a deployment;
+//! - [`session`]: the controller driven one command at a time by a plant
+//!   outside the process (a rig, an operator), with interlocks;
 //! - [`closed_loop`]: a deployment of a truth plant, planned on the model
 //!   and corrected by measurements after every command;
 //!   [`truth_watch`]: the truth's supervisor; [`deployment`]: the records
@@ -26,6 +28,7 @@ pub mod estimation;
 pub mod force_offset_filter;
 pub mod guidance;
 pub mod measured_offsets;
+pub mod session;
 pub mod truth_watch;
 
 /// Defined in `plan` ([`crate::plan::causes`]): a deployment's
@@ -44,6 +47,9 @@ pub use estimation::PayoutScaleEstimator;
 pub use force_offset_filter::ForceOffsetFilter;
 pub use guidance::Guidance;
 pub use measured_offsets::{measured_gap_vectors, model_correction};
+pub use session::{
+    Interlocks, Session, SessionError, SessionEvent, SessionPhase, SessionRefusal, SessionSetup,
+};
 pub use truth_watch::TruthWatch;
 
 /// Fixtures shared by the control layer's unit tests.

@@ -130,7 +130,9 @@ pub fn read_log(dir: &Path, structure: &Structure) -> Result<MeasurementLog, Fil
     Ok(log)
 }
 
-fn read_sensors(path: &Path, structure: &Structure) -> Result<Vec<Sensor>, FileError> {
+/// Reads and validates a sensor layout (`sensors.csv`) against
+/// `structure`.
+pub fn read_sensors(path: &Path, structure: &Structure) -> Result<Vec<Sensor>, FileError> {
     let text = read_text(path)?;
     let mut reader = csv_with_header(&text, path, &SENSORS_HEADER)?;
     let mut sensors: Vec<Sensor> = Vec::new();
@@ -321,6 +323,21 @@ fn read_measurements(
     Ok(())
 }
 
+/// A sensor layout as `sensors.csv`.
+pub fn sensors_table(sensors: &[Sensor], structure: &Structure) -> CsvTable {
+    let mut table = CsvTable::new(&SENSORS_HEADER);
+    for s in sensors {
+        let (kind, target) = s.kind_and_target(structure);
+        table.row([
+            s.id.clone(),
+            kind.to_string(),
+            target,
+            s.noise_sd.to_string(),
+        ]);
+    }
+    table
+}
+
 /// Writes `log` into folder `dir` (created if missing), every file
 /// atomically.
 pub fn write_log(dir: &Path, log: &MeasurementLog, structure: &Structure) -> Result<(), FileError> {
@@ -331,17 +348,7 @@ pub fn write_log(dir: &Path, log: &MeasurementLog, structure: &Structure) -> Res
     })
     .expect("log metadata serialises");
     write_atomically(&dir.join("log.toml"), meta.as_bytes())?;
-    let mut sensors = CsvTable::new(&SENSORS_HEADER);
-    for s in &log.sensors {
-        let (kind, target) = s.kind_and_target(structure);
-        sensors.row([
-            s.id.clone(),
-            kind.to_string(),
-            target,
-            s.noise_sd.to_string(),
-        ]);
-    }
-    sensors.write(&dir.join("sensors.csv"))?;
+    sensors_table(&log.sensors, structure).write(&dir.join("sensors.csv"))?;
     let mut commands = CsvTable::new(&LOG_COMMANDS_HEADER);
     let mut measurements = CsvTable::new(&MEASUREMENTS_HEADER);
     for c in &log.cycles {

@@ -1,5 +1,5 @@
 //! The case-memory file: one case per line, each with its own checksum,
-//! appended atomically.
+//! appended atomically (a journal, [`super::journal`]).
 //!
 //! ```text
 //! tensegrity-deploy/memory/1
@@ -23,26 +23,27 @@
 //!   (`tdeploy memory repair FILE`) removes it atomically. Appending to a
 //!   file with a torn tail is refused.
 
-use std::io::Write;
 use std::path::Path;
 
-use super::evaluation_files::fingerprint;
-use super::{read_text, write_atomically, FileError};
+use super::journal::{self, JournalKind};
+use super::{read_text, FileError};
 use crate::learn::{Case, CaseMemory};
 
 /// The first line of a memory file.
 pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/1";
 
-/// The checksum prefix of a case line.
-const CHECKSUM_PREFIX: &str = "fnv1a:";
+/// The memory as a journal ([`super::journal`]).
+fn kind(repair: &str) -> JournalKind<'_> {
+    JournalKind {
+        format: MEMORY_FORMAT,
+        record: "case",
+        repair,
+    }
+}
 
-/// One case as its line (with the `\n`).
-fn case_line(path: &Path, case: &Case) -> Result<String, FileError> {
-    let json = serde_json::to_string(case).map_err(|e| FileError::write(path, e.into()))?;
-    Ok(format!(
-        "{CHECKSUM_PREFIX}{} {json}\n",
-        fingerprint(json.as_bytes())
-    ))
+/// The repair command for `path`.
+fn repair_command(path: &Path) -> String {
+    format!("tdeploy memory repair {}", path.display())
 }
 
 /// Reads and validates a memory file (see the module documentation).
@@ -81,97 +82,18 @@ pub fn read_memory_or_empty(
 
 /// Parses a memory file's text; `path` names it in errors.
 pub fn parse_memory(text: &str, path: &Path) -> Result<CaseMemory, FileError> {
-    let lines: Vec<&str> = text.split_inclusive('\n').collect();
-    match lines.first() {
-        Some(l) if l.trim_end_matches('\n') == MEMORY_FORMAT => {}
-        _ => {
-            return Err(FileError::field(
-                path,
-                1,
-                "format",
-                format!("the first line must be `{MEMORY_FORMAT}`"),
-            ))
-        }
-    }
-    let mut memory = CaseMemory::default();
-    for (i, raw) in lines.iter().enumerate().skip(1) {
-        let line = i + 1;
-        let Some(content) = raw.strip_suffix('\n') else {
-            return Err(FileError::field(
-                path,
-                line,
-                "case",
-                format!(
-                    "incomplete (an append was interrupted); the cases before it are intact: `tdeploy memory repair {}` removes this line and keeps them",
-                    path.display()
-                ),
-            ));
-        };
-        let corrupted = |why: &str| {
-            FileError::field(
-                path,
-                line,
-                "checksum",
-                format!("{why}: the file is corrupted and this case is not used"),
-            )
-        };
-        let (sum, json) = content
-            .split_once(' ')
-            .ok_or_else(|| corrupted("no checksum"))?;
-        let sum = sum
-            .strip_prefix(CHECKSUM_PREFIX)
-            .ok_or_else(|| corrupted("no checksum"))?;
-        if sum != fingerprint(json.as_bytes()) {
-            return Err(corrupted("the checksum does not match the case"));
-        }
-        let case: Case = serde_json::from_str(json)
-            .map_err(|e| FileError::field(path, line, "case", format!("not a case: {e}")))?;
-        memory.cases.push(case);
-    }
-    Ok(memory)
+    let repair = repair_command(path);
+    let cases = journal::parse_journal::<Case>(text, path, kind(&repair))?;
+    Ok(CaseMemory {
+        cases: cases.into_iter().map(|(_, c)| c).collect(),
+    })
 }
 
 /// Appends `case` to the memory file at `path`, creating it if missing
-/// (see the module documentation for what a crash can leave).
+/// (see [`super::journal`] for what a crash can leave).
 pub fn append_case(path: &Path, case: &Case) -> Result<(), FileError> {
-    let line = case_line(path, case)?;
-    let existing = match std::fs::read(path) {
-        Ok(bytes) => Some(bytes),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => return Err(FileError::read(path, e)),
-    };
-    match existing {
-        None => write_atomically(path, format!("{MEMORY_FORMAT}\n{line}").as_bytes()),
-        Some(bytes) => {
-            if !bytes.starts_with(MEMORY_FORMAT.as_bytes()) {
-                return Err(FileError::field(
-                    path,
-                    1,
-                    "format",
-                    format!("not a memory file (the first line must be `{MEMORY_FORMAT}`); nothing appended"),
-                ));
-            }
-            if bytes.last() != Some(&b'\n') {
-                let line = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
-                return Err(FileError::field(
-                    path,
-                    line,
-                    "case",
-                    format!(
-                        "incomplete (an earlier append was interrupted); nothing appended: `tdeploy memory repair {}` removes this line and keeps every case before it",
-                        path.display()
-                    ),
-                ));
-            }
-            let mut file = std::fs::OpenOptions::new()
-                .append(true)
-                .open(path)
-                .map_err(|e| FileError::write(path, e))?;
-            file.write_all(line.as_bytes())
-                .and_then(|()| file.sync_all())
-                .map_err(|e| FileError::write(path, e))
-        }
-    }
+    let repair = repair_command(path);
+    journal::append_records(path, kind(&repair), std::slice::from_ref(case))
 }
 
 /// What [`repair_torn_tail`] did.
@@ -185,31 +107,15 @@ pub struct Repair {
 }
 
 /// Removes a last line without its `\n` (a torn append), rewriting the
-/// file atomically, and loads what is left. The cases before the torn line
-/// are kept byte for byte. A file whose other lines do not load (a wrong
-/// header, a corrupted case) is an error and is left unchanged: only an
-/// interrupted append is repaired, since that is all a crash can leave.
+/// file atomically, and loads what is left ([`journal::repair_torn_tail`]).
 pub fn repair_torn_tail(path: &Path) -> Result<Repair, FileError> {
-    let bytes = std::fs::read(path).map_err(|e| FileError::read(path, e))?;
-    let keep = match bytes.last() {
-        None | Some(b'\n') => bytes.len(),
-        Some(_) => bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1),
-    };
-    let text = std::str::from_utf8(&bytes[..keep]).map_err(|e| {
-        FileError::field(
-            path,
-            1,
-            "case",
-            format!("not text (UTF-8): {e}; nothing repaired"),
-        )
-    })?;
-    let memory = parse_memory(text, path)?;
-    if keep < bytes.len() {
-        write_atomically(path, &bytes[..keep])?;
-    }
+    let repair = repair_command(path);
+    let (dropped_bytes, cases) = journal::repair_torn_tail::<Case>(path, kind(&repair))?;
     Ok(Repair {
-        dropped_bytes: bytes.len() - keep,
-        memory,
+        dropped_bytes,
+        memory: CaseMemory {
+            cases: cases.into_iter().map(|(_, c)| c).collect(),
+        },
     })
 }
 
@@ -288,12 +194,12 @@ mod tests {
     fn an_interrupted_append_loses_nothing_stored_before_it() {
         let dir = tempfile::tempdir().unwrap();
         let path = stored(dir.path(), 2);
-        let line = case_line(&path, &case(2)).unwrap();
+        let line = journal::record_line(&path, &case(2)).unwrap();
         let mut file = std::fs::OpenOptions::new()
             .append(true)
             .open(&path)
             .unwrap();
-        file.write_all(&line.as_bytes()[..line.len() / 2]).unwrap();
+        std::io::Write::write_all(&mut file, &line.as_bytes()[..line.len() / 2]).unwrap();
         drop(file);
         let torn = std::fs::read(&path).unwrap();
         let e = read_memory(&path).unwrap_err().to_string();

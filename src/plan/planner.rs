@@ -374,4 +374,11 @@ pub enum Decision {
 pub trait CommandPlanner {
     /// Decides the next command from `state` (on `context.model`).
     fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision;
+
+    /// The last command it decided was rejected before it was sent (an
+    /// operator refused it, see [`crate::control::session`]): the next
+    /// decision is planned from the same state, more cautiously where the
+    /// planner knows how. By default nothing changes, so a planner without
+    /// a notion of caution may propose the same command again.
+    fn on_command_rejected(&mut self, _command: &PlannedCommand) {}
 }

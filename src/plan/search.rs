@@ -282,6 +282,17 @@ enum Linearisation {
 }
 
 impl CommandPlanner for QpPlanner {
+    /// A rejected command is treated as a rejected trial: the trust
+    /// region it was planned in is shrunk as after a poor reduction
+    /// ratio (no smaller than the region's minimum, so that a command can
+    /// still be planned), and the kept responses are dropped.
+    fn on_command_rejected(&mut self, command: &PlannedCommand) {
+        let tr = self.settings.trust_region;
+        let radius = command.trust_region_m.unwrap_or(self.trust_region_m);
+        self.trust_region_m = tr.after_rejected(radius).max(tr.min_m);
+        self.kept = None;
+    }
+
     fn next_command(&mut self, context: &PlanContext, state: &DeploymentState) -> Decision {
         // A slack cable's tangent response is zero: take its slack up
         // first (see `take_up`).

@@ -1,0 +1,825 @@
+//! An online deployment session: the controller driven one command at a
+//! time by a plant outside this process (a rig program, an operator at
+//! the motors), with interlocks between them.
+//!
+//! # A session is its journal
+//! Everything that happened is a [`SessionEvent`], in order: the readings
+//! of a step, a command issued, approved or rejected, an interlock's stop
+//! and an operator's resume, the end. [`Session::replay`] rebuilds the
+//! session from its events alone: the [`Controller`] decides and observes
+//! each recorded step exactly as a closed-loop deployment does
+//! ([`super::closed_loop`]), so a session interrupted anywhere continues
+//! with the command it would have issued, and a session given the readings
+//! of a `deploy` run issues that run's commands. The operations ([`Session::next`],
+//! [`Session::record`], …) check what they are asked against the session's
+//! phase and return the new events, already applied; the caller stores
+//! them (the file format is [`crate::io::session_files`]).
+//!
+//! # Steps
+//! Step 0 is the folded start (its readings come first); step `k ≥ 1` is
+//! command `k` and the readings taken after it was executed.
+//!
+//! # Phases ([`SessionPhase`])
+//! `awaiting_start` (no readings yet) → `ready` (the last step's readings
+//! are in) → `pending` (command issued, its readings awaited; with
+//! approval required it must be approved before it may be executed) →
+//! `ready` … until `ended` (the controller stopped: connected, or not
+//! reachable with its reason). An interlock (below) moves `ready` to
+//! `stopped` until an operator resumes.
+//!
+//! # Interlocks ([`Interlocks`])
+//! - no command is issued while the readings of the last one are missing
+//!   (a pending command blocks the next), and readings are accepted only
+//!   for the pending command's step (or step 0 at the start);
+//! - readings outside a sensor's plausible range, or a load cell whose
+//!   reading (less the estimated common bias) puts its member beyond the
+//!   limit the controller holds it to, stop the session with the reason;
+//!   the readings are kept and the controller learns from them, but
+//!   nothing is issued until [`Session::resume`];
+//! - a command the model predicts beyond a limit is never issued: the
+//!   planners only propose commands their trial on the model admits, and
+//!   the session checks the trial's utilisation again before issuing.
+//!
+//! Pure: no files, no clock; the same events give the same session.
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use super::controller::{Controller, ControllerDecision, Proposal, OWN_COMMAND_TOLERANCE_M};
+use super::guidance::Guidance;
+use super::measured_offsets::load_cell_row;
+use crate::model::{EffectKind, ForwardModel};
+use crate::plan::limits::force_row_name;
+use crate::plan::{DeploymentProblem, PlanError, Policy};
+use crate::sim::{Sensor, SensorTarget};
+
+/// One thing that happened in a session (see the module notes).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case", deny_unknown_fields)]
+pub enum SessionEvent {
+    /// The readings of step `step`, one per sensor in the layout's order
+    /// (`None`: not read).
+    Readings {
+        /// 0: the folded start; `k`: after command `k`.
+        step: usize,
+        /// One value per sensor, in its unit (N, m, °C).
+        values: Vec<Option<f64>>,
+    },
+    /// Command `step` issued: the drum payout change per motor, m.
+    Issued {
+        /// The command's number, from 1.
+        step: usize,
+        /// Payout change per motor, m (positive pays out).
+        command_m: Vec<f64>,
+    },
+    /// An operator approved the pending command `step`.
+    Approved {
+        /// The command's number.
+        step: usize,
+    },
+    /// An operator rejected the pending command `step`; it was not
+    /// executed and the controller plans again from the same state.
+    Rejected {
+        /// The command's number.
+        step: usize,
+        /// Why, in the operator's words.
+        reason: String,
+    },
+    /// An interlock stopped the session after the readings of `step`.
+    Stopped {
+        /// The step whose readings tripped it.
+        step: usize,
+        /// What tripped, in words.
+        reason: String,
+    },
+    /// An operator resumed a stopped session.
+    Resumed {
+        /// The step it was stopped at.
+        step: usize,
+        /// The operator's note.
+        note: String,
+    },
+    /// The controller ended the session.
+    Ended {
+        /// The controller's status label ([`crate::plan::PlanStatus::label`]).
+        status: String,
+        /// The status in words.
+        words: String,
+    },
+}
+
+/// Where a session stands.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "phase", rename_all = "snake_case")]
+pub enum SessionPhase {
+    /// Waiting for the folded start's readings (step 0).
+    AwaitingStart,
+    /// The readings of `step` are in; the next command is `step + 1`.
+    Ready {
+        /// The last step measured.
+        step: usize,
+    },
+    /// Command `step` issued; its readings are awaited.
+    Pending {
+        /// The command's number.
+        step: usize,
+        /// Payout change per motor, m.
+        command_m: Vec<f64>,
+        /// Whether it may be executed: approved, or no approval required.
+        cleared: bool,
+    },
+    /// An interlock stopped the session; nothing is issued until resumed.
+    Stopped {
+        /// The step whose readings tripped it.
+        step: usize,
+        /// What tripped.
+        reason: String,
+    },
+    /// The controller ended the session.
+    Ended {
+        /// The status label (`connected`, `not_reachable`, …).
+        status: String,
+        /// In words.
+        words: String,
+    },
+}
+
+impl SessionPhase {
+    /// The phase's name, as status files write it.
+    pub fn label(&self) -> &'static str {
+        match self {
+            SessionPhase::AwaitingStart => "awaiting_start",
+            SessionPhase::Ready { .. } => "ready",
+            SessionPhase::Pending { .. } => "pending",
+            SessionPhase::Stopped { .. } => "stopped",
+            SessionPhase::Ended { .. } => "ended",
+        }
+    }
+}
+
+/// The interlocks' thresholds (see the module notes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Interlocks {
+    /// A load cell's reading, less the estimated common bias, beyond its
+    /// member's bound by more than this many standard deviations (the
+    /// cell's noise and the bias estimate's, together) stops the session.
+    /// Default 3: a member on its bound trips it in 0.13 % of readings,
+    /// one beyond by 3 noise SDs (21 N for the 7 N cells) in half.
+    pub limit_sigmas: f64,
+    /// Largest distance of a position reading from where the controller's
+    /// model puts the node, m. Default 0.5: the model errors the
+    /// controller corrects for move the midspan nodes by centimetres
+    /// (the wide scenarios' largest measured − predicted offset is under
+    /// 0.2 m at a 60 cm fold); half a metre is a sensor on the wrong node
+    /// or a bridge far from any model of it.
+    pub max_position_offset_m: f64,
+    /// Plausible air temperature, °C: `(low, high)`. Default −40 to 60:
+    /// outside it the thermometer, not the weather, is at fault.
+    pub temperature_range_c: (f64, f64),
+}
+
+impl Default for Interlocks {
+    fn default() -> Self {
+        Interlocks {
+            limit_sigmas: 3.0,
+            max_position_offset_m: 0.5,
+            temperature_range_c: (-40.0, 60.0),
+        }
+    }
+}
+
+impl Interlocks {
+    /// The lowest plausible load-cell reading of a sensor with noise SD
+    /// `noise_sd_n`, N: a cable cannot push, so below zero is only the
+    /// cell's bias (the effect `load_cell_bias`'s plausible range) and its
+    /// noise (5 SDs).
+    pub fn lowest_plausible_tension_n(noise_sd_n: f64) -> f64 {
+        let (low, _) = EffectKind::LoadCellBias.parameters()[0].plausible;
+        low - 5.0 * noise_sd_n
+    }
+}
+
+/// Everything a session runs with.
+#[derive(Debug, Clone, Copy)]
+pub struct SessionSetup<'a> {
+    /// The controller's model.
+    pub model: &'a ForwardModel,
+    /// The problem (start, connection, limits).
+    pub problem: &'a DeploymentProblem,
+    /// The policy.
+    pub policy: &'a Policy,
+    /// The sensor layout the readings follow.
+    pub sensors: &'a [Sensor],
+    /// Guidance from past cycles (none: [`Guidance::default`]).
+    pub guidance: &'a Guidance,
+    /// Whether every command needs an operator's approval before it may
+    /// be executed.
+    pub approval_required: bool,
+    /// The interlocks' thresholds.
+    pub interlocks: Interlocks,
+}
+
+/// An operation the session refuses in its present phase, or input it
+/// cannot take. The session is unchanged.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SessionRefusal {
+    /// `next` before the folded start was measured.
+    #[error("the folded start has not been measured: record the readings of step 0 first")]
+    AwaitingStart,
+    /// Stopped by an interlock.
+    #[error("the session is stopped after step {step}: {reason}; an operator must resume it")]
+    Stopped {
+        /// The step.
+        step: usize,
+        /// What tripped.
+        reason: String,
+    },
+    /// The session has ended.
+    #[error("the session has ended: {words}")]
+    Ended {
+        /// How.
+        words: String,
+    },
+    /// Readings for a step that is not the one awaited.
+    #[error("readings for step {given}, but {expected}")]
+    WrongStep {
+        /// The step the readings name.
+        given: usize,
+        /// What the session awaits, in words.
+        expected: String,
+    },
+    /// Readings for a command that must be approved first.
+    #[error("command {step} has not been approved: it may not have been executed")]
+    NotApproved {
+        /// The command.
+        step: usize,
+    },
+    /// Approval or rejection with no such pending command.
+    #[error("no command {step} is pending ({phase})")]
+    NoSuchPending {
+        /// The command named.
+        step: usize,
+        /// The session's phase, in words.
+        phase: String,
+    },
+    /// Resume of a session that is not stopped.
+    #[error("the session is not stopped ({phase}): nothing to resume")]
+    NotStopped {
+        /// The phase.
+        phase: String,
+    },
+    /// The session's own record refused an event built for it (a bug,
+    /// reported rather than a panic).
+    #[error("the session's journal refused its own event: {0}")]
+    Journal(SessionError),
+    /// Readings of the wrong length or not finite.
+    #[error("sensor \"{sensor}\": {why}")]
+    BadReading {
+        /// The sensor's id.
+        sensor: String,
+        /// What is wrong.
+        why: String,
+    },
+    /// A reading count that is not the layout's.
+    #[error("{found} readings, the sensor layout has {expected}")]
+    WrongReadingCount {
+        /// Given.
+        found: usize,
+        /// Expected.
+        expected: usize,
+    },
+}
+
+/// A journal that cannot be the record of a session with this setup
+/// (written by hand, or by another setup).
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SessionError {
+    /// An event that its phase does not allow.
+    #[error("event {index}: {why}")]
+    Inconsistent {
+        /// The event's index in the journal (0 for the first).
+        index: usize,
+        /// Why.
+        why: String,
+    },
+    /// The controller could not start on the model and problem.
+    #[error("the controller cannot start: {0}")]
+    Start(PlanError),
+}
+
+/// A session rebuilt from its events (see the module notes).
+pub struct Session<'a> {
+    setup: SessionSetup<'a>,
+    controller: Option<Controller<'a>>,
+    phase: SessionPhase,
+    /// Readings per step recorded so far (step 0 first).
+    readings: Vec<Vec<Option<f64>>>,
+    /// Commands executed so far (the issued ones whose readings are in).
+    executed_m: Vec<Vec<f64>>,
+    /// Commands whose issued value differs from the controller's
+    /// decision on replay (a journal written by another version).
+    diverged: Vec<usize>,
+    /// Why the controller could not follow the last executed command
+    /// (its decision forgotten), if it could not.
+    cannot_follow: Option<String>,
+    /// Events applied.
+    events: usize,
+}
+
+impl<'a> Session<'a> {
+    /// Checks that a controller can start on the setup's model, problem
+    /// and policy (it reaches the folded start), before a session is
+    /// opened on them.
+    pub fn check_setup(setup: &SessionSetup) -> Result<(), SessionError> {
+        let state = crate::plan::folded_start(setup.model, setup.problem, setup.policy.increment_m)
+            .map_err(SessionError::Start)?;
+        crate::plan::PlanContext::new(setup.model, setup.problem, setup.policy, &state)
+            .map_err(SessionError::Start)?;
+        Ok(())
+    }
+
+    /// A new session, before any event.
+    pub fn new(setup: SessionSetup<'a>) -> Result<Self, SessionError> {
+        Ok(Session {
+            setup,
+            controller: None,
+            phase: SessionPhase::AwaitingStart,
+            readings: Vec::new(),
+            executed_m: Vec::new(),
+            diverged: Vec::new(),
+            cannot_follow: None,
+            events: 0,
+        })
+    }
+
+    /// The session the events describe.
+    pub fn replay(setup: SessionSetup<'a>, events: &[SessionEvent]) -> Result<Self, SessionError> {
+        let mut session = Session::new(setup)?;
+        for event in events {
+            session.apply(event)?;
+        }
+        Ok(session)
+    }
+
+    /// Where it stands.
+    pub fn phase(&self) -> &SessionPhase {
+        &self.phase
+    }
+
+    /// The controller (`None` before the start's readings).
+    pub fn controller(&self) -> Option<&Controller<'a>> {
+        self.controller.as_ref()
+    }
+
+    /// Readings per step recorded so far, step 0 first.
+    pub fn readings(&self) -> &[Vec<Option<f64>>] {
+        &self.readings
+    }
+
+    /// The commands executed so far (issued, and their readings in), m.
+    pub fn executed_commands_m(&self) -> &[Vec<f64>] {
+        &self.executed_m
+    }
+
+    /// Commands whose issued value the controller would not issue now
+    /// (its decision differs on replay): empty for a journal this version
+    /// wrote.
+    pub fn diverged_commands(&self) -> &[usize] {
+        &self.diverged
+    }
+
+    /// The controller's proposal for the pending command: what it
+    /// predicted for it (`None` without a pending command, or when the
+    /// command issued is not the one it would issue now).
+    pub fn pending_proposal(&mut self) -> Option<Proposal> {
+        let SessionPhase::Pending { step, .. } = self.phase else {
+            return None;
+        };
+        if self.diverged.contains(&step) {
+            return None;
+        }
+        match self.controller.as_mut()?.decide() {
+            ControllerDecision::Send(p) => Some(p),
+            ControllerDecision::Stop(_) => None,
+        }
+    }
+
+    /// Events applied so far.
+    pub fn event_count(&self) -> usize {
+        self.events
+    }
+
+    /// The setup.
+    pub fn setup(&self) -> &SessionSetup<'a> {
+        &self.setup
+    }
+
+    /// Plans the next command: the pending command if there is one (the
+    /// same one, however often asked), else the controller's decision,
+    /// issued, or the session's end.
+    pub fn next(&mut self) -> Result<Vec<SessionEvent>, SessionRefusal> {
+        let step = match &self.phase {
+            SessionPhase::AwaitingStart => return Err(SessionRefusal::AwaitingStart),
+            SessionPhase::Pending { .. } => return Ok(Vec::new()),
+            SessionPhase::Stopped { step, reason } => {
+                return Err(SessionRefusal::Stopped {
+                    step: *step,
+                    reason: reason.clone(),
+                })
+            }
+            SessionPhase::Ended { words, .. } => {
+                return Err(SessionRefusal::Ended {
+                    words: words.clone(),
+                })
+            }
+            SessionPhase::Ready { step } => *step,
+        };
+        let event = if let Some(why) = &self.cannot_follow {
+            SessionEvent::Ended {
+                status: "solver_failure".into(),
+                words: format!("solver failure: {why}"),
+            }
+        } else {
+            let Some(controller) = self.controller.as_mut() else {
+                return Err(SessionRefusal::AwaitingStart);
+            };
+            match controller.decide() {
+                ControllerDecision::Stop(status) => SessionEvent::Ended {
+                    status: status.label().into(),
+                    words: status.describe(),
+                },
+                ControllerDecision::Send(p) if p.model_worst_utilisation > 1.0 => {
+                    // The planners never propose such a command; if one
+                    // did, it is not issued.
+                    controller.reject();
+                    SessionEvent::Ended {
+                        status: "not_reachable".into(),
+                        words: format!(
+                            "not reachable safely: the command planned for step {} is beyond a limit on the model (utilisation {:.3}); not issued",
+                            step + 1,
+                            p.model_worst_utilisation
+                        ),
+                    }
+                }
+                ControllerDecision::Send(p) => SessionEvent::Issued {
+                    step: step + 1,
+                    command_m: p.sent_m,
+                },
+            }
+        };
+        self.commit(vec![event])
+    }
+
+    /// Records the readings of `step`: the folded start (step 0) or the
+    /// pending command's, executed. Returns the readings' event and, if an
+    /// interlock trips on them, the stop.
+    pub fn record(
+        &mut self,
+        step: usize,
+        values: Vec<Option<f64>>,
+    ) -> Result<Vec<SessionEvent>, SessionRefusal> {
+        let wrong = |expected: String| SessionRefusal::WrongStep {
+            given: step,
+            expected,
+        };
+        match &self.phase {
+            SessionPhase::AwaitingStart if step == 0 => {}
+            SessionPhase::AwaitingStart => {
+                return Err(wrong(
+                    "the folded start's readings (step 0) come first".into(),
+                ))
+            }
+            SessionPhase::Pending {
+                step: k, cleared, ..
+            } if step == *k => {
+                if !cleared {
+                    return Err(SessionRefusal::NotApproved { step });
+                }
+            }
+            SessionPhase::Pending { step: k, .. } => {
+                return Err(wrong(format!(
+                    "command {k} is pending: the readings awaited are step {k}'s"
+                )))
+            }
+            SessionPhase::Ready { step: k } => {
+                return Err(wrong(format!(
+                    "no command is pending: step {k} is measured, and `next` issues command {}",
+                    k + 1
+                )))
+            }
+            SessionPhase::Stopped { step, reason } => {
+                return Err(SessionRefusal::Stopped {
+                    step: *step,
+                    reason: reason.clone(),
+                })
+            }
+            SessionPhase::Ended { words, .. } => {
+                return Err(SessionRefusal::Ended {
+                    words: words.clone(),
+                })
+            }
+        }
+        self.check_values(&values)?;
+        let mut events = self.commit(vec![SessionEvent::Readings { step, values }])?;
+        if let Some(reason) = self.interlock(step) {
+            events.extend(self.commit(vec![SessionEvent::Stopped { step, reason }])?);
+        }
+        Ok(events)
+    }
+
+    /// An operator approves the pending command `step`.
+    pub fn approve(&mut self, step: usize) -> Result<Vec<SessionEvent>, SessionRefusal> {
+        self.check_pending(step)?;
+        self.commit(vec![SessionEvent::Approved { step }])
+    }
+
+    /// An operator rejects the pending command `step` for `reason`: it is
+    /// not executed, and the next [`Self::next`] plans again from the same
+    /// state ([`Controller::reject`]).
+    pub fn reject(
+        &mut self,
+        step: usize,
+        reason: &str,
+    ) -> Result<Vec<SessionEvent>, SessionRefusal> {
+        self.check_pending(step)?;
+        self.commit(vec![SessionEvent::Rejected {
+            step,
+            reason: reason.to_string(),
+        }])
+    }
+
+    /// An operator resumes a session an interlock stopped.
+    pub fn resume(&mut self, note: &str) -> Result<Vec<SessionEvent>, SessionRefusal> {
+        let SessionPhase::Stopped { step, .. } = self.phase else {
+            return Err(SessionRefusal::NotStopped {
+                phase: self.phase.label().into(),
+            });
+        };
+        self.commit(vec![SessionEvent::Resumed {
+            step,
+            note: note.to_string(),
+        }])
+    }
+
+    fn check_pending(&self, step: usize) -> Result<(), SessionRefusal> {
+        match &self.phase {
+            SessionPhase::Pending { step: k, .. } if *k == step => Ok(()),
+            phase => Err(SessionRefusal::NoSuchPending {
+                step,
+                phase: phase.label().into(),
+            }),
+        }
+    }
+
+    /// One value per sensor, each finite.
+    fn check_values(&self, values: &[Option<f64>]) -> Result<(), SessionRefusal> {
+        let sensors = self.setup.sensors;
+        if values.len() != sensors.len() {
+            return Err(SessionRefusal::WrongReadingCount {
+                found: values.len(),
+                expected: sensors.len(),
+            });
+        }
+        for (s, v) in sensors.iter().zip(values) {
+            if let Some(v) = v {
+                if !v.is_finite() {
+                    return Err(SessionRefusal::BadReading {
+                        sensor: s.id.clone(),
+                        why: format!("{v} is not a finite number"),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// What trips an interlock on the last readings, in words (`None`:
+    /// nothing). Judged after the controller observed them, on its
+    /// updated state and bias estimate.
+    fn interlock(&self, step: usize) -> Option<String> {
+        let controller = self.controller.as_ref()?;
+        let values = self.readings.last()?;
+        let model = self.setup.model;
+        let s = model.structure();
+        let state = controller.state();
+        let locks = self.setup.interlocks;
+        let bounds = &controller.context().limits.force;
+        let (bias_n, bias_sd_n) = controller.load_cell_bias_n().unwrap_or((0.0, 0.0));
+        let mut trips = Vec::new();
+        for (sensor, value) in self.setup.sensors.iter().zip(values) {
+            let Some(v) = *value else { continue };
+            match sensor.target {
+                SensorTarget::Temperature => {
+                    let (low, high) = locks.temperature_range_c;
+                    if !(low..=high).contains(&v) {
+                        trips.push(format!(
+                            "{} reads {v} °C, outside the plausible {low} to {high} °C",
+                            sensor.id
+                        ));
+                    }
+                }
+                SensorTarget::Position { node, axis } => {
+                    let Some(p) = state.positions_m.get(node) else {
+                        continue;
+                    };
+                    let off = v - p[axis];
+                    if off.abs() > locks.max_position_offset_m {
+                        trips.push(format!(
+                            "{} reads {:.3} m, {:.3} m from where the model puts node {} (plausible within {} m)",
+                            sensor.id,
+                            v,
+                            off,
+                            s.nodes[node].id,
+                            locks.max_position_offset_m
+                        ));
+                    }
+                }
+                target => {
+                    let lowest = Interlocks::lowest_plausible_tension_n(sensor.noise_sd);
+                    if v < lowest {
+                        trips.push(format!(
+                            "{} reads {v:.1} N, below the plausible {lowest:.1} N (a cable cannot push; the cell's bias and noise cannot reach it)",
+                            sensor.id
+                        ));
+                        continue;
+                    }
+                    let Some(row) = load_cell_row(model, state, target) else {
+                        continue;
+                    };
+                    let Some(b) = bounds.get(row) else { continue };
+                    let force = v - bias_n;
+                    let sd = sensor.noise_sd.hypot(bias_sd_n);
+                    let k = locks.limit_sigmas;
+                    let beyond = if force > b.upper_n + k * sd {
+                        Some(("above", b.upper_n))
+                    } else if force < b.lower_n - k * sd {
+                        Some(("below", b.lower_n))
+                    } else {
+                        None
+                    };
+                    if let Some((side, bound)) = beyond {
+                        trips.push(format!(
+                            "{} reads {v:.1} N ({force:.1} N less the estimated bias): {} is {side} its {bound:.1} N limit by more than {k} SDs ({:.1} N)",
+                            sensor.id,
+                            force_row_name(s, row),
+                            k * sd
+                        ));
+                    }
+                }
+            }
+        }
+        (!trips.is_empty()).then(|| format!("step {step}: {}", trips.join("; ")))
+    }
+
+    /// Applies `events` (new ones, built from the phase just checked) and
+    /// returns them.
+    fn commit(&mut self, events: Vec<SessionEvent>) -> Result<Vec<SessionEvent>, SessionRefusal> {
+        for e in &events {
+            self.apply(e).map_err(SessionRefusal::Journal)?;
+        }
+        Ok(events)
+    }
+
+    /// Advances the session by one event.
+    fn apply(&mut self, event: &SessionEvent) -> Result<(), SessionError> {
+        let index = self.events;
+        let bad = |why: String| SessionError::Inconsistent { index, why };
+        let phase = self.phase.label();
+        match (event, &self.phase) {
+            (SessionEvent::Readings { step: 0, values }, SessionPhase::AwaitingStart) => {
+                let setup = self.setup;
+                self.check_values(values)
+                    .map_err(|e| bad(format!("readings of step 0: {e}")))?;
+                let controller = Controller::guided(
+                    setup.model,
+                    setup.problem,
+                    setup.policy,
+                    setup.sensors,
+                    values,
+                    setup.guidance,
+                )
+                .map_err(SessionError::Start)?;
+                self.controller = Some(controller);
+                self.readings.push(values.clone());
+                self.phase = SessionPhase::Ready { step: 0 };
+            }
+            (
+                SessionEvent::Readings { step, values },
+                SessionPhase::Pending {
+                    step: k,
+                    command_m,
+                    cleared: true,
+                },
+            ) if step == k => {
+                self.check_values(values)
+                    .map_err(|e| bad(format!("readings of step {step}: {e}")))?;
+                let command_m = command_m.clone();
+                let controller = self
+                    .controller
+                    .as_mut()
+                    .ok_or_else(|| bad("no controller".into()))?;
+                // A command the controller cannot follow ends the session
+                // at the next decision (its model is where it was).
+                if let Err(e) = controller.observe(&command_m, values) {
+                    self.cannot_follow = Some(e.to_string());
+                }
+                self.readings.push(values.clone());
+                self.executed_m.push(command_m);
+                self.phase = SessionPhase::Ready { step: *step };
+            }
+            (SessionEvent::Issued { step, command_m }, SessionPhase::Ready { step: k })
+                if *step == k + 1 =>
+            {
+                let motors = self.setup.model.structure().continuous_cables.len();
+                if command_m.len() != motors || command_m.iter().any(|u| !u.is_finite()) {
+                    return Err(bad(format!(
+                        "command {step} needs {motors} finite payout changes"
+                    )));
+                }
+                let controller = self
+                    .controller
+                    .as_mut()
+                    .ok_or_else(|| bad("no controller".into()))?;
+                // The decision is planned again (the same, for a journal
+                // this version wrote) so that the controller holds it
+                // when the readings come.
+                let own = match controller.decide() {
+                    ControllerDecision::Send(p) => p
+                        .sent_m
+                        .iter()
+                        .zip(command_m)
+                        .all(|(a, b)| (a - b).abs() <= OWN_COMMAND_TOLERANCE_M),
+                    ControllerDecision::Stop(_) => false,
+                };
+                if !own {
+                    self.diverged.push(*step);
+                }
+                self.phase = SessionPhase::Pending {
+                    step: *step,
+                    command_m: command_m.clone(),
+                    cleared: !self.setup.approval_required,
+                };
+            }
+            (
+                SessionEvent::Approved { step },
+                SessionPhase::Pending {
+                    step: k, command_m, ..
+                },
+            ) if step == k => {
+                self.phase = SessionPhase::Pending {
+                    step: *step,
+                    command_m: command_m.clone(),
+                    cleared: true,
+                };
+            }
+            (SessionEvent::Rejected { step, .. }, SessionPhase::Pending { step: k, .. })
+                if step == k =>
+            {
+                if let Some(c) = self.controller.as_mut() {
+                    c.reject();
+                }
+                self.phase = SessionPhase::Ready { step: step - 1 };
+            }
+            (SessionEvent::Stopped { step, reason }, SessionPhase::Ready { step: k })
+                if step == k =>
+            {
+                self.phase = SessionPhase::Stopped {
+                    step: *step,
+                    reason: reason.clone(),
+                };
+            }
+            (SessionEvent::Resumed { step, .. }, SessionPhase::Stopped { step: k, .. })
+                if step == k =>
+            {
+                self.phase = SessionPhase::Ready { step: *step };
+            }
+            (SessionEvent::Ended { status, words }, SessionPhase::Ready { .. }) => {
+                self.phase = SessionPhase::Ended {
+                    status: status.clone(),
+                    words: words.clone(),
+                };
+            }
+            (event, _) => {
+                return Err(bad(format!(
+                    "{} is not possible in phase {phase}",
+                    event_name(event)
+                )))
+            }
+        }
+        self.events += 1;
+        Ok(())
+    }
+}
+
+/// The event's name and step, in words.
+fn event_name(event: &SessionEvent) -> String {
+    match event {
+        SessionEvent::Readings { step, .. } => format!("readings of step {step}"),
+        SessionEvent::Issued { step, .. } => format!("issuing command {step}"),
+        SessionEvent::Approved { step } => format!("approving command {step}"),
+        SessionEvent::Rejected { step, .. } => format!("rejecting command {step}"),
+        SessionEvent::Stopped { step, .. } => format!("a stop after step {step}"),
+        SessionEvent::Resumed { step, .. } => format!("resuming after step {step}"),
+        SessionEvent::Ended { .. } => "the end".into(),
+    }
+}

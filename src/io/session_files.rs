@@ -1,0 +1,482 @@
+//! The folder of an online deployment session (`tdeploy session`, see
+//! [`crate::control::session`]).
+//!
+//! ```text
+//! SESSION/
+//!   session.toml   format, structure, approval_required, created_by
+//!   model.toml     the controller's model (a model file)
+//!   problem.toml   the problem, every field written out
+//!   policy.toml    the policy, every field written out
+//!   sensors.csv    the sensor layout (the log's format)
+//!   events.tdj     the journal: every event, checksummed (the record)
+//!   log/           the measurement log so far (derived)
+//!   pending.json   the pending command, when there is one (derived)
+//!   pending.csv    the same as a command file (derived)
+//!   status.json    where the session stands (derived)
+//! ```
+//!
+//! - **The record** is `events.tdj`, a journal ([`super::journal`]): the
+//!   format line `tensegrity-deploy/session-events/1`, then one
+//!   [`SessionEvent`] per line as compact JSON behind its FNV-1a checksum.
+//!   Events are only ever appended, in one write, flushed before the
+//!   command reports them. The inputs beside it are written once, when
+//!   the session is created (the folder appears whole or not at all).
+//! - **The views** (`log/`, `pending.*`, `status.json`) are rewritten
+//!   from the record after every change, each file atomically; a crash
+//!   between the append and the views leaves them one change behind, and
+//!   the next command rewrites them. Nothing reads them back.
+//! - **The log** (`log/`, [`super::log`]) is in the layout `tdeploy
+//!   deploy` writes: cycle 1, step 1 the fold from the designed state to
+//!   the folded start (measured: the session's step 0), step `k + 1` the
+//!   session's command `k` and its readings. Issued commands not yet
+//!   measured, and rejected ones, are not in it: it holds what the bridge
+//!   did. `tdeploy compare`, `diagnose` and `replay` read it.
+//! - **Readings files** (`session record --measurements F`): either CSV
+//!   with the header `step,sensor,value` (one row per sensor read; every
+//!   row the same step; an empty value or a missing row is a reading not
+//!   taken), or one JSON measurements message of the protocol
+//!   ([`super::session_protocol`]).
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::commands::{write_commands, CommandSequence};
+use super::journal::{self, JournalKind};
+use super::log::{read_sensors, sensors_table, write_log, READING_RANGE};
+use super::model_file::ModelFile;
+use super::policy_file::policy_to_toml;
+use super::problem_file::problem_to_toml;
+use super::session_protocol::{parse_in_message, InMessage};
+use super::toml_text::parse_toml;
+use super::{csv_records, csv_with_header, read_text, write_atomically, write_json, FileError};
+use crate::control::{Session, SessionEvent, SessionPhase};
+use crate::measure::log::{Cycle, MeasurementLog};
+use crate::model::Structure;
+use crate::plan::{DeploymentProblem, Policy};
+use crate::sim::Sensor;
+
+/// The `format` of `session.toml`.
+pub const SESSION_FORMAT: &str = "tensegrity-deploy/session/1";
+/// The first line of `events.tdj`.
+pub const EVENTS_FORMAT: &str = "tensegrity-deploy/session-events/1";
+/// Header of a readings CSV file.
+pub const READINGS_HEADER: [&str; 3] = ["step", "sensor", "value"];
+
+/// `session.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionMeta {
+    /// [`SESSION_FORMAT`].
+    pub format: String,
+    /// The structure's name (the model's).
+    pub structure: String,
+    /// Whether every command needs an operator's approval.
+    pub approval_required: bool,
+    /// The program that created it, with its version.
+    pub created_by: String,
+}
+
+/// The journal's kind, for messages.
+fn events_kind(repair: &str) -> JournalKind<'_> {
+    JournalKind {
+        format: EVENTS_FORMAT,
+        record: "event",
+        repair,
+    }
+}
+
+/// The journal of the session in `dir`.
+pub fn events_path(dir: &Path) -> PathBuf {
+    dir.join("events.tdj")
+}
+
+/// What a new session is created with.
+pub struct NewSession<'a> {
+    /// `session.toml`.
+    pub meta: &'a SessionMeta,
+    /// The controller's model file (its structure source absolute or
+    /// the reference).
+    pub model_file: &'a ModelFile,
+    /// The problem.
+    pub problem: &'a DeploymentProblem,
+    /// The policy.
+    pub policy: &'a Policy,
+    /// The sensor layout.
+    pub sensors: &'a [Sensor],
+    /// The structure (for the sensor layout's targets).
+    pub structure: &'a Structure,
+}
+
+/// Creates the session folder `dir` with its inputs and an empty journal.
+/// An existing `dir` is refused, whatever it holds: a session is never
+/// overwritten. The folder is written beside `dir` and renamed into
+/// place, so it appears whole or not at all.
+pub fn create_session(dir: &Path, new: &NewSession) -> Result<(), FileError> {
+    if dir.exists() {
+        return Err(FileError::Invalid {
+            path: dir.to_path_buf(),
+            entry: "-o".into(),
+            message: "already exists; a session folder is never overwritten (choose a new one)"
+                .into(),
+        });
+    }
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(|e| FileError::Create {
+        path: parent.clone(),
+        cause: e,
+    })?;
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "session".into());
+    let tmp = parent.join(format!(".{name}.tmp{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    let result = (|| {
+        std::fs::create_dir(&tmp).map_err(|e| FileError::Create {
+            path: tmp.clone(),
+            cause: e,
+        })?;
+        let meta = toml::to_string(new.meta).map_err(|e| FileError::Invalid {
+            path: tmp.join("session.toml"),
+            entry: "session".into(),
+            message: e.to_string(),
+        })?;
+        write_atomically(&tmp.join("session.toml"), meta.as_bytes())?;
+        // The structure file stays where it is (its path absolute).
+        write_atomically(
+            &tmp.join("model.toml"),
+            new.model_file.to_toml(dir).as_bytes(),
+        )?;
+        write_atomically(
+            &tmp.join("problem.toml"),
+            problem_to_toml(new.problem).as_bytes(),
+        )?;
+        write_atomically(
+            &tmp.join("policy.toml"),
+            policy_to_toml(new.policy).as_bytes(),
+        )?;
+        sensors_table(new.sensors, new.structure).write(&tmp.join("sensors.csv"))?;
+        journal::append_records::<SessionEvent>(&events_path(&tmp), events_kind(""), &[])?;
+        std::fs::rename(&tmp, dir).map_err(|e| FileError::write(dir, e))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+    result
+}
+
+/// Reads `session.toml` of the session in `dir`.
+pub fn read_meta(dir: &Path) -> Result<SessionMeta, FileError> {
+    let path = dir.join("session.toml");
+    let meta: SessionMeta = parse_toml(&read_text(&path)?, &path)?;
+    if meta.format != SESSION_FORMAT {
+        return Err(FileError::Invalid {
+            path,
+            entry: "format".into(),
+            message: format!("expected \"{SESSION_FORMAT}\", found \"{}\"", meta.format),
+        });
+    }
+    Ok(meta)
+}
+
+/// Reads the session's sensor layout.
+pub fn read_session_sensors(dir: &Path, structure: &Structure) -> Result<Vec<Sensor>, FileError> {
+    read_sensors(&dir.join("sensors.csv"), structure)
+}
+
+/// The journal's events, validated (the file unchanged; a torn last line
+/// is an error, see [`repair_events`]).
+pub fn read_events(dir: &Path) -> Result<Vec<SessionEvent>, FileError> {
+    let path = events_path(dir);
+    let repair = format!("tdeploy session repair {}", dir.display());
+    let text = read_text(&path)?;
+    Ok(journal::parse_journal(&text, &path, events_kind(&repair))?
+        .into_iter()
+        .map(|(_, e)| e)
+        .collect())
+}
+
+/// The journal's events with a torn last line removed (the append a
+/// crash interrupted: it was never reported, so it never happened);
+/// returns the bytes dropped too.
+pub fn repair_events(dir: &Path) -> Result<(usize, Vec<SessionEvent>), FileError> {
+    let path = events_path(dir);
+    let repair = format!("tdeploy session repair {}", dir.display());
+    let (dropped, records) = journal::repair_torn_tail(&path, events_kind(&repair))?;
+    Ok((dropped, records.into_iter().map(|(_, e)| e).collect()))
+}
+
+/// Appends `events` to the journal in one write (nothing when empty).
+pub fn append_events(dir: &Path, events: &[SessionEvent]) -> Result<(), FileError> {
+    if events.is_empty() {
+        return Ok(());
+    }
+    let repair = format!("tdeploy session repair {}", dir.display());
+    journal::append_records(&events_path(dir), events_kind(&repair), events)
+}
+
+/// Where a session stands, as `status.json` and the protocol's status
+/// message write it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SessionStatus {
+    /// The phase ([`SessionPhase::label`]).
+    pub phase: &'static str,
+    /// The last step measured (`None`: not even the start).
+    pub last_measured_step: Option<usize>,
+    /// The pending command's number and payout change per motor, m.
+    pub pending_step: Option<usize>,
+    /// Payout change per motor of the pending command, m.
+    pub pending_command_m: Option<Vec<f64>>,
+    /// Whether the pending command may be executed (approved, or no
+    /// approval required).
+    pub pending_cleared: Option<bool>,
+    /// Gap per midspan pair the controller predicts for the pending
+    /// command, m.
+    pub pending_predicted_gaps_m: Option<Vec<f64>>,
+    /// Commands executed and measured.
+    pub commands_executed: usize,
+    /// Largest measured gap at the last step, m.
+    pub last_largest_measured_gap_m: Option<f64>,
+    /// The payout scale of each bridge half as estimated now, 1.
+    pub estimated_payout_scale: Vec<f64>,
+    /// The load cells' common bias as estimated now: mean and SD, N.
+    pub estimated_load_cell_bias_n: Option<(f64, f64)>,
+    /// Why the session is stopped, if it is.
+    pub stopped_reason: Option<String>,
+    /// How it ended (status label), if it has.
+    pub ended_status: Option<String>,
+    /// How it ended, in words.
+    pub ended_words: Option<String>,
+    /// Commands whose issued value this version would not issue on replay
+    /// (a journal written by another version); empty normally.
+    pub diverged_commands: Vec<usize>,
+    /// Events in the journal.
+    pub events: usize,
+}
+
+impl SessionStatus {
+    /// The status of `session`; `predicted_gaps_m` are the pending
+    /// command's predicted gaps where known.
+    pub fn of(session: &Session, predicted_gaps_m: Option<Vec<f64>>) -> Self {
+        let phase = session.phase();
+        let (pending_step, pending_command_m, pending_cleared) = match phase {
+            SessionPhase::Pending {
+                step,
+                command_m,
+                cleared,
+            } => (Some(*step), Some(command_m.clone()), Some(*cleared)),
+            _ => (None, None, None),
+        };
+        let controller = session.controller();
+        let structure = session.setup().model.structure();
+        let last_gap = session.readings().last().and_then(|r| {
+            crate::control::measured_gap_vectors(structure, session.setup().sensors, r)
+                .iter()
+                .flatten()
+                .map(|g| g.norm())
+                .reduce(f64::max)
+        });
+        SessionStatus {
+            phase: phase.label(),
+            last_measured_step: session.readings().len().checked_sub(1),
+            pending_predicted_gaps_m: pending_step.and(predicted_gaps_m),
+            pending_step,
+            pending_command_m,
+            pending_cleared,
+            commands_executed: session.executed_commands_m().len(),
+            last_largest_measured_gap_m: last_gap,
+            estimated_payout_scale: controller.map_or_else(Vec::new, |c| c.part_payout_scale()),
+            estimated_load_cell_bias_n: controller.and_then(|c| c.load_cell_bias_n()),
+            stopped_reason: match phase {
+                SessionPhase::Stopped { reason, .. } => Some(reason.clone()),
+                _ => None,
+            },
+            ended_status: match phase {
+                SessionPhase::Ended { status, .. } => Some(status.clone()),
+                _ => None,
+            },
+            ended_words: match phase {
+                SessionPhase::Ended { words, .. } => Some(words.clone()),
+                _ => None,
+            },
+            diverged_commands: session.diverged_commands().to_vec(),
+            events: session.event_count(),
+        }
+    }
+}
+
+/// The pending command as `pending.json` writes it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PendingCommand<'a> {
+    /// The command's number.
+    pub step: usize,
+    /// Payout change per motor, m, in the motors' order.
+    pub payout_change_m: &'a [f64],
+    /// The motors (continuous cables) in order.
+    pub motors: Vec<&'a str>,
+    /// Whether it may be executed now.
+    pub cleared: bool,
+    /// Gap per pair the controller predicts for it, m.
+    pub predicted_gaps_m: Option<&'a [f64]>,
+}
+
+/// Rewrites the session's views from `session` (see the module notes):
+/// `log/`, `pending.json` and `pending.csv` (removed without a pending
+/// command), `status.json`.
+pub fn write_views(
+    dir: &Path,
+    session: &Session,
+    status: &SessionStatus,
+    start_payout_m: &[f64],
+) -> Result<(), FileError> {
+    let setup = session.setup();
+    let structure = setup.model.structure();
+    if !session.readings().is_empty() {
+        let mut commands = vec![start_payout_m.to_vec()];
+        commands.extend(session.executed_commands_m().iter().cloned());
+        let mut readings = vec![vec![None; setup.sensors.len()]];
+        readings.extend(session.readings().iter().cloned());
+        let log = MeasurementLog {
+            structure: structure.name.clone(),
+            sensors: setup.sensors.to_vec(),
+            cycles: vec![Cycle {
+                label: 1,
+                step_labels: (1..=commands.len() as u64).collect(),
+                commands,
+                readings,
+            }],
+        };
+        write_log(&dir.join("log"), &log, structure)?;
+    }
+    let (json, csv) = (dir.join("pending.json"), dir.join("pending.csv"));
+    match (&status.pending_step, &status.pending_command_m) {
+        (Some(step), Some(command)) => {
+            let pending = PendingCommand {
+                step: *step,
+                payout_change_m: command,
+                motors: structure
+                    .continuous_cables
+                    .iter()
+                    .map(|c| c.id.as_str())
+                    .collect(),
+                cleared: status.pending_cleared.unwrap_or(false),
+                predicted_gaps_m: status.pending_predicted_gaps_m.as_deref(),
+            };
+            write_json(&json, &pending)?;
+            let sequence = CommandSequence {
+                step_labels: vec![*step as u64],
+                payout_change_m: vec![command.clone()],
+            };
+            write_commands(&csv, &sequence, structure)?;
+        }
+        _ => {
+            for p in [&json, &csv] {
+                match std::fs::remove_file(p) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => return Err(FileError::write(p, e)),
+                }
+            }
+        }
+    }
+    write_json(&dir.join("status.json"), status)
+}
+
+/// Readings of one step, in the layout's order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepReadings {
+    /// The step they belong to.
+    pub step: usize,
+    /// One per sensor (`None`: not read).
+    pub values: Vec<Option<f64>>,
+}
+
+/// Reads a readings file (CSV or one JSON measurements message, see the
+/// module notes) for the layout `sensors`.
+pub fn read_readings(path: &Path, sensors: &[Sensor]) -> Result<StepReadings, FileError> {
+    let text = read_text(path)?;
+    if text.trim_start().starts_with('{') {
+        let line = text.trim();
+        return match parse_in_message(line, sensors) {
+            Ok(InMessage::Measurements(r)) => Ok(r),
+            Ok(other) => Err(FileError::field(
+                path,
+                1,
+                "type",
+                format!("a \"{}\" message is not readings", other.type_name()),
+            )),
+            Err(e) => Err(FileError::field(path, 1, &e.field, e.message)),
+        };
+    }
+    let mut reader = csv_with_header(&text, path, &READINGS_HEADER)?;
+    let mut values = vec![None; sensors.len()];
+    let mut seen = vec![false; sensors.len()];
+    let mut step: Option<usize> = None;
+    for record in csv_records(&mut reader, path) {
+        let (line, r) = record?;
+        let err = |field: &str, message: String| FileError::field(path, line, field, message);
+        let k: usize = r[0].parse().map_err(|_| {
+            err(
+                "step",
+                format!("\"{}\" is not a non-negative integer", &r[0]),
+            )
+        })?;
+        match step {
+            Some(s) if s != k => {
+                return Err(err(
+                    "step",
+                    format!("step {k}, but the rows above are step {s}: one step per file"),
+                ))
+            }
+            _ => step = Some(k),
+        }
+        let s = sensors.iter().position(|s| s.id == r[1]).ok_or_else(|| {
+            err(
+                "sensor",
+                format!("no sensor \"{}\" in the session's layout", &r[1]),
+            )
+        })?;
+        if seen[s] {
+            return Err(err("sensor", format!("\"{}\" read twice", &r[1])));
+        }
+        seen[s] = true;
+        if !r[2].is_empty() {
+            let v: f64 = r[2]
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| err("value", format!("\"{}\" is not a finite number", &r[2])))?;
+            READING_RANGE.check(v).map_err(|m| err("value", m))?;
+            values[s] = Some(v);
+        }
+    }
+    let step = step.ok_or_else(|| FileError::field(path, 1, "step", "no readings".into()))?;
+    Ok(StepReadings { step, values })
+}
+
+/// The status line of a phase, in words.
+pub fn phase_words(phase: &SessionPhase) -> String {
+    match phase {
+        SessionPhase::AwaitingStart => "awaiting the folded start's readings (step 0)".into(),
+        SessionPhase::Ready { step } => {
+            format!("step {step} measured; `next` plans command {}", step + 1)
+        }
+        SessionPhase::Pending { step, cleared, .. } => {
+            if *cleared {
+                format!("command {step} issued; awaiting its readings")
+            } else {
+                format!("command {step} awaits an operator's approval")
+            }
+        }
+        SessionPhase::Stopped { step, reason } => {
+            format!(
+                "stopped after step {step} by an interlock: {reason}; `session resume` continues"
+            )
+        }
+        SessionPhase::Ended { words, .. } => format!("ended: {words}"),
+    }
+}
