@@ -502,6 +502,17 @@ fn phase_outcome(phase: &SessionPhase) -> Outcome {
 fn next(dir: &Path, json: bool) -> Result<Outcome> {
     let inputs = Inputs::load(dir)?;
     let mut session = open(dir, &inputs, true)?;
+    if let SessionPhase::Ended { .. } = session.phase() {
+        // Not a refusal: the question has an answer. The views are
+        // rewritten, in case a crash left them behind the journal.
+        let status = views(dir, &inputs, &mut session)?;
+        if json {
+            say!("{}", phase_message(session.phase(), &[], &status).line());
+        } else {
+            say!("{}", phase_words(session.phase()));
+        }
+        return Ok(phase_outcome(session.phase()));
+    }
     let events = match session.next() {
         Ok(events) => events,
         Err(e) if json => {

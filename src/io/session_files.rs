@@ -335,6 +335,8 @@ pub fn write_views(
 ) -> Result<(), FileError> {
     let setup = session.setup();
     let structure = setup.model.structure();
+    remove_stale_temporaries(dir)?;
+    remove_stale_temporaries(&dir.join("log"))?;
     if !session.readings().is_empty() {
         let mut commands = vec![start_payout_m.to_vec()];
         commands.extend(session.executed_commands_m().iter().cloned());
@@ -384,6 +386,21 @@ pub fn write_views(
         }
     }
     write_json(&dir.join("status.json"), status)
+}
+
+/// Removes the temporary files (`.NAME.tmpPID`) of atomic writes that a
+/// killed process left in `dir` (a missing folder has none).
+fn remove_stale_temporaries(dir: &Path) -> Result<(), FileError> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') && name.contains(".tmp") && entry.path().is_file() {
+            std::fs::remove_file(entry.path()).map_err(|e| FileError::write(&entry.path(), e))?;
+        }
+    }
+    Ok(())
 }
 
 /// Readings of one step, in the layout's order.

@@ -1,0 +1,623 @@
+//! Online sessions (`tdeploy session`, `tdeploy rig`): a session driven
+//! one command at a time gives what `tdeploy deploy` gives on the same
+//! truth and seed, survives `kill -9` anywhere, asks for approval, keeps
+//! its interlocks, and refuses bad input without changing a byte.
+
+mod common;
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::time::Duration;
+
+use common::cli::{failed_with, stdout, succeeded, tdeploy, tdeploy_with, RunOptions};
+use common::files::files;
+use serde_json::Value;
+
+const BIN: &str = env!("CARGO_BIN_EXE_tdeploy");
+
+/// `tdeploy rig --stdio` as a child: the simulated bridge.
+struct Rig {
+    child: Child,
+    input: ChildStdin,
+    output: BufReader<ChildStdout>,
+    /// The start's measurements message.
+    start: String,
+}
+
+impl Rig {
+    fn new(seed: u64) -> Rig {
+        let mut child = Command::new(BIN)
+            .args(["rig", "--stdio", "--seed", &seed.to_string()])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let input = child.stdin.take().unwrap();
+        let mut output = BufReader::new(child.stdout.take().unwrap());
+        let hello = read_line(&mut output);
+        assert!(hello.contains("\"role\":\"rig\""), "{hello}");
+        let start = read_line(&mut output);
+        Rig {
+            child,
+            input,
+            output,
+            start,
+        }
+    }
+
+    /// Executes the command message `line`; returns the readings message.
+    fn execute(&mut self, line: &str) -> String {
+        writeln!(self.input, "{line}").unwrap();
+        loop {
+            let reply = read_line(&mut self.output);
+            let m: Value = serde_json::from_str(&reply).unwrap();
+            match m["type"].as_str() {
+                Some("truth") => continue,
+                Some("measurements") => return reply,
+                _ => panic!("rig: {reply}"),
+            }
+        }
+    }
+}
+
+impl Drop for Rig {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn read_line(r: &mut impl BufRead) -> String {
+    let mut line = String::new();
+    r.read_line(&mut line).unwrap();
+    assert!(!line.is_empty(), "the peer closed its output");
+    line.trim_end().to_string()
+}
+
+fn arg(p: &Path) -> String {
+    p.display().to_string()
+}
+
+fn status_json(session: &Path) -> Value {
+    let out = tdeploy(
+        &["session", "status", &arg(session), "--json"],
+        Path::new("."),
+    );
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", stdout(&out)))
+}
+
+/// Writes `line` (a measurements message) to a file and records it.
+fn record_message(session: &Path, line: &str, options: RunOptions) -> std::process::Output {
+    let file = session.with_extension("readings.json");
+    std::fs::write(&file, line).unwrap();
+    tdeploy_with(
+        &[
+            "session",
+            "record",
+            &arg(session),
+            "--measurements",
+            &arg(&file),
+        ],
+        Path::new("."),
+        options,
+    )
+}
+
+/// `tdeploy deploy --seed seed` into `dir/deploy`: the reference.
+fn deploy(dir: &Path, seed: u64) -> PathBuf {
+    let out = dir.join("deploy");
+    succeeded(&tdeploy(
+        &["deploy", "--seed", &seed.to_string(), "-o", &arg(&out)],
+        Path::new("."),
+    ));
+    out
+}
+
+fn new_session(dir: &Path, name: &str, extra: &[&str]) -> PathBuf {
+    let s = dir.join(name);
+    let mut args = vec!["session", "start", "-o"];
+    let a = arg(&s);
+    args.push(&a);
+    args.extend_from_slice(extra);
+    succeeded(&tdeploy(&args, Path::new(".")));
+    s
+}
+
+/// Drives `session` with `next --json` and `record` against `rig` until
+/// it ends; returns the number of commands.
+fn drive(session: &Path, rig: &mut Rig, options: RunOptions) -> usize {
+    succeeded(&record_message(session, &rig.start.clone(), options));
+    let mut commands = 0;
+    loop {
+        let out = tdeploy_with(
+            &["session", "next", &arg(session), "--json"],
+            Path::new("."),
+            options,
+        );
+        let line = stdout(&out).trim().to_string();
+        let m: Value = serde_json::from_str(&line).unwrap_or_else(|e| panic!("{e}: {line}"));
+        match m["type"].as_str() {
+            Some("command") => {
+                let readings = rig.execute(&line);
+                succeeded(&record_message(session, &readings, options));
+                commands += 1;
+            }
+            Some("ended") => return commands,
+            _ => panic!("{line}"),
+        }
+    }
+}
+
+#[test]
+fn a_session_driven_by_next_and_record_gives_the_commands_gaps_and_verdict_of_deploy() {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = deploy(dir.path(), 1);
+    let session = new_session(dir.path(), "s", &[]);
+    let mut rig = Rig::new(1);
+    let commands = drive(&session, &mut rig, RunOptions::rayon_threads(2));
+    // The log holds every command and reading exactly as deploy's.
+    assert_eq!(files(&session.join("log")), files(&reference.join("log")));
+    let summary = common::files::read_json(&reference.join("summary.json"));
+    let status = status_json(&session);
+    assert_eq!(status["phase"], "ended");
+    assert_eq!(status["ended_status"], summary["status"]["status"]);
+    assert_eq!(status["commands_executed"], commands);
+    assert_eq!(summary["commands"], commands);
+}
+
+#[test]
+fn the_rig_client_example_drives_a_session_through_pipes_as_deploy_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = deploy(dir.path(), 2);
+    let session = new_session(dir.path(), "s", &[]);
+    let out = Command::new("python3")
+        .arg(common::repo_path("examples/rig_client.py"))
+        .args([&arg(&session), "--tdeploy", BIN, "--", "--seed", "2"])
+        .output()
+        .expect("python3 runs examples/rig_client.py");
+    assert!(
+        out.status.success(),
+        "{}{}",
+        stdout(&out),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout(&out).contains("session: connected"),
+        "{}",
+        stdout(&out)
+    );
+    assert_eq!(files(&session.join("log")), files(&reference.join("log")));
+}
+
+/// Runs `tdeploy args`, killing it with SIGKILL after `delay`; returns
+/// whether the kill hit a running process.
+fn run_killed(args: &[&str], delay: Duration) -> bool {
+    let mut child = Command::new(BIN)
+        .args(args)
+        .env("RAYON_NUM_THREADS", "1")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while start.elapsed() < delay && child.try_wait().unwrap().is_none() {
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let running = child.try_wait().unwrap().is_none();
+    let _ = child.kill();
+    let _ = child.wait();
+    running
+}
+
+/// A deterministic stream of delays, ms (a linear congruential generator:
+/// the test needs no more randomness than this).
+struct Delays(u64);
+
+impl Delays {
+    fn next_ms(&mut self, below: u64) -> u64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 33) % below
+    }
+}
+
+#[test]
+fn kill_9_of_next_record_and_serve_at_random_points_then_resume_gives_the_same_deployment() {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = deploy(dir.path(), 3);
+    let session = new_session(dir.path(), "s", &[]);
+    let mut rig = Rig::new(3);
+    let mut delays = Delays(42);
+    // The rig's readings per executed step: a command the rig executed
+    // before the controller's record was killed is not executed again.
+    let mut executed: Vec<String> = vec![rig.start.clone()];
+    let readings_file = dir.path().join("readings.json");
+    let (mut kills, mut serve_kills) = (0, 0);
+    let (mut last, mut attempts) = ((String::new(), None), 0);
+    for round in 0..400 {
+        let status = status_json(&session);
+        let phase = status["phase"].as_str().unwrap().to_string();
+        if phase == "ended" {
+            break;
+        }
+        // Every third round, the protocol server is started and killed.
+        if round % 3 == 2 && serve_kills < 10 {
+            let mut child = Command::new(BIN)
+                .args(["session", "serve", &arg(&session), "--stdio"])
+                .env("RAYON_NUM_THREADS", "1")
+                .stdin(Stdio::piped())
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap();
+            // Killed while it starts, replays and (when ready) plans and
+            // stores the next command: the input stays open, unread.
+            let _input = child.stdin.take().unwrap();
+            std::thread::sleep(Duration::from_millis(delays.next_ms(40)));
+            if child.try_wait().unwrap().is_none() {
+                serve_kills += 1;
+                kills += 1;
+            }
+            let _ = child.kill();
+            let _ = child.wait();
+            continue;
+        }
+        let s = arg(&session);
+        let args: Vec<String> = match phase.as_str() {
+            "awaiting_start" => {
+                std::fs::write(&readings_file, &executed[0]).unwrap();
+                vec![
+                    "record".into(),
+                    s,
+                    "--measurements".into(),
+                    arg(&readings_file),
+                ]
+            }
+            "ready" => vec!["next".into(), s, "--json".into()],
+            "pending" => {
+                let step = status["pending_step"].as_u64().unwrap() as usize;
+                if executed.len() <= step {
+                    let out = tdeploy(&["session", "next", &s, "--json"], Path::new("."));
+                    executed.push(rig.execute(stdout(&out).trim()));
+                }
+                std::fs::write(&readings_file, &executed[step]).unwrap();
+                vec![
+                    "record".into(),
+                    s,
+                    "--measurements".into(),
+                    arg(&readings_file),
+                ]
+            }
+            other => panic!("phase {other}"),
+        };
+        let mut full = vec!["session".to_string()];
+        full.extend(args);
+        let full: Vec<&str> = full.iter().map(String::as_str).collect();
+        // Each operation is killed within its first 25 ms twice
+        // (operations take 10 to 50 ms), then let finish.
+        let here = (phase.clone(), status["events"].as_u64());
+        attempts = if last == here { attempts + 1 } else { 0 };
+        last = here;
+        let delay = if attempts >= 2 {
+            60_000
+        } else {
+            delays.next_ms(25)
+        };
+        if run_killed(&full, Duration::from_millis(delay)) {
+            kills += 1;
+        }
+        // The journal is whole or its torn tail is the only damage.
+        let status = tdeploy(&["session", "status", &arg(&session)], Path::new("."));
+        assert!(!String::from_utf8_lossy(&status.stderr).contains("panicked"));
+    }
+    assert!(
+        kills >= 20,
+        "only {kills} kills hit a running process ({serve_kills} of serve)"
+    );
+    assert!(serve_kills >= 5, "only {serve_kills} kills hit serve");
+    assert_eq!(status_json(&session)["phase"], "ended");
+    // A kill between the journal's append and the views leaves the views
+    // one change behind until the next command rewrites them.
+    succeeded(&tdeploy(
+        &["session", "next", &arg(&session)],
+        Path::new("."),
+    ));
+    let log = files(&session.join("log"));
+    let names: Vec<&String> = log.iter().map(|(n, _)| n).collect();
+    assert_eq!(
+        names,
+        [
+            "commands.csv",
+            "log.toml",
+            "measurements.csv",
+            "sensors.csv"
+        ]
+    );
+    assert!(
+        log == files(&reference.join("log")),
+        "the session's log differs from deploy's"
+    );
+}
+
+#[test]
+fn a_command_awaits_approval_and_a_rejected_one_is_logged_and_planned_again_smaller() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = new_session(dir.path(), "s", &["--approve"]);
+    let mut rig = Rig::new(1);
+    succeeded(&record_message(
+        &session,
+        &rig.start.clone(),
+        RunOptions::default(),
+    ));
+    let next = || -> Value {
+        let out = tdeploy(
+            &["session", "next", &arg(&session), "--json"],
+            Path::new("."),
+        );
+        succeeded(&out);
+        serde_json::from_str(stdout(&out).trim()).unwrap()
+    };
+    let first = next();
+    assert_eq!(
+        (first["step"].as_u64(), &first["cleared"]),
+        (Some(1), &Value::Bool(false))
+    );
+    // Not approved: its readings are refused and the session unchanged.
+    let before = files(&session);
+    let readings = rig.execute(&serde_json::to_string(&serde_json::json!({
+        "type": "command", "step": 1, "payout_change_m": first["payout_change_m"], "cleared": true
+    })).unwrap());
+    let e = failed_with(
+        &record_message(&session, &readings, RunOptions::default()),
+        2,
+    );
+    assert!(e.contains("not been approved"), "{e}");
+    assert_eq!(files(&session), before);
+    // Rejected: logged with its reason; the next plan is smaller.
+    succeeded(&tdeploy(
+        &[
+            "session",
+            "reject",
+            &arg(&session),
+            "--step",
+            "1",
+            "--reason",
+            "too far at once",
+        ],
+        Path::new("."),
+    ));
+    let journal = std::fs::read_to_string(session.join("events.tdj")).unwrap();
+    assert!(journal.contains("\"event\":\"rejected\"") && journal.contains("too far at once"));
+    let again = next();
+    let largest = |m: &Value| {
+        m["payout_change_m"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap().abs())
+            .fold(0.0, f64::max)
+    };
+    assert_eq!(again["step"].as_u64(), Some(1));
+    assert!(
+        largest(&again) < largest(&first),
+        "{} then {}",
+        largest(&first),
+        largest(&again)
+    );
+    succeeded(&tdeploy(
+        &["session", "approve", &arg(&session), "--step", "1"],
+        Path::new("."),
+    ));
+    assert_eq!(next()["cleared"], true);
+}
+
+/// A readings message of the rig's start with `sensor` replaced by `value`.
+fn with_reading(line: &str, sensor: &str, value: f64) -> String {
+    let mut m: Value = serde_json::from_str(line).unwrap();
+    m["readings"][sensor] = serde_json::json!(value);
+    m.to_string()
+}
+
+#[test]
+fn each_interlock_stops_the_session_until_an_operator_resumes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = Rig::new(1);
+    let cases = [
+        ("load_A_cc0", 1.0e5, "load_A_cc0 reads"),
+        ("load_A_cc1", -500.0, "below the plausible"),
+        ("A4_2_z", 40.0, "from where the model puts node"),
+        ("temperature", 95.0, "outside the plausible"),
+    ];
+    for (k, (sensor, value, words)) in cases.into_iter().enumerate() {
+        let session = new_session(dir.path(), &format!("s{k}"), &[]);
+        let line = with_reading(&rig.start, sensor, value);
+        if !rig.start.contains(&format!("\"{sensor}\"")) {
+            panic!("no sensor {sensor} in {}", rig.start);
+        }
+        let e = failed_with(&record_message(&session, &line, RunOptions::default()), 1);
+        assert!(e.contains("stopped") && e.contains(words), "{sensor}: {e}");
+        let e = failed_with(
+            &tdeploy(&["session", "next", &arg(&session)], Path::new(".")),
+            1,
+        );
+        assert!(e.contains("stopped after step 0"), "{e}");
+        succeeded(&tdeploy(
+            &[
+                "session",
+                "resume",
+                &arg(&session),
+                "--note",
+                "checked the sensor",
+            ],
+            Path::new("."),
+        ));
+        // Resumed, it plans with what it learnt from the readings: a
+        // command, or an end that says why (never a refusal).
+        let out = tdeploy(
+            &["session", "next", &arg(&session), "--json"],
+            Path::new("."),
+        );
+        let m: Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+        match m["type"].as_str() {
+            Some("command") => succeeded(&out),
+            Some("ended") => assert!(m["words"].as_str().unwrap().len() > 10, "{m}"),
+            _ => panic!("{sensor}: {m}"),
+        }
+    }
+    // No command while the last one's readings are missing: asking again
+    // gives the same pending command and changes nothing.
+    let session = new_session(dir.path(), "pending", &[]);
+    succeeded(&record_message(&session, &rig.start, RunOptions::default()));
+    let first = stdout(&tdeploy(
+        &["session", "next", &arg(&session), "--json"],
+        Path::new("."),
+    ));
+    let before = files(&session);
+    let again = stdout(&tdeploy(
+        &["session", "next", &arg(&session), "--json"],
+        Path::new("."),
+    ));
+    assert_eq!(first, again);
+    assert_eq!(files(&session), before);
+}
+
+#[test]
+fn malformed_readings_are_refused_naming_file_line_and_field_and_leave_the_session_byte_identical()
+{
+    let dir = tempfile::tempdir().unwrap();
+    let session = new_session(dir.path(), "s", &[]);
+    let mut rig = Rig::new(1);
+    succeeded(&record_message(
+        &session,
+        &rig.start.clone(),
+        RunOptions::default(),
+    ));
+    let command = stdout(&tdeploy(
+        &["session", "next", &arg(&session), "--json"],
+        Path::new("."),
+    ));
+    let good = rig.execute(command.trim());
+    let before = files(&session);
+    let bad_csv = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let cases: Vec<(PathBuf, &str)> = vec![
+        (
+            bad_csv("unknown.csv", "step,sensor,value\n1,load_Z9,12\n"),
+            "line 2, field `sensor`",
+        ),
+        (
+            bad_csv("nan.csv", "step,sensor,value\n1,load_A_cc0,NaN\n"),
+            "line 2, field `value`",
+        ),
+        (
+            bad_csv(
+                "steps.csv",
+                "step,sensor,value\n1,load_A_cc0,10\n2,load_A_cc1,10\n",
+            ),
+            "line 3, field `step`",
+        ),
+        (
+            bad_csv("header.csv", "cycle,step,sensor,value\n1,1,load_A_cc0,10\n"),
+            "header",
+        ),
+        (
+            bad_csv("future.csv", "step,sensor,value\n5,load_A_cc0,10\n"),
+            "readings for step 5",
+        ),
+        (
+            bad_csv("again.csv", "step,sensor,value\n0,load_A_cc0,10\n"),
+            "readings for step 0",
+        ),
+        (
+            bad_csv("field.json", &good.replace("\"step\"", "\"stepp\"")),
+            "stepp",
+        ),
+        (
+            bad_csv("sensor.json", &good.replace("load_A_cc0", "load_A_ccX")),
+            "readings.load_A_ccX",
+        ),
+    ];
+    for (file, words) in cases {
+        let out = tdeploy(
+            &[
+                "session",
+                "record",
+                &arg(&session),
+                "--measurements",
+                &arg(&file),
+            ],
+            Path::new("."),
+        );
+        let e = failed_with(&out, 2);
+        assert!(e.contains(words), "{}: {e}", file.display());
+        assert_eq!(files(&session), before, "{}", file.display());
+    }
+    // The protocol refuses the same with an error message, unchanged.
+    let mut child = Command::new(BIN)
+        .args(["session", "serve", &arg(&session), "--stdio"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut input = child.stdin.take().unwrap();
+    let mut output = BufReader::new(child.stdout.take().unwrap());
+    let _hello = read_line(&mut output);
+    let pending = read_line(&mut output);
+    assert!(pending.contains("\"type\":\"command\""), "{pending}");
+    for (message, field) in [
+        ("not json", "message"),
+        (
+            "{\"type\":\"measurements\",\"step\":1,\"readings\":{\"nope\":1}}",
+            "readings.nope",
+        ),
+        (
+            "{\"type\":\"measurements\",\"step\":3,\"readings\":{}}",
+            "step",
+        ),
+        ("{\"type\":\"launch\"}", "type"),
+        ("{\"type\":\"approve\",\"step\":1,\"extra\":true}", "extra"),
+    ] {
+        writeln!(input, "{message}").unwrap();
+        let reply: Value = serde_json::from_str(&read_line(&mut output)).unwrap();
+        assert_eq!(
+            (reply["type"].as_str(), reply["field"].as_str()),
+            (Some("error"), Some(field)),
+            "{message}: {reply}"
+        );
+    }
+    drop(input);
+    let _ = child.wait();
+    assert_eq!(files(&session), before);
+}
+
+#[test]
+fn a_torn_journal_line_is_named_by_status_and_dropped_by_the_next_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = new_session(dir.path(), "s", &[]);
+    let rig = Rig::new(1);
+    succeeded(&record_message(&session, &rig.start, RunOptions::default()));
+    let journal = session.join("events.tdj");
+    let whole = std::fs::read(&journal).unwrap();
+    let mut torn = whole.clone();
+    torn.extend_from_slice(b"fnv1a:0123 {\"event\":\"iss");
+    std::fs::write(&journal, &torn).unwrap();
+    let e = failed_with(
+        &tdeploy(&["session", "status", &arg(&session)], Path::new(".")),
+        2,
+    );
+    assert!(e.contains("line 3") && e.contains("interrupted"), "{e}");
+    let out = tdeploy(
+        &["session", "next", &arg(&session), "--json"],
+        Path::new("."),
+    );
+    succeeded(&out);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("torn last line"));
+    let now = std::fs::read(&journal).unwrap();
+    assert!(now.starts_with(&whole) && now.len() > whole.len());
+}
