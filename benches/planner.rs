@@ -14,6 +14,9 @@
 //! - a whole closed-loop deployment of the default truth (μ = 0.2, 3 mm
 //!   backlash) by the frictionless controller, folded to connected (what
 //!   `tdeploy deploy` runs, without its files);
+//! - `tdeploy session next` after 7 commands of that deployment, without
+//!   its files: the session rebuilt from its events and the 8th command
+//!   planned (issue 23: `session next` ≤ 50 ms);
 //! - an open-loop plan that ends "not reachable": the frictionless bridge
 //!   with motors that may not reel in below 0.30 m of payout (the plan of
 //!   `tests/planner.rs`, `a_stroke_too_short_ends_not_reachable_quickly`).
@@ -22,7 +25,9 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 
-use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup};
+use tensegrity_deploy::control::{
+    deploy_closed_loop, ClosedLoopSetup, Guidance, Interlocks, Session, SessionEvent, SessionSetup,
+};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::model::{
     DeploymentState, ForwardModel, JointFriction, RelaxSettings, Workspace,
@@ -127,6 +132,40 @@ fn bench(c: &mut Criterion) {
     };
     group.bench_function("closed_loop_deployment_default_truth", |b| {
         b.iter(|| deploy_closed_loop(&setup, &mut ()).expect("deployment"))
+    });
+    // `tdeploy session next` after 7 commands of that deployment: the
+    // session rebuilt from its journal (the controller deciding and
+    // observing every recorded step again) and the 8th command planned.
+    let d = deploy_closed_loop(&setup, &mut ()).expect("deployment");
+    let mut events = vec![SessionEvent::Readings {
+        step: 0,
+        values: d.readings[0].clone(),
+    }];
+    for (k, r) in d.records.iter().take(7).enumerate() {
+        events.push(SessionEvent::Issued {
+            step: k + 1,
+            command_m: r.command_m.clone(),
+        });
+        events.push(SessionEvent::Readings {
+            step: k + 1,
+            values: d.readings[k + 1].clone(),
+        });
+    }
+    let guidance = Guidance::default();
+    let session_setup = SessionSetup {
+        model: &controller,
+        problem: &problem,
+        policy: &full,
+        sensors: &sensors,
+        guidance: &guidance,
+        approval_required: false,
+        interlocks: Interlocks::default(),
+    };
+    group.bench_function("session_next_after_7_commands", |b| {
+        b.iter(|| {
+            let mut session = Session::replay(session_setup, &events).expect("replay");
+            session.next_command().expect("a command")
+        })
     });
     let short_stroke = DeploymentProblem {
         min_payout_m: PerMotor::All(0.30),

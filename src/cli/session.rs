@@ -513,7 +513,7 @@ fn next(dir: &Path, json: bool) -> Result<Outcome> {
         }
         return Ok(phase_outcome(session.phase()));
     }
-    let events = match session.next() {
+    let events = match session.next_command() {
         Ok(events) => events,
         Err(e) if json => {
             let text = e.to_string();
@@ -749,7 +749,7 @@ fn serve(dir: &Path) -> Result<Outcome> {
     // Where it stands: plan if ready, say what is pending or how it ended.
     let advance = |session: &mut Session, mut events: Vec<SessionEvent>| -> Result<bool> {
         if matches!(session.phase(), SessionPhase::Ready { .. }) {
-            match session.next() {
+            match session.next_command() {
                 Ok(more) => events.extend(more),
                 Err(e) => bail!("{e}"),
             }

@@ -10,7 +10,7 @@
 //! each recorded step exactly as a closed-loop deployment does
 //! ([`super::closed_loop`]), so a session interrupted anywhere continues
 //! with the command it would have issued, and a session given the readings
-//! of a `deploy` run issues that run's commands. The operations ([`Session::next`],
+//! of a `deploy` run issues that run's commands. The operations ([`Session::next_command`],
 //! [`Session::record`], …) check what they are asked against the session's
 //! phase and return the new events, already applied; the caller stores
 //! them (the file format is [`crate::io::session_files`]).
@@ -417,7 +417,7 @@ impl<'a> Session<'a> {
     /// Plans the next command: the pending command if there is one (the
     /// same one, however often asked), else the controller's decision,
     /// issued, or the session's end.
-    pub fn next(&mut self) -> Result<Vec<SessionEvent>, SessionRefusal> {
+    pub fn next_command(&mut self) -> Result<Vec<SessionEvent>, SessionRefusal> {
         let step = match &self.phase {
             SessionPhase::AwaitingStart => return Err(SessionRefusal::AwaitingStart),
             SessionPhase::Pending { .. } => return Ok(Vec::new()),
@@ -534,7 +534,7 @@ impl<'a> Session<'a> {
     }
 
     /// An operator rejects the pending command `step` for `reason`: it is
-    /// not executed, and the next [`Self::next`] plans again from the same
+    /// not executed, and the next [`Self::next_command`] plans again from the same
     /// state ([`Controller::reject`]).
     pub fn reject(
         &mut self,
