@@ -152,12 +152,14 @@ fn bench(c: &mut Criterion) {
         });
     }
     let guidance = Guidance::default();
+    let folded = folded_start(&controller, &problem, full.increment_m).expect("fold");
     let session_setup = SessionSetup {
         model: &controller,
         problem: &problem,
         policy: &full,
         sensors: &sensors,
         guidance: &guidance,
+        folded_start: Some(&folded),
         approval_required: false,
         interlocks: Interlocks::default(),
     };

@@ -621,3 +621,15 @@ fn a_torn_journal_line_is_named_by_status_and_dropped_by_the_next_change() {
     let now = std::fs::read(&journal).unwrap();
     assert!(now.starts_with(&whole) && now.len() > whole.len());
 }
+
+#[test]
+fn a_folded_start_that_is_not_the_problems_is_refused_naming_the_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = new_session(dir.path(), "s", &[]);
+    let path = session.join("folded_start.json");
+    let mut state: Value = common::files::read_json(&path);
+    state["payout_m"][0] = serde_json::json!(0.3);
+    std::fs::write(&path, state.to_string()).unwrap();
+    let e = failed_with(&tdeploy(&["session", "status", &arg(&session)], Path::new(".")), 2);
+    assert!(e.contains("folded_start.json") && e.contains("payout_m"), "{e}");
+}

@@ -38,12 +38,12 @@ use tensegrity_deploy::io::model_file::ModelFile;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::problem_file::read_problem_for;
 use tensegrity_deploy::io::session_files::{
-    append_events, create_session, phase_words, read_events, read_meta, read_readings,
-    read_session_sensors, repair_events, write_views, NewSession, SessionMeta, SessionStatus,
-    SESSION_FORMAT,
+    append_events, create_session, phase_words, read_events, read_folded_start, read_meta,
+    read_readings, read_session_sensors, repair_events, write_views, NewSession, SessionMeta,
+    SessionStatus, SESSION_FORMAT,
 };
 use tensegrity_deploy::io::session_protocol::{parse_in_message, InMessage, OutMessage, PROTOCOL};
-use tensegrity_deploy::model::ForwardModel;
+use tensegrity_deploy::model::{DeploymentState, ForwardModel};
 use tensegrity_deploy::plan::{DeploymentProblem, Policy};
 use tensegrity_deploy::sim::{standard_sensors, Sensor};
 
@@ -256,6 +256,7 @@ struct Inputs {
     policy: Policy,
     sensors: Vec<Sensor>,
     guidance: Guidance,
+    folded_start: Option<DeploymentState>,
 }
 
 impl Inputs {
@@ -282,6 +283,8 @@ impl Inputs {
         let problem = read_problem_for(&dir.join("problem.toml"), motors)?;
         let policy = read_policy(&dir.join("policy.toml"))?;
         let sensors = read_session_sensors(dir, model.structure())?;
+        let start_payout_m = problem.motor_limits(motors)?.start_payout_m;
+        let folded_start = read_folded_start(dir, model.structure(), &start_payout_m)?;
         Ok(Inputs {
             meta,
             model,
@@ -289,6 +292,7 @@ impl Inputs {
             policy,
             sensors,
             guidance: Guidance::default(),
+            folded_start,
         })
     }
 
@@ -299,6 +303,7 @@ impl Inputs {
             policy: &self.policy,
             sensors: &self.sensors,
             guidance: &self.guidance,
+            folded_start: self.folded_start.as_ref(),
             approval_required: self.meta.approval_required,
             interlocks: Interlocks::default(),
         }
@@ -439,10 +444,11 @@ fn start(
         policy: &policy,
         sensors: &sensors,
         guidance: &guidance,
+        folded_start: None,
         approval_required: approve,
         interlocks: Interlocks::default(),
     };
-    Session::check_setup(&setup)?;
+    let folded_start = Session::check_setup(&setup)?;
     let meta = SessionMeta {
         format: SESSION_FORMAT.into(),
         structure: structure.name.clone(),
@@ -458,6 +464,7 @@ fn start(
             policy: &policy,
             sensors: &sensors,
             structure,
+            folded_start: &folded_start,
         },
     )?;
     say!(

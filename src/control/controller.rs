@@ -163,8 +163,33 @@ impl<'a> Controller<'a> {
         start_readings: &[Option<f64>],
         guidance: &Guidance,
     ) -> Result<Self, PlanError> {
+        let folded = folded_start(model, problem, policy.increment_m)?;
+        Self::guided_from(
+            model,
+            problem,
+            policy,
+            sensors,
+            start_readings,
+            guidance,
+            folded,
+        )
+    }
+
+    /// [`Self::guided`] from `folded`, the model's folded start
+    /// ([`folded_start`] of the same model, problem and policy) computed
+    /// before: an online session keeps it rather than fold the model again
+    /// at every command (see [`super::session`]).
+    pub fn guided_from(
+        model: &'a ForwardModel,
+        problem: &'a DeploymentProblem,
+        policy: &'a Policy,
+        sensors: &'a [Sensor],
+        start_readings: &[Option<f64>],
+        guidance: &Guidance,
+        folded: DeploymentState,
+    ) -> Result<Self, PlanError> {
         let s = model.structure();
-        let mut state = folded_start(model, problem, policy.increment_m)?;
+        let mut state = folded;
         // How much material each cable holds, from the start readings.
         let drum_offsets = policy
             .control

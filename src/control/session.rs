@@ -48,7 +48,7 @@ use thiserror::Error;
 use super::controller::{Controller, ControllerDecision, Proposal, OWN_COMMAND_TOLERANCE_M};
 use super::guidance::Guidance;
 use super::measured_offsets::load_cell_row;
-use crate::model::{EffectKind, ForwardModel};
+use crate::model::{DeploymentState, EffectKind, ForwardModel};
 use crate::plan::limits::force_row_name;
 use crate::plan::{DeploymentProblem, PlanError, Policy};
 use crate::sim::{Sensor, SensorTarget};
@@ -212,6 +212,11 @@ pub struct SessionSetup<'a> {
     pub sensors: &'a [Sensor],
     /// Guidance from past cycles (none: [`Guidance::default`]).
     pub guidance: &'a Guidance,
+    /// The model's folded start ([`crate::plan::folded_start`] of this
+    /// model, problem and policy), computed once when the session was
+    /// created (`None`: folded again here; the same state, bit for bit,
+    /// at the cost of a relaxation from the design).
+    pub folded_start: Option<&'a DeploymentState>,
     /// Whether every command needs an operator's approval before it may
     /// be executed.
     pub approval_required: bool,
@@ -329,13 +334,14 @@ pub struct Session<'a> {
 impl<'a> Session<'a> {
     /// Checks that a controller can start on the setup's model, problem
     /// and policy (it reaches the folded start), before a session is
-    /// opened on them.
-    pub fn check_setup(setup: &SessionSetup) -> Result<(), SessionError> {
+    /// opened on them; returns the folded start for the session to keep
+    /// ([`SessionSetup::folded_start`]).
+    pub fn check_setup(setup: &SessionSetup) -> Result<DeploymentState, SessionError> {
         let state = crate::plan::folded_start(setup.model, setup.problem, setup.policy.increment_m)
             .map_err(SessionError::Start)?;
         crate::plan::PlanContext::new(setup.model, setup.problem, setup.policy, &state)
             .map_err(SessionError::Start)?;
-        Ok(())
+        Ok(state)
     }
 
     /// A new session, before any event.
@@ -690,14 +696,25 @@ impl<'a> Session<'a> {
                 let setup = self.setup;
                 self.check_values(values)
                     .map_err(|e| bad(format!("readings of step 0: {e}")))?;
-                let controller = Controller::guided(
-                    setup.model,
-                    setup.problem,
-                    setup.policy,
-                    setup.sensors,
-                    values,
-                    setup.guidance,
-                )
+                let controller = match setup.folded_start {
+                    Some(folded) => Controller::guided_from(
+                        setup.model,
+                        setup.problem,
+                        setup.policy,
+                        setup.sensors,
+                        values,
+                        setup.guidance,
+                        folded.clone(),
+                    ),
+                    None => Controller::guided(
+                        setup.model,
+                        setup.problem,
+                        setup.policy,
+                        setup.sensors,
+                        values,
+                        setup.guidance,
+                    ),
+                }
                 .map_err(SessionError::Start)?;
                 self.controller = Some(controller);
                 self.readings.push(values.clone());

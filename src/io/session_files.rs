@@ -8,6 +8,8 @@
 //!   problem.toml   the problem, every field written out
 //!   policy.toml    the policy, every field written out
 //!   sensors.csv    the sensor layout (the log's format)
+//!   folded_start.json  the controller model's folded start (a state,
+//!                  computed once: no command folds the model again)
 //!   events.tdj     the journal: every event, checksummed (the record)
 //!   log/           the measurement log so far (derived)
 //!   pending.json   the pending command, when there is one (derived)
@@ -50,9 +52,9 @@ use super::problem_file::problem_to_toml;
 use super::session_protocol::{parse_in_message, InMessage};
 use super::toml_text::parse_toml;
 use super::{csv_records, csv_with_header, read_text, write_atomically, write_json, FileError};
-use crate::control::{Session, SessionEvent, SessionPhase};
+use crate::control::{Session, SessionEvent, SessionPhase, OWN_COMMAND_TOLERANCE_M};
 use crate::measure::log::{Cycle, MeasurementLog};
-use crate::model::Structure;
+use crate::model::{DeploymentState, Structure};
 use crate::plan::{DeploymentProblem, Policy};
 use crate::sim::Sensor;
 
@@ -106,6 +108,9 @@ pub struct NewSession<'a> {
     pub sensors: &'a [Sensor],
     /// The structure (for the sensor layout's targets).
     pub structure: &'a Structure,
+    /// The model's folded start, kept so that no command folds the model
+    /// again ([`crate::control::SessionSetup::folded_start`]).
+    pub folded_start: &'a DeploymentState,
 }
 
 /// Creates the session folder `dir` with its inputs and an empty journal.
@@ -160,6 +165,7 @@ pub fn create_session(dir: &Path, new: &NewSession) -> Result<(), FileError> {
             policy_to_toml(new.policy).as_bytes(),
         )?;
         sensors_table(new.sensors, new.structure).write(&tmp.join("sensors.csv"))?;
+        write_json(&tmp.join("folded_start.json"), new.folded_start)?;
         journal::append_records::<SessionEvent>(&events_path(&tmp), events_kind(""), &[])?;
         std::fs::rename(&tmp, dir).map_err(|e| FileError::write(dir, e))
     })();
@@ -181,6 +187,74 @@ pub fn read_meta(dir: &Path) -> Result<SessionMeta, FileError> {
         });
     }
     Ok(meta)
+}
+
+/// Reads the model's folded start the session keeps
+/// (`folded_start.json`), checked against `structure` and the problem's
+/// `start_payout_m`; `None` when the file is missing (the controller then
+/// folds the model itself, to the same state).
+pub fn read_folded_start(
+    dir: &Path,
+    structure: &Structure,
+    start_payout_m: &[f64],
+) -> Result<Option<DeploymentState>, FileError> {
+    let path = dir.join("folded_start.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let text = read_text(&path)?;
+    let state: DeploymentState = serde_json::from_str(&text).map_err(|e| FileError::Syntax {
+        path: path.clone(),
+        line: e.line(),
+        column: e.column(),
+        message: e.to_string(),
+    })?;
+    let invalid = |entry: &str, message: String| FileError::Invalid {
+        path: path.clone(),
+        entry: entry.into(),
+        message,
+    };
+    if state.positions_m.len() != structure.nodes.len()
+        || state.segment_rest_lengths_m.len() != structure.segment_count()
+        || state.joint_slip.len() != structure.segment_count()
+        || state.segment_offsets.len() != structure.continuous_cables.len() + 1
+    {
+        return Err(invalid(
+            "positions_m",
+            "not a state of the session's structure (node or segment counts differ)".into(),
+        ));
+    }
+    // The fold reaches its payout in increments: to rounding.
+    let same = state.payout_m.len() == start_payout_m.len()
+        && state
+            .payout_m
+            .iter()
+            .zip(start_payout_m)
+            .all(|(a, b)| (a - b).abs() <= OWN_COMMAND_TOLERANCE_M);
+    if !same {
+        return Err(invalid(
+            "payout_m",
+            format!(
+                "{:?} m, but the problem starts at {start_payout_m:?} m",
+                state.payout_m
+            ),
+        ));
+    }
+    if state
+        .positions_m
+        .iter()
+        .any(|p| !p.iter().all(|v| v.is_finite()))
+        || state
+            .segment_rest_lengths_m
+            .iter()
+            .any(|l| !(l.is_finite() && *l > 0.0))
+    {
+        return Err(invalid(
+            "positions_m",
+            "a position or rest length that is not a finite (positive) number".into(),
+        ));
+    }
+    Ok(Some(state))
 }
 
 /// Reads the session's sensor layout.
