@@ -630,6 +630,39 @@ fn a_folded_start_that_is_not_the_problems_is_refused_naming_the_file_and_field(
     let mut state: Value = common::files::read_json(&path);
     state["payout_m"][0] = serde_json::json!(0.3);
     std::fs::write(&path, state.to_string()).unwrap();
-    let e = failed_with(&tdeploy(&["session", "status", &arg(&session)], Path::new(".")), 2);
-    assert!(e.contains("folded_start.json") && e.contains("payout_m"), "{e}");
+    let e = failed_with(
+        &tdeploy(&["session", "status", &arg(&session)], Path::new(".")),
+        2,
+    );
+    assert!(
+        e.contains("folded_start.json") && e.contains("payout_m"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_session_started_with_a_case_memory_sends_the_learnt_approach_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let cycles = dir.path().join("cycles");
+    succeeded(&tdeploy(
+        &["cycles", "--cycles", "1", "-o", &arg(&cycles)],
+        Path::new("."),
+    ));
+    let memory = arg(&cycles.join("memory.tdm"));
+    let policy = common::repo_arg("policies/memory.toml");
+    // The memory needs a policy that learns.
+    let out = tdeploy(
+        &["session", "start", "-o", &arg(&dir.path().join("no")), "--memory", &memory],
+        Path::new("."),
+    );
+    assert!(failed_with(&out, 2).contains("[memory] section"));
+    let session = new_session(dir.path(), "s", &["--memory", &memory, "--policy", &policy]);
+    let guidance = common::files::read_json(&session.join("guidance.json"));
+    let learnt = guidance["feedforward_m"].as_array().unwrap();
+    assert!(!learnt.is_empty());
+    let rig = Rig::new(4);
+    succeeded(&record_message(&session, &rig.start, RunOptions::default()));
+    let out = tdeploy(&["session", "next", &arg(&session), "--json"], Path::new("."));
+    let command: Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    assert_eq!(&command["payout_change_m"], &learnt[0]);
 }

@@ -4,8 +4,11 @@
 //! [`tensegrity_deploy::io::session_files`], the protocol of `serve` in
 //! [`tensegrity_deploy::io::session_protocol`] and `docs/session.md`).
 //!
-//! - `start [--problem F] [--policy P] [--model M] [--sensors F] [--approve] -o SESSION`:
-//!   creates the session folder (refused if it exists);
+//! - `start [--problem F] [--policy P] [--model M] [--sensors F]
+//!   [--memory FILE [--temperature °C]] [--approve] -o SESSION`: creates
+//!   the session folder (refused if it exists); with `--memory`, the
+//!   case memory's guidance (the nearest case's learnt approach, adapted
+//!   to this fold) is fixed in the session;
 //! - `next SESSION`: the pending command, or plans and issues the next
 //!   one, or says how the session ended; with approval required it asks
 //!   on a terminal for approval (elsewhere, `approve`/`reject` answer);
@@ -34,17 +37,20 @@ use tensegrity_deploy::control::{
 };
 use tensegrity_deploy::io::json_text;
 use tensegrity_deploy::io::log::read_sensors;
+use tensegrity_deploy::io::memory_file::read_memory_or_empty;
 use tensegrity_deploy::io::model_file::ModelFile;
+use tensegrity_deploy::io::model_file::REFERENCE_TEMPERATURE_RANGE_C;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::problem_file::read_problem_for;
 use tensegrity_deploy::io::session_files::{
-    append_events, create_session, phase_words, read_events, read_folded_start, read_meta,
-    read_readings, read_session_sensors, repair_events, write_views, NewSession, SessionMeta,
-    SessionStatus, SESSION_FORMAT,
+    append_events, create_session, phase_words, read_events, read_folded_start, read_guidance,
+    read_meta, read_readings, read_session_sensors, repair_events, write_views, NewSession,
+    SessionMeta, SessionStatus, SESSION_FORMAT,
 };
 use tensegrity_deploy::io::session_protocol::{parse_in_message, InMessage, OutMessage, PROTOCOL};
+use tensegrity_deploy::learn::{adapt, CaseConditions, EndStateCache, FeatureScales};
 use tensegrity_deploy::model::{DeploymentState, ForwardModel};
-use tensegrity_deploy::plan::{DeploymentProblem, Policy};
+use tensegrity_deploy::plan::{DeploymentProblem, PlanContext, Policy};
 use tensegrity_deploy::sim::{standard_sensors, Sensor};
 
 use super::inputs::{
@@ -80,6 +86,8 @@ pub fn command() -> Command {
                 .arg(Arg::new("policy").long("policy").value_parser(value_parser!(PathBuf)).help("Policy file (default: policies/qp.toml's settings, built in)"))
                 .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (default: fold 0.40 m, 30 mm connection, documented limits)"))
                 .arg(Arg::new("sensors").long("sensors").value_parser(value_parser!(PathBuf)).help("Sensor layout (sensors.csv of the log format). Default: the standard layout (load cells on A_cc0–A_cc3, midspan node positions, thermometer)"))
+                .arg(Arg::new("memory").long("memory").value_parser(value_parser!(PathBuf)).help("Case memory (a memory file of `tdeploy cycles`) to take the learnt approach from: the nearest case adapted to this fold and temperature when the session is created (needs a policy with a [memory] section, e.g. policies/memory.toml)"))
+                .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature at the bridge, °C: with --memory, the case is retrieved for it"))
                 .arg(Arg::new("approve").long("approve").action(ArgAction::SetTrue).help("Every command needs an operator's approval before it may be executed"))
                 .arg(Arg::new("out").long("out").short('o').required(true).value_parser(value_parser!(PathBuf)).help("The new session folder (refused if it exists)")),
         )
@@ -141,6 +149,10 @@ pub enum Options {
         problem: Option<PathBuf>,
         /// Sensor layout file.
         sensors: Option<PathBuf>,
+        /// Case memory file.
+        memory: Option<PathBuf>,
+        /// Air temperature, °C.
+        temperature_c: Option<f64>,
         /// Approval required.
         approve: bool,
         /// The session folder.
@@ -212,6 +224,8 @@ impl Options {
                 policy: a.get_one::<PathBuf>("policy").cloned(),
                 problem: a.get_one::<PathBuf>("problem").cloned(),
                 sensors: a.get_one::<PathBuf>("sensors").cloned(),
+                memory: a.get_one::<PathBuf>("memory").cloned(),
+                temperature_c: a.get_one::<f64>("temperature").copied(),
                 approve: a.get_flag("approve"),
                 out: value(a, "out")?,
             },
@@ -285,13 +299,14 @@ impl Inputs {
         let sensors = read_session_sensors(dir, model.structure())?;
         let start_payout_m = problem.motor_limits(motors)?.start_payout_m;
         let folded_start = read_folded_start(dir, model.structure(), &start_payout_m)?;
+        let guidance = read_guidance(dir, motors)?;
         Ok(Inputs {
             meta,
             model,
             problem,
             policy,
             sensors,
-            guidance: Guidance::default(),
+            guidance,
             folded_start,
         })
     }
@@ -383,9 +398,22 @@ pub fn run(o: &Options) -> Result<Outcome> {
             policy,
             problem,
             sensors,
+            memory,
+            temperature_c,
             approve,
             out,
-        } => start(model, policy, problem, sensors, *approve, out),
+        } => start(
+            StartInputs {
+                model: model.as_deref(),
+                policy: policy.as_deref(),
+                problem: problem.as_deref(),
+                sensors: sensors.as_deref(),
+                memory: memory.as_deref(),
+                temperature_c: *temperature_c,
+            },
+            *approve,
+            out,
+        ),
         Options::Next { dir, json } => next(dir, *json),
         Options::Record { dir, measurements } => record(dir, measurements),
         Options::Approve { dir, step } => answer(dir, |s| s.approve(*step)),
@@ -413,26 +441,93 @@ pub fn run(o: &Options) -> Result<Outcome> {
     }
 }
 
-fn start(
-    model: &Option<PathBuf>,
-    policy: &Option<PathBuf>,
-    problem: &Option<PathBuf>,
-    sensors: &Option<PathBuf>,
-    approve: bool,
-    out: &Path,
-) -> Result<Outcome> {
+/// The files and conditions `session start` names.
+struct StartInputs<'a> {
+    model: Option<&'a Path>,
+    policy: Option<&'a Path>,
+    problem: Option<&'a Path>,
+    sensors: Option<&'a Path>,
+    memory: Option<&'a Path>,
+    temperature_c: Option<f64>,
+}
+
+/// The guidance the case memory at `path` gives a session of `setup`
+/// from its `folded` start, with the case it came from in words.
+fn memory_guidance(
+    path: &Path,
+    setup: &SessionSetup,
+    folded: &DeploymentState,
+    temperature_c: Option<f64>,
+) -> Result<(Guidance, String)> {
+    let Some(settings) = &setup.policy.memory else {
+        bail!("--memory: the policy has no [memory] section (policies/memory.toml has one)");
+    };
+    if !path.is_file() {
+        bail!("--memory: {}: no such memory file", path.display());
+    }
+    let s = setup.model.structure();
+    let memory = read_memory_or_empty(path, s.continuous_cables.len(), s.midspan_pairs.len())?;
+    let context = PlanContext::new(setup.model, setup.problem, setup.policy, folded)?;
+    let conditions = CaseConditions {
+        temperature_c,
+        fold_m: folded.payout_m.clone(),
+        start_gap_m: None,
+        payout_scale: Vec::new(),
+    };
+    let adaptation = adapt(
+        &memory,
+        &conditions,
+        &context,
+        folded,
+        settings,
+        &FeatureScales::default(),
+        &mut EndStateCache::default(),
+    )
+    .with_context(|| format!("--memory {}", path.display()))?;
+    Ok(match adaptation {
+        None => (
+            Guidance::default(),
+            format!("memory {}: empty, no guidance", path.display()),
+        ),
+        Some(a) => {
+            let words = format!(
+                "memory {}: case {} (distance {:.2}), {} feedforward commands",
+                path.display(),
+                a.case_index + 1,
+                a.distance,
+                a.guidance.feedforward_m.len()
+            );
+            (a.guidance, words)
+        }
+    })
+}
+
+fn start(inputs: StartInputs, approve: bool, out: &Path) -> Result<Outcome> {
+    let StartInputs {
+        model,
+        policy,
+        problem,
+        sensors,
+        memory,
+        temperature_c,
+    } = inputs;
+    if let Some(t) = temperature_c {
+        if let Err(m) = REFERENCE_TEMPERATURE_RANGE_C.check(t) {
+            bail!("--temperature: {m}");
+        }
+    }
     if out.exists() {
         bail!(
             "{}: already exists; a session folder is never overwritten (choose a new one)",
             out.display()
         );
     }
-    let (model_file, model_words) = controller_model_file(model.as_deref())?;
+    let (model_file, model_words) = controller_model_file(model)?;
     let model_file: ModelFile = absolute(model_file)?;
-    let forward = planning_model(model.as_deref(), Default::default())?;
+    let forward = planning_model(model, Default::default())?;
     let structure = forward.structure();
-    let policy = policy_or_default(policy.as_deref())?;
-    let problem = problem_or_default(problem.as_deref(), structure.continuous_cables.len())?;
+    let policy = policy_or_default(policy)?;
+    let problem = problem_or_default(problem, structure.continuous_cables.len())?;
     let sensors = match sensors {
         Some(p) => read_sensors(p, structure)?,
         None => standard_sensors(structure),
@@ -449,6 +544,10 @@ fn start(
         interlocks: Interlocks::default(),
     };
     let folded_start = Session::check_setup(&setup)?;
+    let guidance = match memory {
+        Some(path) => Some(memory_guidance(path, &setup, &folded_start, temperature_c)?),
+        None => None,
+    };
     let meta = SessionMeta {
         format: SESSION_FORMAT.into(),
         structure: structure.name.clone(),
@@ -465,6 +564,7 @@ fn start(
             sensors: &sensors,
             structure,
             folded_start: &folded_start,
+            guidance: guidance.as_ref().map(|(g, _)| g),
         },
     )?;
     say!(
@@ -479,6 +579,9 @@ fn start(
             ""
         }
     );
+    if let Some((_, words)) = &guidance {
+        say!("{words}");
+    }
     say!(
         "next: fold the bridge to the start ({} m of payout), then `tdeploy session record {} --measurements F` with its readings as step 0",
         problem

@@ -3,7 +3,8 @@
 
 /// What past cycles tell a deployment (from the case memory, see
 /// `crate::learn`). The default is no guidance: the memoryless controller.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Guidance {
     /// Drum commands to send first, in order, m per motor: the learnt
     /// approach. Each is tried on the controller's model before it is sent

@@ -10,6 +10,8 @@
 //!   sensors.csv    the sensor layout (the log's format)
 //!   folded_start.json  the controller model's folded start (a state,
 //!                  computed once: no command folds the model again)
+//!   guidance.json  the case memory's guidance (with `start --memory`):
+//!                  the learnt approach and payout-scale prior, fixed
 //!   events.tdj     the journal: every event, checksummed (the record)
 //!   log/           the measurement log so far (derived)
 //!   pending.json   the pending command, when there is one (derived)
@@ -52,7 +54,7 @@ use super::problem_file::problem_to_toml;
 use super::session_protocol::{parse_in_message, InMessage};
 use super::toml_text::parse_toml;
 use super::{csv_records, csv_with_header, read_text, write_atomically, write_json, FileError};
-use crate::control::{Session, SessionEvent, SessionPhase, OWN_COMMAND_TOLERANCE_M};
+use crate::control::{Guidance, Session, SessionEvent, SessionPhase, OWN_COMMAND_TOLERANCE_M};
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::{DeploymentState, Structure};
 use crate::plan::{DeploymentProblem, Policy};
@@ -111,6 +113,9 @@ pub struct NewSession<'a> {
     /// The model's folded start, kept so that no command folds the model
     /// again ([`crate::control::SessionSetup::folded_start`]).
     pub folded_start: &'a DeploymentState,
+    /// Guidance from the case memory, fixed when the session is created
+    /// (`None`: none).
+    pub guidance: Option<&'a Guidance>,
 }
 
 /// Creates the session folder `dir` with its inputs and an empty journal.
@@ -166,6 +171,9 @@ pub fn create_session(dir: &Path, new: &NewSession) -> Result<(), FileError> {
         )?;
         sensors_table(new.sensors, new.structure).write(&tmp.join("sensors.csv"))?;
         write_json(&tmp.join("folded_start.json"), new.folded_start)?;
+        if let Some(g) = new.guidance {
+            write_json(&tmp.join("guidance.json"), g)?;
+        }
         journal::append_records::<SessionEvent>(&events_path(&tmp), events_kind(""), &[])?;
         std::fs::rename(&tmp, dir).map_err(|e| FileError::write(dir, e))
     })();
@@ -255,6 +263,48 @@ pub fn read_folded_start(
         ));
     }
     Ok(Some(state))
+}
+
+/// Reads the guidance the session was created with (`guidance.json`;
+/// the default, no guidance, when there is none), checked for `motors`
+/// motors.
+pub fn read_guidance(dir: &Path, motors: usize) -> Result<Guidance, FileError> {
+    let path = dir.join("guidance.json");
+    if !path.exists() {
+        return Ok(Guidance::default());
+    }
+    let text = read_text(&path)?;
+    let g: Guidance = serde_json::from_str(&text).map_err(|e| FileError::Syntax {
+        path: path.clone(),
+        line: e.line(),
+        column: e.column(),
+        message: e.to_string(),
+    })?;
+    if let Some(k) = g
+        .feedforward_m
+        .iter()
+        .position(|u| u.len() != motors || u.iter().any(|v| !v.is_finite()))
+    {
+        return Err(FileError::Invalid {
+            path,
+            entry: format!("feedforward_m[{k}]"),
+            message: format!("needs {motors} finite payout changes, m"),
+        });
+    }
+    let prior_ok = g
+        .payout_scale_prior
+        .iter()
+        .flatten()
+        .chain(&g.payout_scale_prior_sd)
+        .all(|v| v.is_finite());
+    if !prior_ok {
+        return Err(FileError::Invalid {
+            path,
+            entry: "payout_scale_prior".into(),
+            message: "not finite".into(),
+        });
+    }
+    Ok(g)
 }
 
 /// Reads the session's sensor layout.
