@@ -140,6 +140,7 @@ fn bench(c: &mut Criterion) {
     let mut events = vec![SessionEvent::Readings {
         step: 0,
         values: d.readings[0].clone(),
+        stopped: None,
     }];
     for (k, r) in d.records.iter().take(7).enumerate() {
         events.push(SessionEvent::Issued {
@@ -149,6 +150,7 @@ fn bench(c: &mut Criterion) {
         events.push(SessionEvent::Readings {
             step: k + 1,
             values: d.readings[k + 1].clone(),
+            stopped: None,
         });
     }
     let guidance = Guidance::default();

@@ -28,6 +28,12 @@ import sys
 PROTOCOL = "tensegrity-deploy/session-protocol/1"
 
 
+def fail(message):
+    """A protocol error: say it and exit 2."""
+    print(f"rig_client: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
 class Peer:
     """A child process speaking JSON lines."""
 
@@ -41,7 +47,7 @@ class Peer:
         line = self.proc.stdout.readline()
         if not line:
             code = self.proc.wait()
-            raise SystemExit(f"{self.name} closed its output (exit {code})")
+            fail(f"{self.name} closed its output (exit {code})")
         return line, json.loads(line)
 
     def send(self, line):
@@ -57,7 +63,7 @@ class Peer:
 def hello(peer, role):
     _, m = peer.read()
     if m.get("type") != "hello" or m.get("protocol") != PROTOCOL or m.get("role") != role:
-        raise SystemExit(f"{peer.name}: expected a {role} hello of {PROTOCOL}, got {m}")
+        fail(f"{peer.name}: expected a {role} hello of {PROTOCOL}, got {m}")
     return m
 
 
@@ -78,9 +84,9 @@ def main():
     controller = Peer("controller", [args.tdeploy, "session", "serve", args.session, "--stdio"])
     ctl_hello = hello(controller, "session")
     if rig_hello["motors"] != ctl_hello["motors"]:
-        raise SystemExit("the rig's motors are not the session's")
+        fail("the rig's motors are not the session's")
     if ctl_hello["phase"] != "awaiting_start":
-        raise SystemExit(
+        fail(
             f"the session is under way ({ctl_hello['phase']}); this client starts a fresh rig at the fold, so it drives new sessions only"
         )
     controller.send(start_line)
@@ -116,7 +122,7 @@ def main():
                     controller.send(reply_line)
                     break
                 else:
-                    raise SystemExit(f"rig: {reply}")
+                    fail(f"rig: {reply}")
             largest = max(true_gaps[-1]) * 1e3
             print(f"command {m['step']}: true largest gap {largest:.1f} mm")
         elif kind == "stopped":
@@ -130,7 +136,7 @@ def main():
             outcome, words = 2, f"refused ({m['field']}): {m['message']}"
             break
         else:
-            raise SystemExit(f"controller: unexpected {m}")
+            fail(f"controller: unexpected {m}")
     controller.close()
     rig.close()
     print(f"session: {words}; {len(commands)} commands; truth limits broken: {len(violations)}")

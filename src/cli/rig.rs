@@ -42,12 +42,13 @@ pub fn command() -> Command {
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file: the fold the rig starts at (default: 0.40 m)"))
         .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature, °C (needed by a thermal truth)"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
-        .arg(Arg::new("stdio").long("stdio").required(true).action(ArgAction::SetTrue).help("Use standard input and output (the one transport)"))
+        .arg(Arg::new("stdio").long("stdio").action(ArgAction::SetTrue).help("Use standard input and output (the one transport; required)"))
 }
 
 /// Options of `tdeploy rig`.
 #[derive(Debug, Clone)]
 pub struct Options {
+    stdio: bool,
     truth: Option<PathBuf>,
     model: Option<PathBuf>,
     problem: Option<PathBuf>,
@@ -59,6 +60,7 @@ impl Options {
     /// The options of the parsed subcommand.
     pub fn from_matches(m: &ArgMatches) -> Result<Options> {
         Ok(Options {
+            stdio: m.get_flag("stdio"),
             truth: m.get_one::<PathBuf>("truth").cloned(),
             model: m.get_one::<PathBuf>("model").cloned(),
             problem: m.get_one::<PathBuf>("problem").cloned(),
@@ -70,6 +72,9 @@ impl Options {
 
 /// Runs `tdeploy rig --stdio`.
 pub fn run(o: &Options) -> Result<Outcome> {
+    if !o.stdio {
+        anyhow::bail!("rig: --stdio is required (standard input and output are the one transport)");
+    }
     let (_, truth, words) = truth_or_default(o.truth.as_deref(), o.model.as_deref())?;
     let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &words)?;
     let structure = truth.structure.clone();

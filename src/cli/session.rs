@@ -35,6 +35,7 @@ use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 use tensegrity_deploy::control::{
     Guidance, Interlocks, Session, SessionEvent, SessionPhase, SessionRefusal, SessionSetup,
 };
+use tensegrity_deploy::io::journal::Tail;
 use tensegrity_deploy::io::json_text;
 use tensegrity_deploy::io::log::read_sensors;
 use tensegrity_deploy::io::memory_file::read_memory_or_empty;
@@ -43,11 +44,13 @@ use tensegrity_deploy::io::model_file::REFERENCE_TEMPERATURE_RANGE_C;
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::problem_file::read_problem_for;
 use tensegrity_deploy::io::session_files::{
-    append_events, create_session, phase_words, read_events, read_folded_start, read_guidance,
-    read_meta, read_readings, read_session_sensors, repair_events, write_views, NewSession,
-    SessionMeta, SessionStatus, SESSION_FORMAT,
+    append_events, create_session, phase_words, read_events, read_events_tolerant,
+    read_folded_start, read_guidance, read_meta, read_readings, read_session_sensors,
+    repair_events, write_views, NewSession, SessionMeta, SESSION_FORMAT,
 };
-use tensegrity_deploy::io::session_protocol::{parse_in_message, InMessage, OutMessage, PROTOCOL};
+use tensegrity_deploy::io::session_protocol::{
+    parse_in_message, InMessage, OutMessage, SessionStatus, PROTOCOL,
+};
 use tensegrity_deploy::learn::{adapt, CaseConditions, EndStateCache, FeatureScales};
 use tensegrity_deploy::model::{DeploymentState, ForwardModel};
 use tensegrity_deploy::plan::{DeploymentProblem, PlanContext, Policy};
@@ -127,7 +130,7 @@ pub fn command() -> Command {
             Command::new("serve")
                 .about("Speak the session protocol (JSON lines) on standard input and output")
                 .arg(session_arg())
-                .arg(Arg::new("stdio").long("stdio").required(true).action(ArgAction::SetTrue).help("Use standard input and output (the one transport)")),
+                .arg(Arg::new("stdio").long("stdio").action(ArgAction::SetTrue).help("Use standard input and output (the one transport; required)")),
         )
         .subcommand(
             Command::new("repair")
@@ -254,7 +257,12 @@ impl Options {
                 dir: dir(a)?,
                 json: a.get_flag("json"),
             },
-            Some(("serve", a)) => Options::Serve { dir: dir(a)? },
+            Some(("serve", a)) => {
+                if !a.get_flag("stdio") {
+                    bail!("session serve: --stdio is required (standard input and output are the one transport)");
+                }
+                Options::Serve { dir: dir(a)? }
+            }
             Some(("repair", a)) => Options::Repair { dir: dir(a)? },
             Some((other, _)) => bail!("session: unknown action `{other}`"),
             None => bail!("session: an action is required (start, next, record, approve, reject, resume, status, serve, repair)"),
@@ -271,10 +279,52 @@ struct Inputs {
     sensors: Vec<Sensor>,
     guidance: Guidance,
     folded_start: Option<DeploymentState>,
+    /// What ends the journal after its last complete line, as read:
+    /// repaired before the next append, never on a refusal.
+    tail: std::cell::Cell<Tail>,
+    /// The session's lock, held while a command may write (`None`: a
+    /// command that only reads).
+    _lock: Option<std::fs::File>,
+}
+
+/// How long a command waits for another process to release the session
+/// before it gives up: longer than any one command takes (50 ms), far
+/// shorter than a person waits.
+const LOCK_WAIT: std::time::Duration = std::time::Duration::from_secs(3);
+
+/// Takes the session's exclusive lock (`session.lock`, released when the
+/// process ends, however it ends): one process writes a session at a
+/// time, and `serve` holds it for its whole life.
+fn lock_session(dir: &Path) -> Result<std::fs::File> {
+    let path = dir.join("session.lock");
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .with_context(|| format!("{}: cannot open", path.display()))?;
+    let clock = std::time::Instant::now();
+    loop {
+        match file.try_lock() {
+            Ok(()) => return Ok(file),
+            Err(std::fs::TryLockError::WouldBlock) if clock.elapsed() < LOCK_WAIT => {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            Err(std::fs::TryLockError::WouldBlock) => bail!(
+                "{}: in use by another tdeploy process (a `session serve`?); the session is unchanged",
+                dir.display()
+            ),
+            Err(std::fs::TryLockError::Error(e)) => {
+                return Err(e).with_context(|| format!("{}: cannot lock", path.display()))
+            }
+        }
+    }
 }
 
 impl Inputs {
-    fn load(dir: &Path) -> Result<Inputs> {
+    /// The session's inputs; with `lock`, the session locked for writing
+    /// first.
+    fn load(dir: &Path, lock: bool) -> Result<Inputs> {
         if !dir.join("session.toml").is_file() {
             bail!(
                 "{}: not a session folder (no session.toml; `tdeploy session start -o {}` makes one)",
@@ -282,6 +332,7 @@ impl Inputs {
                 dir.display()
             );
         }
+        let lock = if lock { Some(lock_session(dir)?) } else { None };
         let meta = read_meta(dir)?;
         let model_path = dir.join("model.toml");
         let model = planning_model(Some(&model_path), Default::default())?;
@@ -308,6 +359,8 @@ impl Inputs {
             sensors,
             guidance,
             folded_start,
+            tail: std::cell::Cell::new(Tail::Whole),
+            _lock: lock,
         })
     }
 
@@ -320,7 +373,7 @@ impl Inputs {
             guidance: &self.guidance,
             folded_start: self.folded_start.as_ref(),
             approval_required: self.meta.approval_required,
-            interlocks: Interlocks::default(),
+            interlocks: self.meta.interlocks,
         }
     }
 
@@ -332,23 +385,43 @@ impl Inputs {
     }
 }
 
-/// The session rebuilt from its journal; a torn last line (an append a
-/// crash interrupted, never reported) is removed first when `repair`.
-fn open<'a>(dir: &Path, inputs: &'a Inputs, repair: bool) -> Result<Session<'a>> {
-    let events = if repair {
-        let (dropped, events) = repair_events(dir)?;
-        if dropped > 0 {
-            eprintln!(
-                "note: {}: removed the torn last line ({dropped} bytes) an interrupted append left; it was never reported",
-                dir.join("events.tdj").display()
-            );
-        }
+/// The session rebuilt from its journal. With `tolerant`, as a repair
+/// would leave the journal (a torn last line, an append a crash
+/// interrupted and never reported, left out; the file is repaired only
+/// before the next append, so that a refused input changes nothing);
+/// without, a torn line is an error naming it.
+fn open<'a>(dir: &Path, inputs: &'a Inputs, tolerant: bool) -> Result<Session<'a>> {
+    let events = if tolerant {
+        let (events, tail) = read_events_tolerant(dir)?;
+        inputs.tail.set(tail);
         events
     } else {
         read_events(dir)?
     };
     Session::replay(inputs.setup(), &events)
         .with_context(|| format!("{}: the journal", dir.join("events.tdj").display()))
+}
+
+/// Repairs the journal's tail if the read found one to repair, saying so.
+fn repair_tail(dir: &Path, inputs: &Inputs) -> Result<()> {
+    if inputs.tail.get() == Tail::Whole {
+        return Ok(());
+    }
+    let (tail, _) = repair_events(dir)?;
+    let path = dir.join("events.tdj");
+    match tail {
+        Tail::Torn(n) => eprintln!(
+            "note: {}: removed the torn last line ({n} bytes) an interrupted append left; it was never reported",
+            path.display()
+        ),
+        Tail::MissingNewline => eprintln!(
+            "note: {}: the last event lacked its line break; added",
+            path.display()
+        ),
+        Tail::Whole => {}
+    }
+    inputs.tail.set(Tail::Whole);
+    Ok(())
 }
 
 /// The pending command's predicted gaps (the controller's own decision,
@@ -367,6 +440,9 @@ fn store(
     session: &mut Session,
     events: &[SessionEvent],
 ) -> Result<SessionStatus> {
+    if !events.is_empty() {
+        repair_tail(dir, inputs)?;
+    }
     append_events(dir, events)?;
     views(dir, inputs, session)
 }
@@ -422,19 +498,19 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Options::Status { dir, json } => status(dir, *json),
         Options::Serve { dir } => serve(dir),
         Options::Repair { dir } => {
-            let (dropped, events) = repair_events(dir)?;
-            if dropped == 0 {
-                say!(
-                    "{}: whole, nothing to repair ({} events)",
-                    dir.display(),
-                    events.len()
-                );
-            } else {
-                say!(
-                    "{}: dropped the torn last line ({dropped} bytes); {} complete events kept",
-                    dir.display(),
-                    events.len()
-                );
+            let _lock = lock_session(dir)?;
+            let (tail, events) = repair_events(dir)?;
+            let n = events.len();
+            match tail {
+                Tail::Whole => say!("{}: whole, nothing to repair ({n} events)", dir.display()),
+                Tail::MissingNewline => say!(
+                    "{}: the last event lacked its line break; added ({n} events)",
+                    dir.display()
+                ),
+                Tail::Torn(bytes) => say!(
+                    "{}: dropped the torn last line ({bytes} bytes); {n} complete events kept",
+                    dir.display()
+                ),
             }
             Ok(Outcome::GoalReached)
         }
@@ -553,11 +629,13 @@ fn start(inputs: StartInputs, approve: bool, out: &Path) -> Result<Outcome> {
         structure: structure.name.clone(),
         approval_required: approve,
         created_by: format!("tdeploy {}", env!("CARGO_PKG_VERSION")),
+        inputs_fingerprint: String::new(),
+        interlocks: Interlocks::default(),
     };
     create_session(
         out,
         &NewSession {
-            meta: &meta,
+            meta,
             model_file: &model_file,
             problem: &problem,
             policy: &policy,
@@ -610,9 +688,9 @@ fn phase_outcome(phase: &SessionPhase) -> Outcome {
 }
 
 fn next(dir: &Path, json: bool) -> Result<Outcome> {
-    let inputs = Inputs::load(dir)?;
+    let inputs = Inputs::load(dir, true)?;
     let mut session = open(dir, &inputs, true)?;
-    if let SessionPhase::Ended { .. } = session.phase() {
+    if let SessionPhase::Ended { .. } | SessionPhase::Stopped { .. } = session.phase() {
         // Not a refusal: the question has an answer. The views are
         // rewritten, in case a crash left them behind the journal.
         let status = views(dir, &inputs, &mut session)?;
@@ -732,7 +810,7 @@ fn approval_prompt(
 }
 
 fn record(dir: &Path, measurements: &Path) -> Result<Outcome> {
-    let inputs = Inputs::load(dir)?;
+    let inputs = Inputs::load(dir, true)?;
     let mut session = open(dir, &inputs, true)?;
     let readings = read_readings(measurements, &inputs.sensors)?;
     let events = match session.record(readings.step, readings.values) {
@@ -753,7 +831,7 @@ fn answer(
     dir: &Path,
     op: impl FnOnce(&mut Session) -> Result<Vec<SessionEvent>, SessionRefusal>,
 ) -> Result<Outcome> {
-    let inputs = Inputs::load(dir)?;
+    let inputs = Inputs::load(dir, true)?;
     let mut session = open(dir, &inputs, true)?;
     let events = match op(&mut session) {
         Ok(e) => e,
@@ -765,7 +843,7 @@ fn answer(
 }
 
 fn status(dir: &Path, json: bool) -> Result<Outcome> {
-    let inputs = Inputs::load(dir)?;
+    let inputs = Inputs::load(dir, false)?;
     let mut session = open(dir, &inputs, false)?;
     let gaps = predicted_gaps(&mut session);
     let status = SessionStatus::of(&session, gaps);
@@ -834,7 +912,7 @@ fn phase_message<'a>(
 /// `io::session_protocol`). The session is kept in memory between
 /// messages; every change is stored before it is answered.
 fn serve(dir: &Path) -> Result<Outcome> {
-    let inputs = Inputs::load(dir)?;
+    let inputs = Inputs::load(dir, true)?;
     let mut session = open(dir, &inputs, true)?;
     let structure = inputs.model.structure();
     let motors: Vec<&str> = structure

@@ -275,6 +275,12 @@ impl<'a> Controller<'a> {
         &self.state
     }
 
+    /// The state its pending decision predicts (its confirmed trial on the
+    /// model), if it has decided and not yet observed.
+    pub fn pending_prediction(&self) -> Option<&DeploymentState> {
+        self.pending.as_ref().map(|p| &p.command.trial.state)
+    }
+
     /// The context it plans in (model, problem, policy, limits, the
     /// correction from the last measurement).
     pub fn context(&self) -> &PlanContext<'a> {

@@ -49,6 +49,7 @@ pub use guidance::Guidance;
 pub use measured_offsets::{measured_gap_vectors, model_correction};
 pub use session::{
     Interlocks, Session, SessionError, SessionEvent, SessionPhase, SessionRefusal, SessionSetup,
+    StepReadings,
 };
 pub use truth_watch::TruthWatch;
 

@@ -49,7 +49,7 @@ use super::controller::{Controller, ControllerDecision, Proposal, OWN_COMMAND_TO
 use super::guidance::Guidance;
 use super::measured_offsets::load_cell_row;
 use crate::model::{DeploymentState, EffectKind, ForwardModel};
-use crate::plan::limits::force_row_name;
+use crate::plan::limits::{force_row_name, Limits};
 use crate::plan::{DeploymentProblem, PlanError, Policy};
 use crate::sim::{Sensor, SensorTarget};
 
@@ -64,6 +64,11 @@ pub enum SessionEvent {
         step: usize,
         /// One value per sensor, in its unit (N, m, °C).
         values: Vec<Option<f64>>,
+        /// What an interlock found in them, if anything: the session
+        /// stops after them. One event with the readings, so that no
+        /// crash can keep the readings and lose the stop.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        stopped: Option<String>,
     },
     /// Command `step` issued: the drum payout change per motor, m.
     Issued {
@@ -85,13 +90,6 @@ pub enum SessionEvent {
         /// Why, in the operator's words.
         reason: String,
     },
-    /// An interlock stopped the session after the readings of `step`.
-    Stopped {
-        /// The step whose readings tripped it.
-        step: usize,
-        /// What tripped, in words.
-        reason: String,
-    },
     /// An operator resumed a stopped session.
     Resumed {
         /// The step it was stopped at.
@@ -106,6 +104,17 @@ pub enum SessionEvent {
         /// The status in words.
         words: String,
     },
+}
+
+/// The readings of one step, in the sensor layout's order, as a plant
+/// reports them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepReadings {
+    /// The step they belong to (0: the folded start; `k`: after command
+    /// `k`).
+    pub step: usize,
+    /// One per sensor (`None`: not read).
+    pub values: Vec<Option<f64>>,
 }
 
 /// Where a session stands.
@@ -157,8 +166,10 @@ impl SessionPhase {
     }
 }
 
-/// The interlocks' thresholds (see the module notes).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The interlocks' thresholds (see the module notes). A session keeps
+/// those it was created with (`session.toml`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Interlocks {
     /// A load cell's reading, less the estimated common bias, beyond its
     /// member's bound by more than this many standard deviations (the
@@ -189,6 +200,30 @@ impl Default for Interlocks {
 }
 
 impl Interlocks {
+    /// Checks every threshold's range; the error names the field.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if !(self.limit_sigmas > 0.0 && self.limit_sigmas <= 10.0) {
+            return Err((
+                "limit_sigmas",
+                format!("{} is not in (0, 10]", self.limit_sigmas),
+            ));
+        }
+        if !(self.max_position_offset_m > 0.0 && self.max_position_offset_m <= 10.0) {
+            return Err((
+                "max_position_offset_m",
+                format!("{} m is not in (0, 10]", self.max_position_offset_m),
+            ));
+        }
+        let (low, high) = self.temperature_range_c;
+        if !(low.is_finite() && high.is_finite() && low < high) {
+            return Err((
+                "temperature_range_c",
+                format!("[{low}, {high}] °C is not a range (low < high, finite)"),
+            ));
+        }
+        Ok(())
+    }
+
     /// The lowest plausible load-cell reading of a sensor with noise SD
     /// `noise_sd_n`, N: a cable cannot push, so below zero is only the
     /// cell's bias (the effect `load_cell_bias`'s plausible range) and its
@@ -259,6 +294,15 @@ pub enum SessionRefusal {
         /// The command.
         step: usize,
     },
+    /// Approval or rejection of a command already cleared for execution
+    /// (approved, or no approval required): it may be running.
+    #[error(
+        "command {step} is already cleared for execution (it may be running): record its readings"
+    )]
+    AlreadyCleared {
+        /// The command.
+        step: usize,
+    },
     /// Approval or rejection with no such pending command.
     #[error("no command {step} is pending ({phase})")]
     NoSuchPending {
@@ -285,6 +329,10 @@ pub enum SessionRefusal {
         /// What is wrong.
         why: String,
     },
+    /// Readings with no value of any sensor but the thermometer: the
+    /// controller would learn nothing from them.
+    #[error("no reading of any sensor but the thermometer: nothing to learn from")]
+    NoReadings,
     /// A reading count that is not the layout's.
     #[error("{found} readings, the sensor layout has {expected}")]
     WrongReadingCount {
@@ -329,6 +377,8 @@ pub struct Session<'a> {
     cannot_follow: Option<String>,
     /// Events applied.
     events: usize,
+    /// The model's folded start (the setup's, or folded here).
+    start_state: DeploymentState,
 }
 
 impl<'a> Session<'a> {
@@ -344,9 +394,16 @@ impl<'a> Session<'a> {
         Ok(state)
     }
 
-    /// A new session, before any event.
+    /// A new session, before any event; folds the model unless the setup
+    /// keeps its folded start (an error when it cannot reach it).
     pub fn new(setup: SessionSetup<'a>) -> Result<Self, SessionError> {
+        let start_state = match setup.folded_start {
+            Some(s) => s.clone(),
+            None => crate::plan::folded_start(setup.model, setup.problem, setup.policy.increment_m)
+                .map_err(SessionError::Start)?,
+        };
         Ok(Session {
+            start_state,
             setup,
             controller: None,
             phase: SessionPhase::AwaitingStart,
@@ -526,16 +583,17 @@ impl<'a> Session<'a> {
             }
         }
         self.check_values(&values)?;
-        let mut events = self.commit(vec![SessionEvent::Readings { step, values }])?;
-        if let Some(reason) = self.interlock(step) {
-            events.extend(self.commit(vec![SessionEvent::Stopped { step, reason }])?);
-        }
-        Ok(events)
+        let stopped = self.interlock(&values);
+        self.commit(vec![SessionEvent::Readings {
+            step,
+            values,
+            stopped,
+        }])
     }
 
     /// An operator approves the pending command `step`.
     pub fn approve(&mut self, step: usize) -> Result<Vec<SessionEvent>, SessionRefusal> {
-        self.check_pending(step)?;
+        self.check_uncleared(step)?;
         self.commit(vec![SessionEvent::Approved { step }])
     }
 
@@ -547,7 +605,7 @@ impl<'a> Session<'a> {
         step: usize,
         reason: &str,
     ) -> Result<Vec<SessionEvent>, SessionRefusal> {
-        self.check_pending(step)?;
+        self.check_uncleared(step)?;
         self.commit(vec![SessionEvent::Rejected {
             step,
             reason: reason.to_string(),
@@ -567,9 +625,20 @@ impl<'a> Session<'a> {
         }])
     }
 
-    fn check_pending(&self, step: usize) -> Result<(), SessionRefusal> {
+    /// Command `step` is pending and not yet cleared: only then may an
+    /// operator approve or reject it (a cleared command may be running).
+    fn check_uncleared(&self, step: usize) -> Result<(), SessionRefusal> {
         match &self.phase {
-            SessionPhase::Pending { step: k, .. } if *k == step => Ok(()),
+            SessionPhase::Pending {
+                step: k,
+                cleared: false,
+                ..
+            } if *k == step => Ok(()),
+            SessionPhase::Pending {
+                step: k,
+                cleared: true,
+                ..
+            } if *k == step => Err(SessionRefusal::AlreadyCleared { step }),
             phase => Err(SessionRefusal::NoSuchPending {
                 step,
                 phase: phase.label().into(),
@@ -596,21 +665,51 @@ impl<'a> Session<'a> {
                 }
             }
         }
+        let compared = sensors
+            .iter()
+            .zip(values)
+            .any(|(s, v)| v.is_some() && s.target != SensorTarget::Temperature);
+        if !compared {
+            return Err(SessionRefusal::NoReadings);
+        }
         Ok(())
     }
 
-    /// What trips an interlock on the last readings, in words (`None`:
-    /// nothing). Judged after the controller observed them, on its
-    /// updated state and bias estimate.
-    fn interlock(&self, step: usize) -> Option<String> {
-        let controller = self.controller.as_ref()?;
-        let values = self.readings.last()?;
+    /// What trips an interlock on `values`, the readings about to be
+    /// recorded, in words (`None`: nothing). Judged before the controller
+    /// learns from them: positions against where its model predicts the
+    /// nodes (the pending command's trial, or the folded start), load
+    /// cells against the limits it holds the members to, less the common
+    /// bias estimated from the earlier readings (its prior at the start),
+    /// held to the bias's plausible range, so that an overloaded cell
+    /// cannot pass for a bias.
+    fn interlock(&self, values: &[Option<f64>]) -> Option<String> {
         let model = self.setup.model;
         let s = model.structure();
-        let state = controller.state();
         let locks = self.setup.interlocks;
-        let bounds = &controller.context().limits.force;
-        let (bias_n, bias_sd_n) = controller.load_cell_bias_n().unwrap_or((0.0, 0.0));
+        let start_limits;
+        let (state, limits) = match &self.controller {
+            Some(c) => (
+                c.pending_prediction().unwrap_or_else(|| c.state()),
+                &c.context().limits,
+            ),
+            None => {
+                start_limits = Limits::new(model, self.setup.problem, &self.start_state);
+                (&self.start_state, &start_limits)
+            }
+        };
+        let prior_sd_n = self
+            .setup
+            .policy
+            .control
+            .load_cell_bias_prior_sd_n
+            .unwrap_or(0.0);
+        let (low, high) = EffectKind::LoadCellBias.parameters()[0].plausible;
+        let (bias_n, bias_sd_n) = self
+            .controller
+            .as_ref()
+            .and_then(|c| c.load_cell_bias_n())
+            .map_or((0.0, prior_sd_n), |(b, sd)| (b.clamp(low, high), sd));
         let mut trips = Vec::new();
         for (sensor, value) in self.setup.sensors.iter().zip(values) {
             let Some(v) = *value else { continue };
@@ -641,18 +740,23 @@ impl<'a> Session<'a> {
                     }
                 }
                 target => {
+                    let Some(row) = load_cell_row(model, state, target) else {
+                        continue;
+                    };
+                    // Only a tension member's cell has a floor: a strut
+                    // reads its compression.
+                    let tension_member = limits.euler_n.get(row).is_some_and(|e| e.is_none());
                     let lowest = Interlocks::lowest_plausible_tension_n(sensor.noise_sd);
-                    if v < lowest {
+                    if tension_member && v < lowest {
                         trips.push(format!(
                             "{} reads {v:.1} N, below the plausible {lowest:.1} N (a cable cannot push; the cell's bias and noise cannot reach it)",
                             sensor.id
                         ));
                         continue;
                     }
-                    let Some(row) = load_cell_row(model, state, target) else {
+                    let Some(b) = limits.force.get(row) else {
                         continue;
                     };
-                    let Some(b) = bounds.get(row) else { continue };
                     let force = v - bias_n;
                     let sd = sensor.noise_sd.hypot(bias_sd_n);
                     let k = locks.limit_sigmas;
@@ -674,7 +778,7 @@ impl<'a> Session<'a> {
                 }
             }
         }
-        (!trips.is_empty()).then(|| format!("step {step}: {}", trips.join("; ")))
+        (!trips.is_empty()).then(|| trips.join("; "))
     }
 
     /// Applies `events` (new ones, built from the phase just checked) and
@@ -692,36 +796,37 @@ impl<'a> Session<'a> {
         let bad = |why: String| SessionError::Inconsistent { index, why };
         let phase = self.phase.label();
         match (event, &self.phase) {
-            (SessionEvent::Readings { step: 0, values }, SessionPhase::AwaitingStart) => {
+            (
+                SessionEvent::Readings {
+                    step: 0,
+                    values,
+                    stopped,
+                },
+                SessionPhase::AwaitingStart,
+            ) => {
                 let setup = self.setup;
                 self.check_values(values)
                     .map_err(|e| bad(format!("readings of step 0: {e}")))?;
-                let controller = match setup.folded_start {
-                    Some(folded) => Controller::guided_from(
-                        setup.model,
-                        setup.problem,
-                        setup.policy,
-                        setup.sensors,
-                        values,
-                        setup.guidance,
-                        folded.clone(),
-                    ),
-                    None => Controller::guided(
-                        setup.model,
-                        setup.problem,
-                        setup.policy,
-                        setup.sensors,
-                        values,
-                        setup.guidance,
-                    ),
-                }
+                let controller = Controller::guided_from(
+                    setup.model,
+                    setup.problem,
+                    setup.policy,
+                    setup.sensors,
+                    values,
+                    setup.guidance,
+                    self.start_state.clone(),
+                )
                 .map_err(SessionError::Start)?;
                 self.controller = Some(controller);
                 self.readings.push(values.clone());
-                self.phase = SessionPhase::Ready { step: 0 };
+                self.phase = after_readings(0, stopped);
             }
             (
-                SessionEvent::Readings { step, values },
+                SessionEvent::Readings {
+                    step,
+                    values,
+                    stopped,
+                },
                 SessionPhase::Pending {
                     step: k,
                     command_m,
@@ -742,7 +847,7 @@ impl<'a> Session<'a> {
                 }
                 self.readings.push(values.clone());
                 self.executed_m.push(command_m);
-                self.phase = SessionPhase::Ready { step: *step };
+                self.phase = after_readings(*step, stopped);
             }
             (SessionEvent::Issued { step, command_m }, SessionPhase::Ready { step: k })
                 if *step == k + 1 =>
@@ -797,14 +902,6 @@ impl<'a> Session<'a> {
                 }
                 self.phase = SessionPhase::Ready { step: step - 1 };
             }
-            (SessionEvent::Stopped { step, reason }, SessionPhase::Ready { step: k })
-                if step == k =>
-            {
-                self.phase = SessionPhase::Stopped {
-                    step: *step,
-                    reason: reason.clone(),
-                };
-            }
             (SessionEvent::Resumed { step, .. }, SessionPhase::Stopped { step: k, .. })
                 if step == k =>
             {
@@ -828,6 +925,18 @@ impl<'a> Session<'a> {
     }
 }
 
+/// The phase after the readings of `step`: stopped if an interlock
+/// tripped on them, else ready.
+fn after_readings(step: usize, stopped: &Option<String>) -> SessionPhase {
+    match stopped {
+        Some(reason) => SessionPhase::Stopped {
+            step,
+            reason: reason.clone(),
+        },
+        None => SessionPhase::Ready { step },
+    }
+}
+
 /// The event's name and step, in words.
 fn event_name(event: &SessionEvent) -> String {
     match event {
@@ -835,7 +944,6 @@ fn event_name(event: &SessionEvent) -> String {
         SessionEvent::Issued { step, .. } => format!("issuing command {step}"),
         SessionEvent::Approved { step } => format!("approving command {step}"),
         SessionEvent::Rejected { step, .. } => format!("rejecting command {step}"),
-        SessionEvent::Stopped { step, .. } => format!("a stop after step {step}"),
         SessionEvent::Resumed { step, .. } => format!("resuming after step {step}"),
         SessionEvent::Ended { .. } => "the end".into(),
     }

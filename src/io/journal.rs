@@ -56,6 +56,62 @@ pub fn record_line<T: Serialize>(path: &Path, record: &T) -> Result<String, File
     ))
 }
 
+/// The record of one line's content (without its `\n`), if its checksum
+/// matches and its JSON is a record.
+fn parse_record<T: DeserializeOwned>(content: &str) -> Option<T> {
+    let (sum, json) = content.split_once(' ')?;
+    let sum = sum.strip_prefix(CHECKSUM_PREFIX)?;
+    (sum == fingerprint(json.as_bytes()))
+        .then(|| serde_json::from_str(json).ok())
+        .flatten()
+}
+
+/// What ends a journal's bytes after its last `\n`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tail {
+    /// Nothing: the journal is whole.
+    Whole,
+    /// A complete record, checksum and all, without its `\n` (an editor
+    /// can leave this): kept, the `\n` added by a repair.
+    MissingNewline,
+    /// A torn line of this many bytes (an interrupted append): dropped
+    /// by a repair.
+    Torn(usize),
+}
+
+/// Where the journal's complete lines end, and what follows them.
+fn tail_of<T: DeserializeOwned>(bytes: &[u8]) -> (usize, Tail) {
+    match bytes.last() {
+        None | Some(b'\n') => (bytes.len(), Tail::Whole),
+        Some(_) => {
+            let keep = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+            let last = std::str::from_utf8(&bytes[keep..]).ok();
+            match last.and_then(parse_record::<T>) {
+                Some(_) if keep > 0 => (bytes.len(), Tail::MissingNewline),
+                _ => (keep, Tail::Torn(bytes.len() - keep)),
+            }
+        }
+    }
+}
+
+/// Parses a journal's bytes as a repair would leave them, without
+/// changing the file: a complete last record without its `\n` is read, a
+/// torn last line is left out; returns what the tail was.
+pub fn parse_journal_tolerant<T: DeserializeOwned>(
+    bytes: &[u8],
+    path: &Path,
+    kind: JournalKind,
+) -> Result<(Vec<(usize, T)>, Tail), FileError> {
+    let (keep, tail) = tail_of::<T>(bytes);
+    let mut text = std::str::from_utf8(&bytes[..keep])
+        .map_err(|e| FileError::field(path, 1, kind.record, format!("not text (UTF-8): {e}")))?
+        .to_string();
+    if tail == Tail::MissingNewline {
+        text.push('\n');
+    }
+    Ok((parse_journal(&text, path, kind)?, tail))
+}
+
 /// Parses a journal's text; `path` names it in errors. Records are
 /// returned with their line numbers.
 pub fn parse_journal<T: DeserializeOwned>(
@@ -145,7 +201,8 @@ pub fn append_records<T: Serialize>(
     match existing {
         None => write_atomically(path, format!("{}\n{lines}", kind.format).as_bytes()),
         Some(bytes) => {
-            if !bytes.starts_with(kind.format.as_bytes()) {
+            let first = bytes.split(|&b| b == b'\n').next().unwrap_or(&[]);
+            if first != kind.format.as_bytes() {
                 return Err(FileError::field(
                     path,
                     1,
@@ -182,31 +239,26 @@ pub fn append_records<T: Serialize>(
     }
 }
 
-/// Removes a last line without its `\n` (a torn append), rewriting the
-/// file atomically, and loads what is left; returns the bytes dropped and
+/// Repairs the journal's tail, rewriting the file atomically: a torn
+/// last line (an interrupted append) is removed, a complete last record
+/// without its `\n` gets it; then loads it. Returns the tail found and
 /// the records. A file whose other lines do not load (a wrong header, a
-/// corrupted record) is an error and is left unchanged: only an
-/// interrupted append is repaired, since that is all a crash can leave.
+/// corrupted record) is an error and is left unchanged: only what a crash
+/// (or an editor's missing final newline) can leave is repaired.
 pub fn repair_torn_tail<T: DeserializeOwned>(
     path: &Path,
     kind: JournalKind,
-) -> Result<(usize, Vec<(usize, T)>), FileError> {
+) -> Result<(Tail, Vec<(usize, T)>), FileError> {
     let bytes = std::fs::read(path).map_err(|e| FileError::read(path, e))?;
-    let keep = match bytes.last() {
-        None | Some(b'\n') => bytes.len(),
-        Some(_) => bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1),
-    };
-    let text = std::str::from_utf8(&bytes[..keep]).map_err(|e| {
-        FileError::field(
-            path,
-            1,
-            kind.record,
-            format!("not text (UTF-8): {e}; nothing repaired"),
-        )
-    })?;
-    let records = parse_journal(text, path, kind)?;
-    if keep < bytes.len() {
-        write_atomically(path, &bytes[..keep])?;
+    let (records, tail) = parse_journal_tolerant(&bytes, path, kind)?;
+    match tail {
+        Tail::Whole => {}
+        Tail::MissingNewline => {
+            let mut fixed = bytes.clone();
+            fixed.push(b'\n');
+            write_atomically(path, &fixed)?;
+        }
+        Tail::Torn(n) => write_atomically(path, &bytes[..bytes.len() - n])?,
     }
-    Ok((bytes.len() - keep, records))
+    Ok((tail, records))
 }

@@ -110,9 +110,12 @@ pub struct Repair {
 /// file atomically, and loads what is left ([`journal::repair_torn_tail`]).
 pub fn repair_torn_tail(path: &Path) -> Result<Repair, FileError> {
     let repair = repair_command(path);
-    let (dropped_bytes, cases) = journal::repair_torn_tail::<Case>(path, kind(&repair))?;
+    let (tail, cases) = journal::repair_torn_tail::<Case>(path, kind(&repair))?;
     Ok(Repair {
-        dropped_bytes,
+        dropped_bytes: match tail {
+            journal::Tail::Torn(n) => n,
+            _ => 0,
+        },
         memory: CaseMemory {
             cases: cases.into_iter().map(|(_, c)| c).collect(),
         },

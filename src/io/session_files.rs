@@ -3,7 +3,9 @@
 //!
 //! ```text
 //! SESSION/
-//!   session.toml   format, structure, approval_required, created_by
+//!   session.toml   format, structure, approval_required, created_by,
+//!                  inputs_fingerprint, [interlocks]
+//!   session.lock   the lock a writing command holds (empty)
 //!   model.toml     the controller's model (a model file)
 //!   problem.toml   the problem, every field written out
 //!   policy.toml    the policy, every field written out
@@ -46,15 +48,19 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::commands::{write_commands, CommandSequence};
-use super::journal::{self, JournalKind};
+use super::evaluation_files::fingerprint;
+use super::journal::{self, JournalKind, Tail};
 use super::log::{read_sensors, sensors_table, write_log, READING_RANGE};
 use super::model_file::ModelFile;
 use super::policy_file::policy_to_toml;
 use super::problem_file::problem_to_toml;
-use super::session_protocol::{parse_in_message, InMessage};
+use super::session_protocol::{parse_in_message, InMessage, ProtocolError, SessionStatus};
 use super::toml_text::parse_toml;
 use super::{csv_records, csv_with_header, read_text, write_atomically, write_json, FileError};
-use crate::control::{Guidance, Session, SessionEvent, SessionPhase, OWN_COMMAND_TOLERANCE_M};
+use crate::control::{
+    Guidance, Interlocks, Session, SessionEvent, SessionPhase, StepReadings,
+    OWN_COMMAND_TOLERANCE_M,
+};
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::{DeploymentState, Structure};
 use crate::plan::{DeploymentProblem, Policy};
@@ -79,6 +85,39 @@ pub struct SessionMeta {
     pub approval_required: bool,
     /// The program that created it, with its version.
     pub created_by: String,
+    /// The FNV-1a fingerprint of the inputs beside it (`model.toml`,
+    /// `problem.toml`, `policy.toml`, `sensors.csv`, `folded_start.json`,
+    /// `guidance.json`): a session runs on the inputs it started with,
+    /// and one whose inputs were edited since is refused.
+    pub inputs_fingerprint: String,
+    /// The interlocks' thresholds it runs with.
+    pub interlocks: Interlocks,
+}
+
+/// The input files of a session, in the order they are fingerprinted.
+const INPUT_FILES: [&str; 6] = [
+    "model.toml",
+    "problem.toml",
+    "policy.toml",
+    "sensors.csv",
+    "folded_start.json",
+    "guidance.json",
+];
+
+/// The fingerprint of the session's inputs in `dir` (a missing optional
+/// file counts as empty).
+fn inputs_fingerprint(dir: &Path) -> Result<String, FileError> {
+    let mut bytes = Vec::new();
+    for name in INPUT_FILES {
+        let path = dir.join(name);
+        match std::fs::read(&path) {
+            Ok(b) => bytes.extend_from_slice(&b),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && name == "guidance.json" => {}
+            Err(e) => return Err(FileError::read(&path, e)),
+        }
+        bytes.push(0);
+    }
+    Ok(fingerprint(&bytes))
 }
 
 /// The journal's kind, for messages.
@@ -97,8 +136,8 @@ pub fn events_path(dir: &Path) -> PathBuf {
 
 /// What a new session is created with.
 pub struct NewSession<'a> {
-    /// `session.toml`.
-    pub meta: &'a SessionMeta,
+    /// `session.toml` (its inputs' fingerprint is filled in).
+    pub meta: SessionMeta,
     /// The controller's model file (its structure source absolute or
     /// the reference).
     pub model_file: &'a ModelFile,
@@ -150,12 +189,6 @@ pub fn create_session(dir: &Path, new: &NewSession) -> Result<(), FileError> {
             path: tmp.clone(),
             cause: e,
         })?;
-        let meta = toml::to_string(new.meta).map_err(|e| FileError::Invalid {
-            path: tmp.join("session.toml"),
-            entry: "session".into(),
-            message: e.to_string(),
-        })?;
-        write_atomically(&tmp.join("session.toml"), meta.as_bytes())?;
         // The structure file stays where it is (its path absolute).
         write_atomically(
             &tmp.join("model.toml"),
@@ -174,6 +207,17 @@ pub fn create_session(dir: &Path, new: &NewSession) -> Result<(), FileError> {
         if let Some(g) = new.guidance {
             write_json(&tmp.join("guidance.json"), g)?;
         }
+        let meta = SessionMeta {
+            inputs_fingerprint: inputs_fingerprint(&tmp)?,
+            ..new.meta.clone()
+        };
+        let meta = toml::to_string(&meta).map_err(|e| FileError::Invalid {
+            path: tmp.join("session.toml"),
+            entry: "session".into(),
+            message: e.to_string(),
+        })?;
+        write_atomically(&tmp.join("session.toml"), meta.as_bytes())?;
+        write_atomically(&tmp.join("session.lock"), b"")?;
         journal::append_records::<SessionEvent>(&events_path(&tmp), events_kind(""), &[])?;
         std::fs::rename(&tmp, dir).map_err(|e| FileError::write(dir, e))
     })();
@@ -192,6 +236,23 @@ pub fn read_meta(dir: &Path) -> Result<SessionMeta, FileError> {
             path,
             entry: "format".into(),
             message: format!("expected \"{SESSION_FORMAT}\", found \"{}\"", meta.format),
+        });
+    }
+    if let Err((field, message)) = meta.interlocks.validate() {
+        return Err(FileError::Invalid {
+            path,
+            entry: format!("interlocks.{field}"),
+            message,
+        });
+    }
+    if inputs_fingerprint(dir)? != meta.inputs_fingerprint {
+        return Err(FileError::Invalid {
+            path,
+            entry: "inputs_fingerprint".into(),
+            message: format!(
+                "the session's inputs ({}) changed since it started; a session runs on the inputs it started with (start a new one)",
+                INPUT_FILES.join(", ")
+            ),
         });
     }
     Ok(meta)
@@ -324,14 +385,25 @@ pub fn read_events(dir: &Path) -> Result<Vec<SessionEvent>, FileError> {
         .collect())
 }
 
-/// The journal's events with a torn last line removed (the append a
-/// crash interrupted: it was never reported, so it never happened);
-/// returns the bytes dropped too.
-pub fn repair_events(dir: &Path) -> Result<(usize, Vec<SessionEvent>), FileError> {
+/// The journal's events as a repair would leave them, the file
+/// unchanged: a torn last line (the append a crash interrupted: it was
+/// never reported, so it never happened) left out, a complete last event
+/// without its `\n` read; with what the tail was.
+pub fn read_events_tolerant(dir: &Path) -> Result<(Vec<SessionEvent>, Tail), FileError> {
     let path = events_path(dir);
     let repair = format!("tdeploy session repair {}", dir.display());
-    let (dropped, records) = journal::repair_torn_tail(&path, events_kind(&repair))?;
-    Ok((dropped, records.into_iter().map(|(_, e)| e).collect()))
+    let bytes = std::fs::read(&path).map_err(|e| FileError::read(&path, e))?;
+    let (records, tail) = journal::parse_journal_tolerant(&bytes, &path, events_kind(&repair))?;
+    Ok((records.into_iter().map(|(_, e)| e).collect(), tail))
+}
+
+/// Repairs the journal's tail ([`journal::repair_torn_tail`]) and returns
+/// what it was, with the events.
+pub fn repair_events(dir: &Path) -> Result<(Tail, Vec<SessionEvent>), FileError> {
+    let path = events_path(dir);
+    let repair = format!("tdeploy session repair {}", dir.display());
+    let (tail, records) = journal::repair_torn_tail(&path, events_kind(&repair))?;
+    Ok((tail, records.into_iter().map(|(_, e)| e).collect()))
 }
 
 /// Appends `events` to the journal in one write (nothing when empty).
@@ -341,96 +413,6 @@ pub fn append_events(dir: &Path, events: &[SessionEvent]) -> Result<(), FileErro
     }
     let repair = format!("tdeploy session repair {}", dir.display());
     journal::append_records(&events_path(dir), events_kind(&repair), events)
-}
-
-/// Where a session stands, as `status.json` and the protocol's status
-/// message write it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SessionStatus {
-    /// The phase ([`SessionPhase::label`]).
-    pub phase: &'static str,
-    /// The last step measured (`None`: not even the start).
-    pub last_measured_step: Option<usize>,
-    /// The pending command's number and payout change per motor, m.
-    pub pending_step: Option<usize>,
-    /// Payout change per motor of the pending command, m.
-    pub pending_command_m: Option<Vec<f64>>,
-    /// Whether the pending command may be executed (approved, or no
-    /// approval required).
-    pub pending_cleared: Option<bool>,
-    /// Gap per midspan pair the controller predicts for the pending
-    /// command, m.
-    pub pending_predicted_gaps_m: Option<Vec<f64>>,
-    /// Commands executed and measured.
-    pub commands_executed: usize,
-    /// Largest measured gap at the last step, m.
-    pub last_largest_measured_gap_m: Option<f64>,
-    /// The payout scale of each bridge half as estimated now, 1.
-    pub estimated_payout_scale: Vec<f64>,
-    /// The load cells' common bias as estimated now: mean and SD, N.
-    pub estimated_load_cell_bias_n: Option<(f64, f64)>,
-    /// Why the session is stopped, if it is.
-    pub stopped_reason: Option<String>,
-    /// How it ended (status label), if it has.
-    pub ended_status: Option<String>,
-    /// How it ended, in words.
-    pub ended_words: Option<String>,
-    /// Commands whose issued value this version would not issue on replay
-    /// (a journal written by another version); empty normally.
-    pub diverged_commands: Vec<usize>,
-    /// Events in the journal.
-    pub events: usize,
-}
-
-impl SessionStatus {
-    /// The status of `session`; `predicted_gaps_m` are the pending
-    /// command's predicted gaps where known.
-    pub fn of(session: &Session, predicted_gaps_m: Option<Vec<f64>>) -> Self {
-        let phase = session.phase();
-        let (pending_step, pending_command_m, pending_cleared) = match phase {
-            SessionPhase::Pending {
-                step,
-                command_m,
-                cleared,
-            } => (Some(*step), Some(command_m.clone()), Some(*cleared)),
-            _ => (None, None, None),
-        };
-        let controller = session.controller();
-        let structure = session.setup().model.structure();
-        let last_gap = session.readings().last().and_then(|r| {
-            crate::control::measured_gap_vectors(structure, session.setup().sensors, r)
-                .iter()
-                .flatten()
-                .map(|g| g.norm())
-                .reduce(f64::max)
-        });
-        SessionStatus {
-            phase: phase.label(),
-            last_measured_step: session.readings().len().checked_sub(1),
-            pending_predicted_gaps_m: pending_step.and(predicted_gaps_m),
-            pending_step,
-            pending_command_m,
-            pending_cleared,
-            commands_executed: session.executed_commands_m().len(),
-            last_largest_measured_gap_m: last_gap,
-            estimated_payout_scale: controller.map_or_else(Vec::new, |c| c.part_payout_scale()),
-            estimated_load_cell_bias_n: controller.and_then(|c| c.load_cell_bias_n()),
-            stopped_reason: match phase {
-                SessionPhase::Stopped { reason, .. } => Some(reason.clone()),
-                _ => None,
-            },
-            ended_status: match phase {
-                SessionPhase::Ended { status, .. } => Some(status.clone()),
-                _ => None,
-            },
-            ended_words: match phase {
-                SessionPhase::Ended { words, .. } => Some(words.clone()),
-                _ => None,
-            },
-            diverged_commands: session.diverged_commands().to_vec(),
-            events: session.event_count(),
-        }
-    }
 }
 
 /// The pending command as `pending.json` writes it.
@@ -527,30 +509,31 @@ fn remove_stale_temporaries(dir: &Path) -> Result<(), FileError> {
     Ok(())
 }
 
-/// Readings of one step, in the layout's order.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StepReadings {
-    /// The step they belong to.
-    pub step: usize,
-    /// One per sensor (`None`: not read).
-    pub values: Vec<Option<f64>>,
-}
-
 /// Reads a readings file (CSV or one JSON measurements message, see the
 /// module notes) for the layout `sensors`.
 pub fn read_readings(path: &Path, sensors: &[Sensor]) -> Result<StepReadings, FileError> {
     let text = read_text(path)?;
     if text.trim_start().starts_with('{') {
-        let line = text.trim();
-        return match parse_in_message(line, sensors) {
+        let invalid = |e: ProtocolError| match e.position {
+            Some((line, column)) => FileError::Syntax {
+                path: path.to_path_buf(),
+                line,
+                column,
+                message: e.message,
+            },
+            None => FileError::Invalid {
+                path: path.to_path_buf(),
+                entry: e.field,
+                message: e.message,
+            },
+        };
+        return match parse_in_message(&text, sensors) {
             Ok(InMessage::Measurements(r)) => Ok(r),
-            Ok(other) => Err(FileError::field(
-                path,
-                1,
+            Ok(other) => Err(invalid(ProtocolError::field(
                 "type",
                 format!("a \"{}\" message is not readings", other.type_name()),
-            )),
-            Err(e) => Err(FileError::field(path, 1, &e.field, e.message)),
+            ))),
+            Err(e) => Err(invalid(e)),
         };
     }
     let mut reader = csv_with_header(&text, path, &READINGS_HEADER)?;
@@ -619,5 +602,45 @@ pub fn phase_words(phase: &SessionPhase) -> String {
             )
         }
         SessionPhase::Ended { words, .. } => format!("ended: {words}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{reference_bridge, BridgeParameters};
+
+    /// The second guard behind the inputs' fingerprint: a folded start
+    /// that is not the problem's, or not of the structure, is refused
+    /// naming the file and field.
+    #[test]
+    fn a_folded_start_that_is_not_the_problems_is_refused_naming_the_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = reference_bridge(&BridgeParameters::default()).unwrap();
+        let mut state = DeploymentState::reference(&s);
+        let n = state.payout_m.len();
+        state.payout_m = vec![0.4; n];
+        write_json(&dir.path().join("folded_start.json"), &state).unwrap();
+        let start = vec![0.4; n];
+        assert_eq!(
+            read_folded_start(dir.path(), &s, &start).unwrap(),
+            Some(state.clone())
+        );
+        let other = vec![0.3; n];
+        let e = read_folded_start(dir.path(), &s, &other)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("folded_start.json") && e.contains("payout_m"),
+            "{e}"
+        );
+        state.positions_m.pop();
+        write_json(&dir.path().join("folded_start.json"), &state).unwrap();
+        let e = read_folded_start(dir.path(), &s, &start)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("node or segment counts"), "{e}");
+        std::fs::remove_file(dir.path().join("folded_start.json")).unwrap();
+        assert_eq!(read_folded_start(dir.path(), &s, &start).unwrap(), None);
     }
 }

@@ -169,7 +169,7 @@ mod tests {
 
     /// A deterministic ±1 pattern: median 0, MAD 1.
     fn pm(k: usize) -> f64 {
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             1.0
         } else {
             -1.0

@@ -150,7 +150,7 @@ impl ForwardModel {
             } else {
                 ke_prev = ke;
                 (max_t, friction_left) = self.residual(state, ws);
-                if report.iterations % 256 == 0 && self.ran_away(state, ws, max_disp) {
+                if report.iterations.is_multiple_of(256) && self.ran_away(state, ws, max_disp) {
                     report.status = RelaxStatus::UnstableMechanism;
                     report.max_residual_n = self.max_free_residual(ws);
                     return report;
