@@ -888,3 +888,71 @@ fn a_refusal_leaves_a_torn_journal_as_it_was_and_a_missing_line_break_loses_no_e
     let now = std::fs::read(&journal).unwrap();
     assert!(now.starts_with(&whole), "the start's readings are kept");
 }
+
+/// Review finding: a glitch that tripped an interlock stayed in the
+/// controller's estimates for good. Discarded, the same step is read
+/// again and the glitch is nowhere: the session continues as if it had
+/// never happened.
+#[test]
+fn readings_that_tripped_an_interlock_can_be_discarded_and_read_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = deploy(dir.path(), 1);
+    let session = new_session(dir.path(), "s", &[]);
+    let mut rig = Rig::new(1);
+    // A glitch at the start, discarded; then the real readings.
+    let glitch = with_reading(&rig.start, "load_A_cc2", 1.0e5);
+    failed_with(&record_message(&session, &glitch, RunOptions::default()), 1);
+    succeeded(&tdeploy(
+        &[
+            "session",
+            "resume",
+            &arg(&session),
+            "--note",
+            "cell A_cc2 reseated",
+            "--discard",
+        ],
+        Path::new("."),
+    ));
+    assert_eq!(status_json(&session)["phase"], "awaiting_start");
+    succeeded(&record_message(
+        &session,
+        &rig.start.clone(),
+        RunOptions::default(),
+    ));
+    // A glitch after command 1, discarded; then its real readings.
+    let command = stdout(&tdeploy(
+        &["session", "next", &arg(&session), "--json"],
+        Path::new("."),
+    ));
+    let readings = rig.execute(command.trim());
+    let glitch = with_reading(&readings, "A4_1_y", 3.0);
+    failed_with(&record_message(&session, &glitch, RunOptions::default()), 1);
+    succeeded(&tdeploy(
+        &[
+            "session",
+            "resume",
+            &arg(&session),
+            "--note",
+            "target cleaned",
+            "--discard",
+        ],
+        Path::new("."),
+    ));
+    assert_eq!(status_json(&session)["phase"], "pending");
+    succeeded(&record_message(&session, &readings, RunOptions::default()));
+    // From here as deploy: the discarded readings left no trace.
+    loop {
+        let out = tdeploy(
+            &["session", "next", &arg(&session), "--json"],
+            Path::new("."),
+        );
+        let line = stdout(&out).trim().to_string();
+        let m: Value = serde_json::from_str(&line).unwrap();
+        if m["type"] != "command" {
+            break;
+        }
+        let readings = rig.execute(&line);
+        succeeded(&record_message(&session, &readings, RunOptions::default()));
+    }
+    assert!(files(&session.join("log")) == files(&reference.join("log")));
+}

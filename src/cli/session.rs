@@ -15,7 +15,7 @@
 //! - `record SESSION --measurements F`: the readings of the folded start
 //!   (step 0) or of the pending command, executed;
 //! - `approve SESSION --step K`, `reject SESSION --step K --reason R`,
-//!   `resume SESSION --note N`: the operator's answers;
+//!   `resume SESSION --note N [--discard]`: the operator's answers;
 //! - `status SESSION [--json]`: where it stands (reads only);
 //! - `serve SESSION --stdio`: the protocol on standard input and output;
 //! - `repair SESSION`: removes the torn last line a crash left in the
@@ -118,7 +118,8 @@ pub fn command() -> Command {
             Command::new("resume")
                 .about("Resume a session an interlock stopped")
                 .arg(session_arg())
-                .arg(Arg::new("note").long("note").required(true).help("The operator's note (logged): what was checked")),
+                .arg(Arg::new("note").long("note").required(true).help("The operator's note (logged): what was checked"))
+                .arg(Arg::new("discard").long("discard").action(ArgAction::SetTrue).help("Discard the readings that tripped the interlock (a sensor fault, fixed): the same step's readings are recorded again. Without it the controller takes them as they are")),
         )
         .subcommand(
             Command::new("status")
@@ -197,6 +198,8 @@ pub enum Options {
         dir: PathBuf,
         /// The operator's note.
         note: String,
+        /// Discard the readings that tripped the interlock.
+        discard: bool,
     },
     /// `status`.
     Status {
@@ -252,6 +255,7 @@ impl Options {
             Some(("resume", a)) => Options::Resume {
                 dir: dir(a)?,
                 note: value(a, "note")?,
+                discard: a.get_flag("discard"),
             },
             Some(("status", a)) => Options::Status {
                 dir: dir(a)?,
@@ -494,7 +498,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Options::Record { dir, measurements } => record(dir, measurements),
         Options::Approve { dir, step } => answer(dir, |s| s.approve(*step)),
         Options::Reject { dir, step, reason } => answer(dir, |s| s.reject(*step, reason)),
-        Options::Resume { dir, note } => answer(dir, |s| s.resume(note)),
+        Options::Resume { dir, note, discard } => answer(dir, |s| s.resume(note, *discard)),
         Options::Status { dir, json } => status(dir, *json),
         Options::Serve { dir } => serve(dir),
         Options::Repair { dir } => {
@@ -971,7 +975,7 @@ fn serve(dir: &Path) -> Result<Outcome> {
             InMessage::Measurements(r) => session.record(r.step, r.values),
             InMessage::Approve { step } => session.approve(step),
             InMessage::Reject { step, reason } => session.reject(step, &reason),
-            InMessage::Resume { note } => session.resume(&note),
+            InMessage::Resume { note, discard } => session.resume(&note, discard),
             InMessage::Status => {
                 let gaps = predicted_gaps(&mut session);
                 let status = SessionStatus::of(&session, gaps);

@@ -96,6 +96,11 @@ pub enum SessionEvent {
         step: usize,
         /// The operator's note.
         note: String,
+        /// Whether the readings that tripped the interlock were
+        /// discarded (the sensors are read again for the same step)
+        /// rather than kept (the controller learns from them).
+        #[serde(default)]
+        discard: bool,
     },
     /// The controller ended the session.
     Ended {
@@ -375,6 +380,10 @@ pub struct Session<'a> {
     /// Why the controller could not follow the last executed command
     /// (its decision forgotten), if it could not.
     cannot_follow: Option<String>,
+    /// Readings an interlock stopped on, held until an operator keeps or
+    /// discards them: the step, the values and the command they follow
+    /// (`None` at the start).
+    held: Option<(usize, Vec<Option<f64>>, Option<Vec<f64>>)>,
     /// Events applied.
     events: usize,
     /// The model's folded start (the setup's, or folded here).
@@ -411,6 +420,7 @@ impl<'a> Session<'a> {
             executed_m: Vec::new(),
             diverged: Vec::new(),
             cannot_follow: None,
+            held: None,
             events: 0,
         })
     }
@@ -612,8 +622,15 @@ impl<'a> Session<'a> {
         }])
     }
 
-    /// An operator resumes a session an interlock stopped.
-    pub fn resume(&mut self, note: &str) -> Result<Vec<SessionEvent>, SessionRefusal> {
+    /// An operator resumes a session an interlock stopped: with
+    /// `discard`, the readings that tripped it are dropped and the same
+    /// step's readings are awaited again (a sensor fault, fixed); without,
+    /// the controller takes them as they are.
+    pub fn resume(
+        &mut self,
+        note: &str,
+        discard: bool,
+    ) -> Result<Vec<SessionEvent>, SessionRefusal> {
         let SessionPhase::Stopped { step, .. } = self.phase else {
             return Err(SessionRefusal::NotStopped {
                 phase: self.phase.label().into(),
@@ -622,6 +639,7 @@ impl<'a> Session<'a> {
         self.commit(vec![SessionEvent::Resumed {
             step,
             note: note.to_string(),
+            discard,
         }])
     }
 
@@ -781,6 +799,64 @@ impl<'a> Session<'a> {
         (!trips.is_empty()).then(|| trips.join("; "))
     }
 
+    /// The controller takes the readings of `step`: the start's (no
+    /// command) start it, a command's are observed after it.
+    fn take_readings(
+        &mut self,
+        step: usize,
+        values: Vec<Option<f64>>,
+        command_m: Option<Vec<f64>>,
+    ) -> Result<(), SessionError> {
+        let index = self.events;
+        match command_m {
+            None => {
+                let setup = self.setup;
+                let controller = Controller::guided_from(
+                    setup.model,
+                    setup.problem,
+                    setup.policy,
+                    setup.sensors,
+                    &values,
+                    setup.guidance,
+                    self.start_state.clone(),
+                )
+                .map_err(SessionError::Start)?;
+                self.controller = Some(controller);
+            }
+            Some(command_m) => {
+                let controller = self.controller.as_mut().ok_or(SessionError::Inconsistent {
+                    index,
+                    why: format!("readings of step {step} before the start's"),
+                })?;
+                // A command the controller cannot follow ends the session
+                // at the next decision (its model is where it was).
+                if let Err(e) = controller.observe(&command_m, &values) {
+                    self.cannot_follow = Some(e.to_string());
+                }
+                self.executed_m.push(command_m);
+            }
+        }
+        self.readings.push(values);
+        self.phase = SessionPhase::Ready { step };
+        Ok(())
+    }
+
+    /// Holds the readings of `step` an interlock stopped on, until an
+    /// operator keeps or discards them.
+    fn hold(
+        &mut self,
+        step: usize,
+        values: Vec<Option<f64>>,
+        command_m: Option<Vec<f64>>,
+        reason: &str,
+    ) {
+        self.held = Some((step, values, command_m));
+        self.phase = SessionPhase::Stopped {
+            step,
+            reason: reason.to_string(),
+        };
+    }
+
     /// Applies `events` (new ones, built from the phase just checked) and
     /// returns them.
     fn commit(&mut self, events: Vec<SessionEvent>) -> Result<Vec<SessionEvent>, SessionRefusal> {
@@ -804,22 +880,12 @@ impl<'a> Session<'a> {
                 },
                 SessionPhase::AwaitingStart,
             ) => {
-                let setup = self.setup;
                 self.check_values(values)
                     .map_err(|e| bad(format!("readings of step 0: {e}")))?;
-                let controller = Controller::guided_from(
-                    setup.model,
-                    setup.problem,
-                    setup.policy,
-                    setup.sensors,
-                    values,
-                    setup.guidance,
-                    self.start_state.clone(),
-                )
-                .map_err(SessionError::Start)?;
-                self.controller = Some(controller);
-                self.readings.push(values.clone());
-                self.phase = after_readings(0, stopped);
+                match stopped {
+                    None => self.take_readings(0, values.clone(), None)?,
+                    Some(reason) => self.hold(0, values.clone(), None, reason),
+                }
             }
             (
                 SessionEvent::Readings {
@@ -835,19 +901,11 @@ impl<'a> Session<'a> {
             ) if step == k => {
                 self.check_values(values)
                     .map_err(|e| bad(format!("readings of step {step}: {e}")))?;
-                let command_m = command_m.clone();
-                let controller = self
-                    .controller
-                    .as_mut()
-                    .ok_or_else(|| bad("no controller".into()))?;
-                // A command the controller cannot follow ends the session
-                // at the next decision (its model is where it was).
-                if let Err(e) = controller.observe(&command_m, values) {
-                    self.cannot_follow = Some(e.to_string());
+                let command_m = Some(command_m.clone());
+                match stopped {
+                    None => self.take_readings(*step, values.clone(), command_m)?,
+                    Some(reason) => self.hold(*step, values.clone(), command_m, reason),
                 }
-                self.readings.push(values.clone());
-                self.executed_m.push(command_m);
-                self.phase = after_readings(*step, stopped);
             }
             (SessionEvent::Issued { step, command_m }, SessionPhase::Ready { step: k })
                 if *step == k + 1 =>
@@ -902,10 +960,31 @@ impl<'a> Session<'a> {
                 }
                 self.phase = SessionPhase::Ready { step: step - 1 };
             }
-            (SessionEvent::Resumed { step, .. }, SessionPhase::Stopped { step: k, .. })
-                if step == k =>
-            {
-                self.phase = SessionPhase::Ready { step: *step };
+            (
+                SessionEvent::Resumed { step, discard, .. },
+                SessionPhase::Stopped { step: k, .. },
+            ) if step == k => {
+                let (held_step, values, command_m) = self
+                    .held
+                    .take()
+                    .ok_or_else(|| bad("no readings held".into()))?;
+                if held_step != *step {
+                    return Err(bad(format!(
+                        "readings of step {held_step} held, resumed at step {step}"
+                    )));
+                }
+                if *discard {
+                    self.phase = match command_m {
+                        None => SessionPhase::AwaitingStart,
+                        Some(command_m) => SessionPhase::Pending {
+                            step: *step,
+                            command_m,
+                            cleared: true,
+                        },
+                    };
+                } else {
+                    self.take_readings(*step, values, command_m)?;
+                }
             }
             (SessionEvent::Ended { status, words }, SessionPhase::Ready { .. }) => {
                 self.phase = SessionPhase::Ended {
@@ -922,18 +1001,6 @@ impl<'a> Session<'a> {
         }
         self.events += 1;
         Ok(())
-    }
-}
-
-/// The phase after the readings of `step`: stopped if an interlock
-/// tripped on them, else ready.
-fn after_readings(step: usize, stopped: &Option<String>) -> SessionPhase {
-    match stopped {
-        Some(reason) => SessionPhase::Stopped {
-            step,
-            reason: reason.clone(),
-        },
-        None => SessionPhase::Ready { step },
     }
 }
 

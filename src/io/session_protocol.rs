@@ -8,7 +8,7 @@
 //! - to the controller: `measurements` (`step`, `readings`: an object of
 //!   sensor id → value or `null`; a sensor left out was not read),
 //!   `approve` (`step`), `reject` (`step`,
-//!   `reason`), `resume` (`note`), `status`;
+//!   `reason`), `resume` (`note`, `discard`), `status`;
 //! - from the controller: `hello` (`protocol`, `phase`, `motors`,
 //!   `sensors`), `command` (`step`, `payout_change_m` in the motors'
 //!   order, `motors`, `cleared`, `predicted_gaps_m`), `stopped` (`step`,
@@ -86,6 +86,8 @@ pub enum InMessage {
     Resume {
         /// The operator's note.
         note: String,
+        /// Discard the readings that tripped the interlock.
+        discard: bool,
     },
     /// Ask for the status.
     Status,
@@ -122,7 +124,7 @@ fn fields_of(kind: &str) -> Option<&'static [(&'static str, bool)]> {
         "measurements" => &[("step", true), ("readings", true)],
         "approve" => &[("step", true)],
         "reject" => &[("step", true), ("reason", true)],
-        "resume" => &[("note", false)],
+        "resume" => &[("note", false), ("discard", false)],
         "status" => &[],
         // What the controller sends beside the command (`motors`,
         // `predicted_gaps_m`) is accepted for the rig to log.
@@ -328,6 +330,16 @@ pub fn parse_in_message(text: &str, sensors: &[Sensor]) -> Result<InMessage, Pro
         },
         "resume" => InMessage::Resume {
             note: text_of(&m, "note")?,
+            discard: match m.get("discard") {
+                None => false,
+                Some(Value::Bool(b)) => *b,
+                Some(_) => {
+                    return Err(ProtocolError::field(
+                        "discard",
+                        "must be true or false".into(),
+                    ))
+                }
+            },
         },
         "status" => InMessage::Status,
         _ => {
