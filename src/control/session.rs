@@ -365,6 +365,17 @@ pub enum SessionError {
     Start(PlanError),
 }
 
+/// Readings an interlock stopped on.
+#[derive(Debug, Clone)]
+struct HeldReadings {
+    /// Their step.
+    step: usize,
+    /// One per sensor.
+    values: Vec<Option<f64>>,
+    /// The command they follow (`None`: the start's readings).
+    command_m: Option<Vec<f64>>,
+}
+
 /// A session rebuilt from its events (see the module notes).
 pub struct Session<'a> {
     setup: SessionSetup<'a>,
@@ -381,9 +392,8 @@ pub struct Session<'a> {
     /// (its decision forgotten), if it could not.
     cannot_follow: Option<String>,
     /// Readings an interlock stopped on, held until an operator keeps or
-    /// discards them: the step, the values and the command they follow
-    /// (`None` at the start).
-    held: Option<(usize, Vec<Option<f64>>, Option<Vec<f64>>)>,
+    /// discards them.
+    held: Option<HeldReadings>,
     /// Events applied.
     events: usize,
     /// The model's folded start (the setup's, or folded here).
@@ -850,7 +860,11 @@ impl<'a> Session<'a> {
         command_m: Option<Vec<f64>>,
         reason: &str,
     ) {
-        self.held = Some((step, values, command_m));
+        self.held = Some(HeldReadings {
+            step,
+            values,
+            command_m,
+        });
         self.phase = SessionPhase::Stopped {
             step,
             reason: reason.to_string(),
@@ -964,7 +978,11 @@ impl<'a> Session<'a> {
                 SessionEvent::Resumed { step, discard, .. },
                 SessionPhase::Stopped { step: k, .. },
             ) if step == k => {
-                let (held_step, values, command_m) = self
+                let HeldReadings {
+                    step: held_step,
+                    values,
+                    command_m,
+                } = self
                     .held
                     .take()
                     .ok_or_else(|| bad("no readings held".into()))?;
