@@ -504,16 +504,8 @@ impl<'a> Session<'a> {
         let step = match &self.phase {
             SessionPhase::AwaitingStart => return Err(SessionRefusal::AwaitingStart),
             SessionPhase::Pending { .. } => return Ok(Vec::new()),
-            SessionPhase::Stopped { step, reason } => {
-                return Err(SessionRefusal::Stopped {
-                    step: *step,
-                    reason: reason.clone(),
-                })
-            }
-            SessionPhase::Ended { words, .. } => {
-                return Err(SessionRefusal::Ended {
-                    words: words.clone(),
-                })
+            SessionPhase::Stopped { .. } | SessionPhase::Ended { .. } => {
+                return Err(self.closed_refusal())
             }
             SessionPhase::Ready { step } => *step,
         };
@@ -590,16 +582,8 @@ impl<'a> Session<'a> {
                     k + 1
                 )))
             }
-            SessionPhase::Stopped { step, reason } => {
-                return Err(SessionRefusal::Stopped {
-                    step: *step,
-                    reason: reason.clone(),
-                })
-            }
-            SessionPhase::Ended { words, .. } => {
-                return Err(SessionRefusal::Ended {
-                    words: words.clone(),
-                })
+            SessionPhase::Stopped { .. } | SessionPhase::Ended { .. } => {
+                return Err(self.closed_refusal())
             }
         }
         self.check_values(&values)?;
@@ -609,6 +593,22 @@ impl<'a> Session<'a> {
             values,
             stopped,
         }])
+    }
+
+    /// Why a stopped or ended session refuses to go on.
+    fn closed_refusal(&self) -> SessionRefusal {
+        match &self.phase {
+            SessionPhase::Stopped { step, reason } => SessionRefusal::Stopped {
+                step: *step,
+                reason: reason.clone(),
+            },
+            SessionPhase::Ended { words, .. } => SessionRefusal::Ended {
+                words: words.clone(),
+            },
+            phase => SessionRefusal::NotStopped {
+                phase: phase.label().into(),
+            },
+        }
     }
 
     /// An operator approves the pending command `step`.
