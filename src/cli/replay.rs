@@ -37,13 +37,14 @@ use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::replay_files::{write_replay, ReplaySet, ReplaySources, ReplaySummary};
 use tensegrity_deploy::io::{write_atomically, FileError};
 use tensegrity_deploy::measure::calibrate::{
-    calibrate_on_log, CalibrationError, CalibrationMethod, KeepFit,
+    calibrate_on_log, CalibrationError, CalibrationMethod, CalibrationStanding, KeepFit,
 };
 use tensegrity_deploy::model::{EffectKind, JointFriction};
 use tensegrity_deploy::report::replay_figure::replay_svg;
 use tensegrity_deploy::sim::{EffectModel, PlantError};
 use tensegrity_deploy::studies::log_replay::{
-    counterfactual, default_cycle, deployment_start, replay_log, Margins, Replay, ReplayInputError,
+    counterfactual, default_cycle, deployment_start, replay_log, IntervalEndRun, Margins, Replay,
+    ReplayInputError,
 };
 
 use super::inputs::{controller_model_file, planning_model, policy_or_default, problem_or_default};
@@ -237,7 +238,37 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     let tolerance_m = problem.connection_tolerance_m;
     let margins = cf.as_ref().ok().map(|d| Margins::of(d, tolerance_m));
-    let verdict = verdict(&replay, margins.as_ref(), cf.as_ref().err());
+    let standing = calibration.as_ref().ok().map(|c| c.standing());
+    // The interval's ends matter only where the estimate's run means
+    // something: on a model that explains the log.
+    let mut ends = Vec::new();
+    if let (Ok(c), Some(s)) = (&calibration, &standing) {
+        if s.explains() && margins.is_some() {
+            for end in c.interval_ends() {
+                let truth = EffectModel::for_measurement(base.structure.clone(), end.effects);
+                let run =
+                    match counterfactual(&model, &problem, &policy, &truth, &log, &start, o.seed) {
+                        Ok(d) => Ok(Margins::of(&d, tolerance_m)),
+                        Err(DeployError::TruthStart(e)) => {
+                            Err(format!("could not reach the logged start: {e}"))
+                        }
+                        Err(e) => return Err(e.into()),
+                    };
+                ends.push(IntervalEndRun {
+                    label: end.label,
+                    failed: run.as_ref().err().cloned(),
+                    counterfactual: run.ok(),
+                });
+            }
+        }
+    }
+    let verdict = verdict(
+        &replay,
+        margins.as_ref(),
+        cf.as_ref().err(),
+        standing.as_ref(),
+        &ends,
+    );
 
     let s = model.structure();
     let motors: Vec<String> = s.continuous_cables.iter().map(|c| c.id.clone()).collect();
@@ -254,6 +285,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         cf.as_ref()
             .map(|d| Margins::of(d, tolerance_m))
             .map_err(Clone::clone),
+        &ends,
         verdict.clone(),
     );
     let out = folder.path();
@@ -292,14 +324,27 @@ pub fn run(o: &Options) -> Result<Outcome> {
         "results in {} (replay.csv, counterfactual.csv, summary.json, replay.svg, timing.csv)",
         o.out.display()
     );
+    // Connected only on a model the log does not refute, at the estimate
+    // and at every end of its parameters' intervals.
+    let trusted = standing.is_some_and(|s| s.explains());
     Ok(match margins {
-        Some(m) if m.connected => Outcome::GoalReached,
+        Some(m) if m.connected && trusted && ends.iter().all(|e| e.connected()) => {
+            Outcome::GoalReached
+        }
         _ => Outcome::GoalMissed(verdict),
     })
 }
 
-/// The verdict in plain words.
-fn verdict(r: &Replay, m: Option<&Margins>, failed: Option<&String>) -> String {
+/// The verdict in plain words: the replay, then the counterfactual with
+/// how far its model stands for the bridge and how it fares across the
+/// calibrated parameters' intervals.
+fn verdict(
+    r: &Replay,
+    m: Option<&Margins>,
+    failed: Option<&String>,
+    standing: Option<&CalibrationStanding>,
+    ends: &[IntervalEndRun],
+) -> String {
     let n = r.steps.len();
     let replayed = format!(
         "replay: the policy would have sent the logged command at {} of {n} steps (largest difference {} mm){}",
@@ -320,19 +365,53 @@ fn verdict(r: &Replay, m: Option<&Margins>, failed: Option<&String>) -> String {
                 m.min_tension_n.map_or("-".into(), |t| format!("{t:.0}")),
                 m.violations
             );
-            if m.connected {
-                format!("counterfactual on the calibrated model: connected after {} commands ({margins})", m.commands)
+            let run = if m.connected {
+                format!("connected after {} commands ({margins})", m.commands)
             } else {
                 format!(
-                    "counterfactual on the calibrated model: not connected ({}; the controller: {}) after {} commands ({margins})",
+                    "not connected ({}; the controller: {}) after {} commands ({margins})",
                     m.outcome,
                     m.status.describe(),
                     m.commands
                 )
+            };
+            match standing {
+                Some(s) if !s.explains() => format!(
+                    "{}: the counterfactual on it is no evidence of what the bridge would do ({run})",
+                    s.describe()
+                ),
+                Some(s) => format!(
+                    "{}; counterfactual on it: {run}{}",
+                    s.describe(),
+                    interval_words(ends)
+                ),
+                None => format!("counterfactual on the calibrated model: {run}"),
             }
         }
         (None, Some(why)) => format!("counterfactual not run: {why}"),
         (None, None) => "counterfactual not run".into(),
     };
     format!("{replayed}; {counterfactual}")
+}
+
+/// How the counterfactual fares at the ends of the calibrated
+/// parameters' intervals, in words (empty without any).
+fn interval_words(ends: &[IntervalEndRun]) -> String {
+    if ends.is_empty() {
+        return String::new();
+    }
+    match ends.iter().find(|e| !e.connected()) {
+        None => format!(
+            "; the same at both ends of every calibrated parameter's 95 % interval ({} runs)",
+            ends.len()
+        ),
+        Some(e) => match (&e.counterfactual, &e.failed) {
+            (Some(m), _) => format!(
+                "; but at {}: not connected ({}, {} limit violations)",
+                e.label, m.outcome, m.violations
+            ),
+            (None, Some(why)) => format!("; but at {}: not run ({why})", e.label),
+            (None, None) => format!("; but at {}: not run", e.label),
+        },
+    }
 }

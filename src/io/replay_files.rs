@@ -27,8 +27,11 @@
 //!   the calibration ([`crate::measure::calibrate::Calibration`]) and the
 //!   counterfactual's margins (its `connected` and `outcome` are the run
 //!   verdict's, [`crate::plan::RunVerdict`]; format 1 had no `outcome` and
-//!   took the controller's status for `connected`); no timings. `null`:
-//!   no value.
+//!   took the controller's status for `connected`); format 3 adds
+//!   `calibration_standing` (whether the calibrated model explains the
+//!   log or the log refutes it, [`CalibrationStanding`]) and
+//!   `interval_ends` (the counterfactual at both ends of every calibrated
+//!   parameter's 95 % interval); no timings. `null`: no value.
 //! - `timing.csv`: `step,planning_time_s` per replayed step, wall clock:
 //!   the one file that changes from run to run.
 //!
@@ -40,12 +43,12 @@ use serde::Serialize;
 
 use super::{write_json, CsvTable, FileError};
 use crate::control::Deployment;
-use crate::measure::calibrate::Calibration;
+use crate::measure::calibrate::{Calibration, CalibrationStanding};
 use crate::plan::{PlanStatus, Policy};
-use crate::studies::log_replay::{Margins, Replay, ReplayStart, ReplayStop};
+use crate::studies::log_replay::{IntervalEndRun, Margins, Replay, ReplayStart, ReplayStop};
 
 /// The `format` of `summary.json`.
-pub const REPLAY_SUMMARY_FORMAT: &str = "tensegrity-deploy/replay/2";
+pub const REPLAY_SUMMARY_FORMAT: &str = "tensegrity-deploy/replay/3";
 
 /// `summary.json` (no timings: the same inputs give the same bytes).
 #[derive(Debug, Serialize)]
@@ -87,8 +90,15 @@ pub struct ReplaySummary<'a> {
     pub calibration_failed: Option<String>,
     /// Seed of the counterfactual's sensor noise.
     pub seed: u64,
+    /// How far the calibrated model stands for the bridge: it explains
+    /// the log, or the log refutes it (then the counterfactual is no
+    /// evidence).
+    pub calibration_standing: Option<CalibrationStanding>,
     /// The counterfactual's margins.
     pub counterfactual: Option<Margins>,
+    /// The counterfactual at both ends of every calibrated parameter's
+    /// 95 % interval (run only on a model that explains the log).
+    pub interval_ends: &'a [IntervalEndRun],
     /// Why the counterfactual did not run.
     pub counterfactual_failed: Option<String>,
 }
@@ -116,6 +126,7 @@ impl<'a> ReplaySummary<'a> {
         sources: ReplaySources,
         calibration: Result<&'a Calibration, String>,
         counterfactual: Result<Margins, String>,
+        interval_ends: &'a [IntervalEndRun],
         verdict: String,
     ) -> Self {
         ReplaySummary {
@@ -139,7 +150,9 @@ impl<'a> ReplaySummary<'a> {
             policy_next_command_m: &replay.next_command_m,
             policy_next_stop: &replay.next_stop,
             calibration_failed: calibration.as_ref().err().cloned(),
+            calibration_standing: calibration.as_ref().ok().map(|c| c.standing()),
             calibration: calibration.ok(),
+            interval_ends,
             seed: sources.seed,
             counterfactual_failed: counterfactual.as_ref().err().cloned(),
             counterfactual: counterfactual.ok(),

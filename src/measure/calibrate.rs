@@ -29,7 +29,7 @@
 use serde::{Serialize, Serializer};
 use thiserror::Error;
 
-use crate::measure::compare::{compare, Stats};
+use crate::measure::compare::{compare, noise_rms_limit, Stats};
 use crate::measure::diagnose::{
     diagnose, effects_found, fit_candidate, part, Candidate, DiagnoseError, DiagnoseSettings,
     Verdict,
@@ -137,6 +137,84 @@ pub struct Calibration {
     pub held_out_readings: usize,
 }
 
+/// How far a calibrated model stands for the bridge that made the log:
+/// judged by its held-out RMS residual against the noise limit of that
+/// many readings ([`noise_rms_limit`]), the test `compare` applies.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "standing", rename_all = "snake_case")]
+pub enum CalibrationStanding {
+    /// Its held-out residual is sensor noise: it explains the log.
+    Explains {
+        /// Whether any effect was calibrated (else the model is the
+        /// controller's own).
+        calibrated: bool,
+        /// Held-out RMS residual, noise SDs.
+        held_out_rms: f64,
+        /// The noise limit for the held-out readings, noise SDs.
+        noise_limit: f64,
+    },
+    /// Its held-out residual is more than noise: the log refutes it, and
+    /// what it predicts is no evidence of what the bridge would do.
+    Refuted {
+        /// Whether any effect was calibrated.
+        calibrated: bool,
+        /// Held-out RMS residual, noise SDs.
+        held_out_rms: f64,
+        /// The noise limit for the held-out readings, noise SDs.
+        noise_limit: f64,
+    },
+}
+
+impl CalibrationStanding {
+    /// Whether the model explains the log.
+    pub fn explains(&self) -> bool {
+        matches!(self, CalibrationStanding::Explains { .. })
+    }
+
+    /// In words.
+    pub fn describe(&self) -> String {
+        let (calibrated, rms, limit, explains) = match *self {
+            CalibrationStanding::Explains {
+                calibrated,
+                held_out_rms,
+                noise_limit,
+            } => (calibrated, held_out_rms, noise_limit, true),
+            CalibrationStanding::Refuted {
+                calibrated,
+                held_out_rms,
+                noise_limit,
+            } => (calibrated, held_out_rms, noise_limit, false),
+        };
+        let numbers = format!(
+            "held-out RMS {rms:.2} σ, {} the noise limit {limit:.2} σ",
+            if explains { "within" } else { "above" }
+        );
+        match (calibrated, explains) {
+            (true, true) => format!("the calibrated model explains the log ({numbers})"),
+            (true, false) => format!("the log refutes the calibrated model ({numbers})"),
+            (false, true) => {
+                format!(
+                    "nothing calibrated; the controller's own model explains the log ({numbers})"
+                )
+            }
+            (false, false) => format!(
+                "nothing calibrated, and the log refutes the controller's own model ({numbers})"
+            ),
+        }
+    }
+}
+
+/// One end of a calibrated parameter's 95 % confidence interval (the
+/// estimate ± 2 standard errors, held to the parameter's admissible
+/// range), the other parameters at their estimates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IntervalEnd {
+    /// Which: e.g. `joint_friction mu = 0.2057 (+2 SE)`.
+    pub label: String,
+    /// The calibrated effects with that parameter there.
+    pub effects: Effects,
+}
+
 /// Why a calibration could not be made.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum CalibrationError {
@@ -242,6 +320,67 @@ pub fn calibrate_on_log(
     }
 }
 
+impl Calibration {
+    /// How far the calibrated model stands for the bridge
+    /// ([`CalibrationStanding`]).
+    pub fn standing(&self) -> CalibrationStanding {
+        let calibrated = self.fitted.iter().any(|f| f.kept);
+        let held_out_rms = self.held_out_rms_after;
+        let noise_limit =
+            noise_rms_limit(self.held_out_readings, &DiagnoseSettings::default().noise);
+        if held_out_rms <= noise_limit {
+            CalibrationStanding::Explains {
+                calibrated,
+                held_out_rms,
+                noise_limit,
+            }
+        } else {
+            CalibrationStanding::Refuted {
+                calibrated,
+                held_out_rms,
+                noise_limit,
+            }
+        }
+    }
+
+    /// The ends of every kept parameter's 95 % interval whose standard
+    /// error the log pins down (finite and positive), in the order fitted:
+    /// what the counterfactual must also survive before its verdict is
+    /// more than the estimate's.
+    pub fn interval_ends(&self) -> Vec<IntervalEnd> {
+        let mut ends = Vec::new();
+        for f in self.fitted.iter().filter(|f| f.kept) {
+            let Some(kind) = EffectKind::ALL
+                .iter()
+                .copied()
+                .find(|k| k.name() == f.effect)
+            else {
+                continue;
+            };
+            let specs = kind.parameters();
+            for (i, spec) in specs.iter().enumerate() {
+                let (Some(&v), Some(&se)) = (f.values.get(i), f.std_errors.get(i)) else {
+                    continue;
+                };
+                if !(se.is_finite() && se > 0.0) {
+                    continue;
+                }
+                for (sign, word) in [(-1.0, "−2 SE"), (1.0, "+2 SE")] {
+                    let (low, high) = spec.admissible;
+                    let end = (v + sign * 2.0 * se).clamp(low, high);
+                    let mut values = f.values.clone();
+                    values[i] = end;
+                    ends.push(IntervalEnd {
+                        label: format!("{} {} = {end:.4} ({word})", f.effect, spec.name),
+                        effects: self.effects.with_parameters(kind, &values),
+                    });
+                }
+            }
+        }
+        ends
+    }
+}
+
 /// A diagnosis's verdict in words, as a calibration reports it.
 pub fn describe_verdict(verdict: &Verdict) -> String {
     match verdict {
@@ -283,6 +422,44 @@ fn names(found: &[Candidate]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_standing_says_whether_anything_was_calibrated_and_whether_the_log_refutes_it() {
+        let cases = [
+            (true, 1.1, "the calibrated model explains the log (held-out RMS 1.10 σ, within the noise limit 1.20 σ)"),
+            (false, 1.1, "nothing calibrated; the controller's own model explains the log (held-out RMS 1.10 σ, within the noise limit 1.20 σ)"),
+            (true, 1.6, "the log refutes the calibrated model (held-out RMS 1.60 σ, above the noise limit 1.20 σ)"),
+            (false, 1.6, "nothing calibrated, and the log refutes the controller's own model (held-out RMS 1.60 σ, above the noise limit 1.20 σ)"),
+        ];
+        for (calibrated, rms, words) in cases {
+            let c = Calibration {
+                method: CalibrationMethod::Diagnose { max_rounds: 2 },
+                effects: Effects::default(),
+                fitted: vec![FittedEffect {
+                    kept: calibrated,
+                    ..fitted_effect(EffectKind::JointFriction, &[0.1], &[0.01], true)
+                }],
+                verdict: None,
+                held_out_rms_before: 2.0,
+                held_out_rms_after: rms,
+                // 1 + 4/√(2n) = 1.2 at n = 200.
+                held_out_readings: 200,
+            };
+            let s = c.standing();
+            assert_eq!(s.explains(), rms < 1.2);
+            assert_eq!(s.describe(), words);
+            // Kept parameters with a standard error: both ends of μ.
+            let ends = c.interval_ends();
+            assert_eq!(ends.len(), if calibrated { 2 } else { 0 });
+            if calibrated {
+                assert_eq!(ends[0].label, "joint_friction mu = 0.0800 (−2 SE)");
+                assert_eq!(
+                    ends[1].effects.parameters(EffectKind::JointFriction),
+                    Some(vec![0.12000000000000001])
+                );
+            }
+        }
+    }
 
     #[test]
     fn a_fit_is_written_as_its_effects_whatever_its_keep_rule() {

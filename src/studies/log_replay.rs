@@ -499,6 +499,25 @@ impl Margins {
     }
 }
 
+/// The counterfactual at one end of a calibrated parameter's 95 %
+/// interval ([`crate::measure::calibrate::IntervalEnd`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IntervalEndRun {
+    /// Which end, e.g. `joint_friction mu = 0.2057 (+2 SE)`.
+    pub label: String,
+    /// Its margins, if it ran.
+    pub counterfactual: Option<Margins>,
+    /// Why it did not run.
+    pub failed: Option<String>,
+}
+
+impl IntervalEndRun {
+    /// Whether the policy connected there, within every limit.
+    pub fn connected(&self) -> bool {
+        self.counterfactual.as_ref().is_some_and(|m| m.connected)
+    }
+}
+
 /// The counterfactual: `policy` on `model` deploys `truth` (the model
 /// calibrated on the log) in closed loop from the replay's start, read by
 /// the log's sensors with their noise drawn from `seed`.
