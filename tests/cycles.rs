@@ -83,6 +83,11 @@ fn the_memory_policy_learns_the_approach_on_a_fixed_truth() {
         .all(|c| c.status == "connected" && c.truth_limit_violations == 0));
     assert_eq!(r[0].learnt_from_case, None);
     assert_eq!(r[1].learnt_from_case, Some(0));
+    // Here every learnt approach is sent whole: the ILC's prediction is
+    // for the approach the truth went through (`learnt_commands`).
+    for c in &r[1..] {
+        assert_eq!(c.learnt_commands, c.approach_commands, "cycle {}", c.cycle);
+    }
     let true_gap = |c: &CycleResult| c.final_true_gap_m.unwrap();
     let first = true_gap(&r[0]);
     assert!(first > 0.008, "cycle 1 true gap {first}");

@@ -11,8 +11,11 @@
 //!   the first approach), `approach_gap_m` (largest measured gap after
 //!   it), `final_gap_m`, `final_true_gap_m` (largest measured and true gap
 //!   at the end), `truth_limit_violations`, `learnt_from_case` (index in
-//!   the memory of the case the cycle learnt from), `ilc_predicted_gap_m`
-//!   (largest end gap the ILC update predicted), `adaptation_error` (why
+//!   the memory of the case the cycle learnt from), `learnt_commands`
+//!   (commands of the learnt approach: an `approach_commands` below it is
+//!   a feedforward that ended early, a learnt command the model found
+//!   beyond a limit), `ilc_predicted_gap_m` (largest end gap the ILC
+//!   update predicted for the whole learnt approach), `adaptation_error` (why
 //!   the memory gave no guidance although it held cases, in words). Empty:
 //!   no value (no such command, no case learnt from, no error).
 //!   `approach_commands` and `approach_gap_m` are empty in a cycle that
@@ -61,6 +64,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
         "final_true_gap_m",
         "truth_limit_violations",
         "learnt_from_case",
+        "learnt_commands",
         "ilc_predicted_gap_m",
         "adaptation_error",
     ]);
@@ -76,6 +80,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
             field(r.final_true_gap_m),
             r.truth_limit_violations.to_string(),
             field(r.learnt_from_case),
+            field(r.learnt_commands),
             field(r.ilc_predicted_gap_m),
             field(r.adaptation_error.as_ref()),
         ]);

@@ -51,7 +51,13 @@ pub struct CycleResult {
     pub truth_limit_violations: usize,
     /// The case learnt from (index in the memory), if any.
     pub learnt_from_case: Option<usize>,
-    /// Largest end gap the ILC update predicted, m.
+    /// Commands of the learnt approach (the feedforward), if any: an
+    /// `approach_commands` below it is a feedforward that ended early (a
+    /// learnt command the model found beyond a limit), and
+    /// `ilc_predicted_gap_m` was the prediction for the whole approach.
+    pub learnt_commands: Option<usize>,
+    /// Largest end gap the ILC update predicted, m (for the whole learnt
+    /// approach, see `learnt_commands`).
     pub ilc_predicted_gap_m: Option<f64>,
     /// Why the memory gave no guidance although it held cases
     /// (serialised as its message).
@@ -189,6 +195,7 @@ pub fn run_cycles(
             final_true_gap_m: d.final_true_gap_m(),
             truth_limit_violations: d.truth_limit_violations,
             learnt_from_case: adaptation.as_ref().map(|a| a.case_index),
+            learnt_commands: adaptation.as_ref().map(|a| a.guidance.feedforward_m.len()),
             ilc_predicted_gap_m: adaptation.as_ref().map(|a| a.ilc.predicted_end_gap_m),
             adaptation_error,
             planning_time_s: adaptation_time_s
@@ -283,6 +290,7 @@ mod tests {
             final_true_gap_m: None,
             truth_limit_violations: 0,
             learnt_from_case: None,
+            learnt_commands: None,
             ilc_predicted_gap_m: None,
             adaptation_error: Some(error),
             planning_time_s: 0.0,
