@@ -956,3 +956,39 @@ fn readings_that_tripped_an_interlock_can_be_discarded_and_read_again() {
     }
     assert!(files(&session.join("log")) == files(&reference.join("log")));
 }
+
+#[test]
+fn a_session_keeps_the_interlock_thresholds_it_was_started_with() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = Rig::new(1);
+    let start: Value = serde_json::from_str(&rig.start).unwrap();
+    let z = start["readings"]["A4_2_z"].as_f64().unwrap();
+    // 10 cm off where the model puts the node: within the default 0.5 m.
+    let off = with_reading(&rig.start, "A4_2_z", z + 0.1);
+    let default = new_session(dir.path(), "default", &[]);
+    succeeded(&record_message(&default, &off, RunOptions::default()));
+    let strict = new_session(
+        dir.path(),
+        "strict",
+        &["--interlock-position-offset", "0.05"],
+    );
+    let e = failed_with(&record_message(&strict, &off, RunOptions::default()), 1);
+    assert!(
+        e.contains("A4_2_z") && e.contains("plausible within 0.05 m"),
+        "{e}"
+    );
+    let e = failed_with(
+        &tdeploy(
+            &[
+                "session",
+                "start",
+                "-o",
+                &arg(&dir.path().join("bad")),
+                "--interlock-sigmas=-1",
+            ],
+            Path::new("."),
+        ),
+        2,
+    );
+    assert!(e.contains("--interlock-sigmas"), "{e}");
+}

@@ -91,6 +91,8 @@ pub fn command() -> Command {
                 .arg(Arg::new("sensors").long("sensors").value_parser(value_parser!(PathBuf)).help("Sensor layout (sensors.csv of the log format). Default: the standard layout (load cells on A_cc0–A_cc3, midspan node positions, thermometer)"))
                 .arg(Arg::new("memory").long("memory").value_parser(value_parser!(PathBuf)).help("Case memory (a memory file of `tdeploy cycles`) to take the learnt approach from: the nearest case adapted to this fold and temperature when the session is created (needs a policy with a [memory] section, e.g. policies/memory.toml)"))
                 .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature at the bridge, °C: with --memory, the case is retrieved for it"))
+                .arg(Arg::new("interlock-sigmas").long("interlock-sigmas").value_parser(value_parser!(f64)).help("Standard deviations (of a load cell's noise and the bias estimate) beyond its member's limit at which a reading stops the session, in (0, 10]. Default 3"))
+                .arg(Arg::new("interlock-position-offset").long("interlock-position-offset").value_parser(value_parser!(f64)).help("Largest distance of a position reading from where the model puts its node before the session stops, m, in (0, 10]. Default 0.5"))
                 .arg(Arg::new("approve").long("approve").action(ArgAction::SetTrue).help("Every command needs an operator's approval before it may be executed"))
                 .arg(Arg::new("out").long("out").short('o').required(true).value_parser(value_parser!(PathBuf)).help("The new session folder (refused if it exists)")),
         )
@@ -159,6 +161,8 @@ pub enum Options {
         temperature_c: Option<f64>,
         /// Approval required.
         approve: bool,
+        /// The interlocks' thresholds.
+        interlocks: Interlocks,
         /// The session folder.
         out: PathBuf,
     },
@@ -233,6 +237,23 @@ impl Options {
                 memory: a.get_one::<PathBuf>("memory").cloned(),
                 temperature_c: a.get_one::<f64>("temperature").copied(),
                 approve: a.get_flag("approve"),
+                interlocks: {
+                    let mut i = Interlocks::default();
+                    if let Some(k) = a.get_one::<f64>("interlock-sigmas") {
+                        i.limit_sigmas = *k;
+                    }
+                    if let Some(d) = a.get_one::<f64>("interlock-position-offset") {
+                        i.max_position_offset_m = *d;
+                    }
+                    if let Err((field, why)) = i.validate() {
+                        let flag = match field {
+                            "limit_sigmas" => "--interlock-sigmas",
+                            _ => "--interlock-position-offset",
+                        };
+                        bail!("{flag}: {why}");
+                    }
+                    i
+                },
                 out: value(a, "out")?,
             },
             Some(("next", a)) => Options::Next {
@@ -481,6 +502,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             memory,
             temperature_c,
             approve,
+            interlocks,
             out,
         } => start(
             StartInputs {
@@ -490,6 +512,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
                 sensors: sensors.as_deref(),
                 memory: memory.as_deref(),
                 temperature_c: *temperature_c,
+                interlocks: *interlocks,
             },
             *approve,
             out,
@@ -529,6 +552,7 @@ struct StartInputs<'a> {
     sensors: Option<&'a Path>,
     memory: Option<&'a Path>,
     temperature_c: Option<f64>,
+    interlocks: Interlocks,
 }
 
 /// The guidance the case memory at `path` gives a session of `setup`
@@ -590,6 +614,7 @@ fn start(inputs: StartInputs, approve: bool, out: &Path) -> Result<Outcome> {
         sensors,
         memory,
         temperature_c,
+        interlocks,
     } = inputs;
     if let Some(t) = temperature_c {
         if let Err(m) = REFERENCE_TEMPERATURE_RANGE_C.check(t) {
@@ -621,7 +646,7 @@ fn start(inputs: StartInputs, approve: bool, out: &Path) -> Result<Outcome> {
         guidance: &guidance,
         folded_start: None,
         approval_required: approve,
-        interlocks: Interlocks::default(),
+        interlocks,
     };
     let folded_start = Session::check_setup(&setup)?;
     let guidance = match memory {
@@ -634,7 +659,7 @@ fn start(inputs: StartInputs, approve: bool, out: &Path) -> Result<Outcome> {
         approval_required: approve,
         created_by: format!("tdeploy {}", env!("CARGO_PKG_VERSION")),
         inputs_fingerprint: String::new(),
-        interlocks: Interlocks::default(),
+        interlocks,
     };
     create_session(
         out,

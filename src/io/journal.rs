@@ -17,7 +17,7 @@
 //!   is an error naming the file and line; the file is never changed by a
 //!   load, and a corrupted record is never used.
 //! - **Appends are atomic**: a new file is written whole (temporary file,
-//!   then rename); records are appended as one `write` of whole lines,
+//!   then rename, the folder flushed); records are appended as one `write` of whole lines,
 //!   flushed to disk before the call returns. A crash during an append can
 //!   leave only a last line without its `\n`: every record before it is
 //!   intact, the load names the torn line, and [`repair_torn_tail`] removes
@@ -30,7 +30,7 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 use super::evaluation_files::fingerprint;
-use super::{write_atomically, FileError};
+use super::{sync_parent_folder, write_atomically, FileError};
 
 /// The checksum prefix of a record line.
 const CHECKSUM_PREFIX: &str = "fnv1a:";
@@ -199,7 +199,10 @@ pub fn append_records<T: Serialize>(
         Err(e) => return Err(FileError::read(path, e)),
     };
     match existing {
-        None => write_atomically(path, format!("{}\n{lines}", kind.format).as_bytes()),
+        None => {
+            write_atomically(path, format!("{}\n{lines}", kind.format).as_bytes())?;
+            sync_parent_folder(path)
+        }
         Some(bytes) => {
             let first = bytes.split(|&b| b == b'\n').next().unwrap_or(&[]);
             if first != kind.format.as_bytes() {
@@ -257,8 +260,12 @@ pub fn repair_torn_tail<T: DeserializeOwned>(
             let mut fixed = bytes.clone();
             fixed.push(b'\n');
             write_atomically(path, &fixed)?;
+            sync_parent_folder(path)?;
         }
-        Tail::Torn(n) => write_atomically(path, &bytes[..bytes.len() - n])?,
+        Tail::Torn(n) => {
+            write_atomically(path, &bytes[..bytes.len() - n])?;
+            sync_parent_folder(path)?;
+        }
     }
     Ok((tail, records))
 }

@@ -271,6 +271,20 @@ pub fn json_text<T: serde::Serialize + ?Sized>(value: &T) -> Result<String, serd
     Ok(text)
 }
 
+/// Flushes the folder holding `path` to disk, so that a rename or a new
+/// file in it survives a power loss (a rename is durable only once its
+/// folder is). Used where a file is a record, not a view rebuilt from one:
+/// a journal's creation and repair, a new session folder.
+pub fn sync_parent_folder(path: &Path) -> Result<(), FileError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::File::open(&dir)
+        .and_then(|f| f.sync_all())
+        .map_err(|e| FileError::write(&dir, e))
+}
+
 /// Writes `bytes` to `path` atomically: a temporary sibling, flushed, then
 /// renamed over the target.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), FileError> {

@@ -56,7 +56,10 @@ use super::policy_file::policy_to_toml;
 use super::problem_file::problem_to_toml;
 use super::session_protocol::{parse_in_message, InMessage, ProtocolError, SessionStatus};
 use super::toml_text::parse_toml;
-use super::{csv_records, csv_with_header, read_text, write_atomically, write_json, FileError};
+use super::{
+    csv_records, csv_with_header, read_text, sync_parent_folder, write_atomically, write_json,
+    FileError,
+};
 use crate::control::{
     Guidance, Interlocks, Session, SessionEvent, SessionPhase, StepReadings,
     OWN_COMMAND_TOLERANCE_M,
@@ -219,7 +222,8 @@ pub fn create_session(dir: &Path, new: &NewSession) -> Result<(), FileError> {
         write_atomically(&tmp.join("session.toml"), meta.as_bytes())?;
         write_atomically(&tmp.join("session.lock"), b"")?;
         journal::append_records::<SessionEvent>(&events_path(&tmp), events_kind(""), &[])?;
-        std::fs::rename(&tmp, dir).map_err(|e| FileError::write(dir, e))
+        std::fs::rename(&tmp, dir).map_err(|e| FileError::write(dir, e))?;
+        sync_parent_folder(dir)
     })();
     if result.is_err() {
         let _ = std::fs::remove_dir_all(&tmp);
