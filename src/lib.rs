@@ -58,7 +58,9 @@
 //!   responses, QP step, sequence search, baselines, policies, open-loop
 //!   plans.
 //! - [`control`]: what runs against a plant: the controller, the closed
-//!   loop, the estimation and the measurement corrections.
+//!   loop, the estimation and the measurement corrections, and the online
+//!   session (the controller one command at a time, driven by a rig or an
+//!   operator outside the process, with interlocks).
 //! - [`learn`]: the case memory of past deployment cycles.
 //! - [`studies`]: what the experiments and `evaluate` compute.
 //! - [`io`]: file formats and every writer of the commands' outputs: the
