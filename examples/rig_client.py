@@ -125,6 +125,13 @@ def main():
                     fail(f"rig: {reply}")
             largest = max(true_gaps[-1]) * 1e3
             print(f"command {m['step']}: true largest gap {largest:.1f} mm")
+        elif kind == "read_again":
+            # Readings the operator discarded: read the sensors again.
+            rig.send(line)
+            reply_line, reply = rig.read()
+            if reply["type"] != "measurements":
+                fail(f"rig: {reply}")
+            controller.send(reply_line)
         elif kind == "stopped":
             outcome, words = 1, f"stopped after step {m['step']}: {m['reason']}"
             break

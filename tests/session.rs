@@ -628,6 +628,7 @@ fn inputs_edited_after_the_start_are_refused_naming_the_file_and_field() {
     for (file, edit) in [
         ("folded_start.json", "0.4"),
         ("policy.toml", "max_commands = 40"),
+        ("session.toml", "limit_sigmas = 3.0"),
     ] {
         let session = new_session(dir.path(), file, &[]);
         let path = session.join(file);
@@ -877,6 +878,12 @@ fn a_refusal_leaves_a_torn_journal_as_it_was_and_a_missing_line_break_loses_no_e
     );
     assert!(e.contains("readings for step 0"), "{e}");
     assert_eq!(files(&session), before);
+    // Second review's finding: a new session's journal (the header alone)
+    // without its line break could not be read at all.
+    let fresh = new_session(dir.path(), "fresh", &[]);
+    let header = std::fs::read(fresh.join("events.tdj")).unwrap();
+    std::fs::write(fresh.join("events.tdj"), &header[..header.len() - 1]).unwrap();
+    succeeded(&record_message(&fresh, &rig.start, RunOptions::default()));
     // The last event complete but for its line break: kept.
     std::fs::write(&journal, &whole[..whole.len() - 1]).unwrap();
     let out = tdeploy(
@@ -913,7 +920,7 @@ fn readings_that_tripped_an_interlock_can_be_discarded_and_read_again() {
         ],
         Path::new("."),
     ));
-    assert_eq!(status_json(&session)["phase"], "awaiting_start");
+    assert_eq!(status_json(&session)["phase"], "remeasure");
     succeeded(&record_message(
         &session,
         &rig.start.clone(),
@@ -938,7 +945,20 @@ fn readings_that_tripped_an_interlock_can_be_discarded_and_read_again() {
         ],
         Path::new("."),
     ));
-    assert_eq!(status_json(&session)["phase"], "pending");
+    // Second review's finding: the discarded step's command was issued
+    // again (a glue program would have run it twice). The session asks
+    // for the sensors to be read again, nothing else.
+    assert_eq!(status_json(&session)["phase"], "remeasure");
+    let out = tdeploy(
+        &["session", "next", &arg(&session), "--json"],
+        Path::new("."),
+    );
+    let m: Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    assert_eq!(
+        (m["type"].as_str(), m["step"].as_u64()),
+        (Some("read_again"), Some(1)),
+        "{m}"
+    );
     succeeded(&record_message(&session, &readings, RunOptions::default()));
     // From here as deploy: the discarded readings left no trace.
     loop {
@@ -991,4 +1011,41 @@ fn a_session_keeps_the_interlock_thresholds_it_was_started_with() {
         2,
     );
     assert!(e.contains("--interlock-sigmas"), "{e}");
+}
+
+/// Second review's finding: `serve` gave no answer to a `resume` that
+/// discarded the start's readings.
+#[test]
+fn serve_answers_a_discarding_resume_with_a_request_to_read_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = Rig::new(1);
+    let session = new_session(dir.path(), "s", &[]);
+    let mut child = Command::new(BIN)
+        .args(["session", "serve", &arg(&session), "--stdio"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut input = child.stdin.take().unwrap();
+    let mut output = BufReader::new(child.stdout.take().unwrap());
+    let _hello = read_line(&mut output);
+    writeln!(input, "{}", with_reading(&rig.start, "temperature", 95.0)).unwrap();
+    let stopped: Value = serde_json::from_str(&read_line(&mut output)).unwrap();
+    assert_eq!(stopped["type"], "stopped", "{stopped}");
+    writeln!(
+        input,
+        r#"{{"type":"resume","note":"thermometer replaced","discard":true}}"#
+    )
+    .unwrap();
+    let again: Value = serde_json::from_str(&read_line(&mut output)).unwrap();
+    assert_eq!(
+        (again["type"].as_str(), again["step"].as_u64()),
+        (Some("read_again"), Some(0)),
+        "{again}"
+    );
+    writeln!(input, "{}", rig.start).unwrap();
+    let command: Value = serde_json::from_str(&read_line(&mut output)).unwrap();
+    assert_eq!(command["type"], "command", "{command}");
+    drop(input);
+    let _ = child.wait();
 }

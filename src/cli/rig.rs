@@ -7,7 +7,8 @@
 //! start's `measurements` (step 0), then executes every `command` it
 //! reads: it answers with a `truth` message (the true gaps and the limits
 //! the truth broke along the command: what only a simulator knows) and
-//! the `measurements` of the step. The truth, its default, the sensors and
+//! the `measurements` of the step; a `read_again` of its current step is
+//! answered with a new reading of the same state. The truth, its default, the sensors and
 //! the noise are `tdeploy deploy`'s: the same truth and seed give the
 //! same readings for the same commands, drawn in the same order. A
 //! command that is not the next step, or not `cleared`, is refused with
@@ -121,7 +122,21 @@ pub fn run(o: &Options) -> Result<Outcome> {
         if line.trim().is_empty() {
             continue;
         }
-        let (k, command, cleared) = match parse_in_message(&line, &sensors) {
+        let message = parse_in_message(&line, &sensors);
+        if let Ok(InMessage::ReadAgain { step: k }) = message {
+            if k != step {
+                let text = format!("read again step {k}, but the rig is at step {step}");
+                out(OutMessage::Error {
+                    field: "step",
+                    message: &text,
+                })?;
+            } else {
+                let readings = plant.measure(&sensors, &mut rng);
+                say!("{}", readings_message(step, &readings));
+            }
+            continue;
+        }
+        let (k, command, cleared) = match message {
             Ok(InMessage::Command {
                 step,
                 payout_change_m,

@@ -933,6 +933,10 @@ fn phase_message<'a>(
             reason,
         },
         SessionPhase::Ended { status, words } => OutMessage::Ended { status, words },
+        SessionPhase::Remeasure { step } => OutMessage::ReadAgain {
+            step: *step,
+            reason: "the readings sent were discarded by an operator; no command is repeated",
+        },
         _ => OutMessage::Status { status },
     }
 }
@@ -1007,10 +1011,10 @@ fn serve(dir: &Path) -> Result<Outcome> {
                 out(OutMessage::Status { status: &status })?;
                 continue;
             }
-            InMessage::Command { .. } => {
+            InMessage::Command { .. } | InMessage::ReadAgain { .. } => {
                 out(OutMessage::Error {
                     field: "type",
-                    message: "a command is the controller's to send, not to receive",
+                    message: "commands and requests to read again are the controller's to send, not to receive",
                 })?;
                 continue;
             }
@@ -1039,7 +1043,9 @@ fn refusal_field(e: &SessionRefusal) -> &'static str {
         SessionRefusal::WrongStep { .. }
         | SessionRefusal::NotApproved { .. }
         | SessionRefusal::NoSuchPending { .. } => "step",
-        SessionRefusal::BadReading { .. } | SessionRefusal::WrongReadingCount { .. } => "readings",
+        SessionRefusal::BadReading { .. }
+        | SessionRefusal::WrongReadingCount { .. }
+        | SessionRefusal::NoReadings => "readings",
         _ => "type",
     }
 }

@@ -142,6 +142,13 @@ pub enum SessionPhase {
         /// Whether it may be executed: approved, or no approval required.
         cleared: bool,
     },
+    /// An operator discarded the readings of `step` an interlock stopped
+    /// on: the sensors are to be read again, the command (if any) not
+    /// repeated.
+    Remeasure {
+        /// The step whose readings are awaited again.
+        step: usize,
+    },
     /// An interlock stopped the session; nothing is issued until resumed.
     Stopped {
         /// The step whose readings tripped it.
@@ -165,6 +172,7 @@ impl SessionPhase {
             SessionPhase::AwaitingStart => "awaiting_start",
             SessionPhase::Ready { .. } => "ready",
             SessionPhase::Pending { .. } => "pending",
+            SessionPhase::Remeasure { .. } => "remeasure",
             SessionPhase::Stopped { .. } => "stopped",
             SessionPhase::Ended { .. } => "ended",
         }
@@ -394,6 +402,9 @@ pub struct Session<'a> {
     /// Readings an interlock stopped on, held until an operator keeps or
     /// discards them.
     held: Option<HeldReadings>,
+    /// In [`SessionPhase::Remeasure`], the command the awaited readings
+    /// follow (`None` at the start).
+    remeasured_command: Option<Vec<f64>>,
     /// Events applied.
     events: usize,
     /// The model's folded start (the setup's, or folded here).
@@ -431,6 +442,7 @@ impl<'a> Session<'a> {
             diverged: Vec::new(),
             cannot_follow: None,
             held: None,
+            remeasured_command: None,
             events: 0,
         })
     }
@@ -503,7 +515,8 @@ impl<'a> Session<'a> {
     pub fn next_command(&mut self) -> Result<Vec<SessionEvent>, SessionRefusal> {
         let step = match &self.phase {
             SessionPhase::AwaitingStart => return Err(SessionRefusal::AwaitingStart),
-            SessionPhase::Pending { .. } => return Ok(Vec::new()),
+            // Nothing new until the awaited readings come.
+            SessionPhase::Pending { .. } | SessionPhase::Remeasure { .. } => return Ok(Vec::new()),
             SessionPhase::Stopped { .. } | SessionPhase::Ended { .. } => {
                 return Err(self.closed_refusal())
             }
@@ -559,6 +572,12 @@ impl<'a> Session<'a> {
         };
         match &self.phase {
             SessionPhase::AwaitingStart if step == 0 => {}
+            SessionPhase::Remeasure { step: k } if step == *k => {}
+            SessionPhase::Remeasure { step: k } => {
+                return Err(wrong(format!(
+                    "step {k}'s readings were discarded: the readings awaited are step {k}'s, read again"
+                )))
+            }
             SessionPhase::AwaitingStart => {
                 return Err(wrong(
                     "the folded start's readings (step 0) come first".into(),
@@ -921,6 +940,22 @@ impl<'a> Session<'a> {
                     Some(reason) => self.hold(*step, values.clone(), command_m, reason),
                 }
             }
+            (
+                SessionEvent::Readings {
+                    step,
+                    values,
+                    stopped,
+                },
+                SessionPhase::Remeasure { step: k },
+            ) if step == k => {
+                self.check_values(values)
+                    .map_err(|e| bad(format!("readings of step {step}: {e}")))?;
+                let command_m = self.remeasured_command.take();
+                match stopped {
+                    None => self.take_readings(*step, values.clone(), command_m)?,
+                    Some(reason) => self.hold(*step, values.clone(), command_m, reason),
+                }
+            }
             (SessionEvent::Issued { step, command_m }, SessionPhase::Ready { step: k })
                 if *step == k + 1 =>
             {
@@ -992,14 +1027,8 @@ impl<'a> Session<'a> {
                     )));
                 }
                 if *discard {
-                    self.phase = match command_m {
-                        None => SessionPhase::AwaitingStart,
-                        Some(command_m) => SessionPhase::Pending {
-                            step: *step,
-                            command_m,
-                            cleared: true,
-                        },
-                    };
+                    self.remeasured_command = command_m;
+                    self.phase = SessionPhase::Remeasure { step: *step };
                 } else {
                     self.take_readings(*step, values, command_m)?;
                 }

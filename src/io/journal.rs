@@ -80,15 +80,25 @@ pub enum Tail {
 }
 
 /// Where the journal's complete lines end, and what follows them.
-fn tail_of<T: DeserializeOwned>(bytes: &[u8]) -> (usize, Tail) {
+fn tail_of<T: DeserializeOwned>(bytes: &[u8], format: &str) -> (usize, Tail) {
     match bytes.last() {
         None | Some(b'\n') => (bytes.len(), Tail::Whole),
         Some(_) => {
             let keep = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-            let last = std::str::from_utf8(&bytes[keep..]).ok();
-            match last.and_then(parse_record::<T>) {
-                Some(_) if keep > 0 => (bytes.len(), Tail::MissingNewline),
-                _ => (keep, Tail::Torn(bytes.len() - keep)),
+            let last = &bytes[keep..];
+            // The header alone, or a whole record, lacking only its `\n`.
+            let whole = if keep == 0 {
+                last == format.as_bytes()
+            } else {
+                std::str::from_utf8(last)
+                    .ok()
+                    .and_then(parse_record::<T>)
+                    .is_some()
+            };
+            if whole {
+                (bytes.len(), Tail::MissingNewline)
+            } else {
+                (keep, Tail::Torn(bytes.len() - keep))
             }
         }
     }
@@ -102,7 +112,7 @@ pub fn parse_journal_tolerant<T: DeserializeOwned>(
     path: &Path,
     kind: JournalKind,
 ) -> Result<(Vec<(usize, T)>, Tail), FileError> {
-    let (keep, tail) = tail_of::<T>(bytes);
+    let (keep, tail) = tail_of::<T>(bytes, kind.format);
     let mut text = std::str::from_utf8(&bytes[..keep])
         .map_err(|e| FileError::field(path, 1, kind.record, format!("not text (UTF-8): {e}")))?
         .to_string();
@@ -135,15 +145,18 @@ pub fn parse_journal<T: DeserializeOwned>(
     for (i, raw) in lines.iter().enumerate().skip(1) {
         let line = i + 1;
         let Some(content) = raw.strip_suffix('\n') else {
-            return Err(FileError::field(
-                path,
-                line,
-                kind.record,
+            let message = if parse_record::<T>(raw).is_some() {
+                format!(
+                    "complete but for its line break; `{}` adds it and keeps every {}",
+                    kind.repair, kind.record
+                )
+            } else {
                 format!(
                     "incomplete (an append was interrupted); the {}s before it are intact: `{}` removes this line and keeps them",
                     kind.record, kind.repair
-                ),
-            ));
+                )
+            };
+            return Err(FileError::field(path, line, kind.record, message));
         };
         let corrupted = |why: &str| {
             FileError::field(

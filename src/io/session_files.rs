@@ -90,8 +90,9 @@ pub struct SessionMeta {
     pub created_by: String,
     /// The FNV-1a fingerprint of the inputs beside it (`model.toml`,
     /// `problem.toml`, `policy.toml`, `sensors.csv`, `folded_start.json`,
-    /// `guidance.json`): a session runs on the inputs it started with,
-    /// and one whose inputs were edited since is refused.
+    /// `guidance.json`) and of this file's other fields: a session runs on
+    /// the inputs it started with, and one whose inputs were edited since
+    /// is refused.
     pub inputs_fingerprint: String,
     /// The interlocks' thresholds it runs with.
     pub interlocks: Interlocks,
@@ -108,9 +109,20 @@ const INPUT_FILES: [&str; 6] = [
 ];
 
 /// The fingerprint of the session's inputs in `dir` (a missing optional
-/// file counts as empty).
-fn inputs_fingerprint(dir: &Path) -> Result<String, FileError> {
-    let mut bytes = Vec::new();
+/// file counts as empty) and of `meta`'s other fields (approval, the
+/// interlocks' thresholds: loosening one is an edit too).
+fn inputs_fingerprint(dir: &Path, meta: &SessionMeta) -> Result<String, FileError> {
+    let settings = SessionMeta {
+        inputs_fingerprint: String::new(),
+        ..meta.clone()
+    };
+    let mut bytes = toml::to_string(&settings)
+        .map_err(|e| FileError::Invalid {
+            path: dir.join("session.toml"),
+            entry: "session".into(),
+            message: e.to_string(),
+        })?
+        .into_bytes();
     for name in INPUT_FILES {
         let path = dir.join(name);
         match std::fs::read(&path) {
@@ -211,7 +223,7 @@ pub fn create_session(dir: &Path, new: &NewSession) -> Result<(), FileError> {
             write_json(&tmp.join("guidance.json"), g)?;
         }
         let meta = SessionMeta {
-            inputs_fingerprint: inputs_fingerprint(&tmp)?,
+            inputs_fingerprint: inputs_fingerprint(&tmp, &new.meta)?,
             ..new.meta.clone()
         };
         let meta = toml::to_string(&meta).map_err(|e| FileError::Invalid {
@@ -249,12 +261,12 @@ pub fn read_meta(dir: &Path) -> Result<SessionMeta, FileError> {
             message,
         });
     }
-    if inputs_fingerprint(dir)? != meta.inputs_fingerprint {
+    if inputs_fingerprint(dir, &meta)? != meta.inputs_fingerprint {
         return Err(FileError::Invalid {
             path,
             entry: "inputs_fingerprint".into(),
             message: format!(
-                "the session's inputs ({}) changed since it started; a session runs on the inputs it started with (start a new one)",
+                "the session's inputs ({} or this file's settings) changed since it started; a session runs on the inputs it started with (start a new one)",
                 INPUT_FILES.join(", ")
             ),
         });
@@ -590,6 +602,9 @@ pub fn read_readings(path: &Path, sensors: &[Sensor]) -> Result<StepReadings, Fi
 pub fn phase_words(phase: &SessionPhase) -> String {
     match phase {
         SessionPhase::AwaitingStart => "awaiting the folded start's readings (step 0)".into(),
+        SessionPhase::Remeasure { step } => format!(
+            "step {step}'s readings were discarded: read the sensors again (no command is repeated) and record step {step}"
+        ),
         SessionPhase::Ready { step } => {
             format!("step {step} measured; `next` plans command {}", step + 1)
         }

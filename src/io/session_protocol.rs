@@ -11,12 +11,14 @@
 //!   `reason`), `resume` (`note`, `discard`), `status`;
 //! - from the controller: `hello` (`protocol`, `phase`, `motors`,
 //!   `sensors`), `command` (`step`, `payout_change_m` in the motors'
-//!   order, `motors`, `cleared`, `predicted_gaps_m`), `stopped` (`step`,
+//!   order, `motors`, `cleared`, `predicted_gaps_m`), `read_again`
+//!   (`step`, `reason`: discarded readings to take again, no command
+//!   repeated), `stopped` (`step`,
 //!   `reason`), `ended` (`status`, `words`), `status` (the session's
 //!   `status.json`), `error` (`field`, `message`: the message was refused
 //!   and the session is unchanged);
-//! - to the rig simulator (`tdeploy rig`): `command` as the controller
-//!   sends it; from it: `hello`, `measurements` (as above) and `truth`
+//! - to the rig simulator (`tdeploy rig`): `command` and `read_again` as
+//!   the controller sends them; from it: `hello`, `measurements` (as above) and `truth`
 //!   (what only a simulator knows: the true gaps and the limits broken).
 //!
 //! Unknown fields, and a key given twice, are refused (a misspelt field
@@ -91,6 +93,12 @@ pub enum InMessage {
     },
     /// Ask for the status.
     Status,
+    /// Read the sensors again for `step` (to the rig; the command is
+    /// not repeated).
+    ReadAgain {
+        /// The step.
+        step: usize,
+    },
     /// A command (to the rig).
     Command {
         /// The command's number.
@@ -113,6 +121,7 @@ impl InMessage {
             InMessage::Resume { .. } => "resume",
             InMessage::Status => "status",
             InMessage::Command { .. } => "command",
+            InMessage::ReadAgain { .. } => "read_again",
         }
     }
 }
@@ -126,6 +135,7 @@ fn fields_of(kind: &str) -> Option<&'static [(&'static str, bool)]> {
         "reject" => &[("step", true), ("reason", true)],
         "resume" => &[("note", false), ("discard", false)],
         "status" => &[],
+        "read_again" => &[("step", true), ("reason", false)],
         // What the controller sends beside the command (`motors`,
         // `predicted_gaps_m`) is accepted for the rig to log.
         "command" => &[
@@ -270,7 +280,7 @@ pub fn parse_in_message(text: &str, sensors: &[Sensor]) -> Result<InMessage, Pro
     let Some(fields) = fields_of(&kind) else {
         return Err(ProtocolError::field(
             "type",
-            format!("unknown message type \"{kind}\" (measurements, approve, reject, resume, status, command)"),
+            format!("unknown message type \"{kind}\" (measurements, approve, reject, resume, status, command, read_again)"),
         ));
     };
     for key in m.keys().filter(|k| *k != "type") {
@@ -342,6 +352,7 @@ pub fn parse_in_message(text: &str, sensors: &[Sensor]) -> Result<InMessage, Pro
             },
         },
         "status" => InMessage::Status,
+        "read_again" => InMessage::ReadAgain { step: step_of(&m)? },
         _ => {
             let step = step_of(&m)?;
             let Some(Value::Array(items)) = m.get("payout_change_m") else {
@@ -518,6 +529,14 @@ pub enum OutMessage<'a> {
         true_gaps_m: &'a [f64],
         /// The truth's limits broken along the command, in words.
         violations: Vec<String>,
+    },
+    /// Read the sensors again for `step` and send its readings: the
+    /// readings sent were discarded (no command is repeated).
+    ReadAgain {
+        /// The step.
+        step: usize,
+        /// Why, in words.
+        reason: &'a str,
     },
     /// An interlock stopped the session.
     Stopped {
