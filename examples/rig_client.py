@@ -15,8 +15,9 @@ rig's `measurements` go back to the controller as they are; the rig's
 required, each command is approved here after `--approve-all`, else asked
 on the terminal.
 
-Exit 0 when the session ends connected, 1 when it ends otherwise or an
-interlock stops it, 2 on a protocol error. `--summary FILE` writes the
+Exit 0 when the session ends connected and the simulated truth broke no
+limit, 1 when it ends otherwise (or connected with a truth limit broken) or
+an interlock stops it, 2 on a protocol error. `--summary FILE` writes the
 commands, the true gaps and the truth's violations as JSON.
 """
 
@@ -146,6 +147,11 @@ def main():
             fail(f"controller: unexpected {m}")
     controller.close()
     rig.close()
+    if outcome == 0 and violations:
+        # The controller cannot see the truth; the simulator can. A run
+        # that broke a limit is no success, whatever the controller says.
+        outcome = 1
+        words = f"connected as measured, but {len(violations)} truth limits broken"
     print(f"session: {words}; {len(commands)} commands; truth limits broken: {len(violations)}")
     if args.summary:
         with open(args.summary, "w") as f:

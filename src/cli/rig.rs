@@ -18,7 +18,7 @@
 //! folded.
 
 use std::collections::BTreeMap;
-use std::io::{BufRead, Write};
+use std::io::BufRead;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
@@ -89,12 +89,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let mut restored = vec![false; limits.required.len()];
     let mut rng = StdRng::seed_from_u64(o.seed);
 
-    let out = |m: OutMessage| -> Result<()> {
-        let mut stdout = std::io::stdout().lock();
-        writeln!(stdout, "{}", m.line())
-            .and_then(|()| stdout.flush())
-            .context("standard output")
-    };
+    let out = super::session::send;
     let readings_message = |step: usize, values: &[Option<f64>]| -> String {
         let readings: BTreeMap<&str, Option<f64>> = sensors
             .iter()

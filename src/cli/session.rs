@@ -146,26 +146,7 @@ pub fn command() -> Command {
 #[derive(Debug, Clone)]
 pub enum Options {
     /// `start`.
-    Start {
-        /// Model file.
-        model: Option<PathBuf>,
-        /// Policy file.
-        policy: Option<PathBuf>,
-        /// Problem file.
-        problem: Option<PathBuf>,
-        /// Sensor layout file.
-        sensors: Option<PathBuf>,
-        /// Case memory file.
-        memory: Option<PathBuf>,
-        /// Air temperature, °C.
-        temperature_c: Option<f64>,
-        /// Approval required.
-        approve: bool,
-        /// The interlocks' thresholds.
-        interlocks: Interlocks,
-        /// The session folder.
-        out: PathBuf,
-    },
+    Start(StartInputs),
     /// `next`.
     Next {
         /// The session folder.
@@ -229,7 +210,7 @@ impl Options {
     pub fn from_matches(m: &ArgMatches) -> Result<Options> {
         let dir = |a: &ArgMatches| value::<PathBuf>(a, "session");
         Ok(match m.subcommand() {
-            Some(("start", a)) => Options::Start {
+            Some(("start", a)) => Options::Start(StartInputs {
                 model: a.get_one::<PathBuf>("model").cloned(),
                 policy: a.get_one::<PathBuf>("policy").cloned(),
                 problem: a.get_one::<PathBuf>("problem").cloned(),
@@ -255,7 +236,7 @@ impl Options {
                     i
                 },
                 out: value(a, "out")?,
-            },
+            }),
             Some(("next", a)) => Options::Next {
                 dir: dir(a)?,
                 json: a.get_flag("json"),
@@ -494,29 +475,7 @@ fn refused(e: SessionRefusal, dir: &Path) -> Result<Outcome> {
 /// Runs `tdeploy session`.
 pub fn run(o: &Options) -> Result<Outcome> {
     match o {
-        Options::Start {
-            model,
-            policy,
-            problem,
-            sensors,
-            memory,
-            temperature_c,
-            approve,
-            interlocks,
-            out,
-        } => start(
-            StartInputs {
-                model: model.as_deref(),
-                policy: policy.as_deref(),
-                problem: problem.as_deref(),
-                sensors: sensors.as_deref(),
-                memory: memory.as_deref(),
-                temperature_c: *temperature_c,
-                interlocks: *interlocks,
-            },
-            *approve,
-            out,
-        ),
+        Options::Start(inputs) => start(inputs),
         Options::Next { dir, json } => next(dir, *json),
         Options::Record { dir, measurements } => record(dir, measurements),
         Options::Approve { dir, step } => answer(dir, |s| s.approve(*step)),
@@ -544,15 +503,19 @@ pub fn run(o: &Options) -> Result<Outcome> {
     }
 }
 
-/// The files and conditions `session start` names.
-struct StartInputs<'a> {
-    model: Option<&'a Path>,
-    policy: Option<&'a Path>,
-    problem: Option<&'a Path>,
-    sensors: Option<&'a Path>,
-    memory: Option<&'a Path>,
+/// What `session start` is given: the files, conditions and settings of
+/// the new session.
+#[derive(Debug, Clone)]
+pub struct StartInputs {
+    model: Option<PathBuf>,
+    policy: Option<PathBuf>,
+    problem: Option<PathBuf>,
+    sensors: Option<PathBuf>,
+    memory: Option<PathBuf>,
     temperature_c: Option<f64>,
+    approve: bool,
     interlocks: Interlocks,
+    out: PathBuf,
 }
 
 /// The guidance the case memory at `path` gives a session of `setup`
@@ -606,7 +569,7 @@ fn memory_guidance(
     })
 }
 
-fn start(inputs: StartInputs, approve: bool, out: &Path) -> Result<Outcome> {
+fn start(inputs: &StartInputs) -> Result<Outcome> {
     let StartInputs {
         model,
         policy,
@@ -614,8 +577,12 @@ fn start(inputs: StartInputs, approve: bool, out: &Path) -> Result<Outcome> {
         sensors,
         memory,
         temperature_c,
+        approve,
         interlocks,
+        out,
     } = inputs;
+    let (model, policy, problem) = (model.as_deref(), policy.as_deref(), problem.as_deref());
+    let (approve, interlocks, temperature_c) = (*approve, *interlocks, *temperature_c);
     if let Some(t) = temperature_c {
         if let Err(m) = REFERENCE_TEMPERATURE_RANGE_C.check(t) {
             bail!("--temperature: {m}");
@@ -954,12 +921,7 @@ fn serve(dir: &Path) -> Result<Outcome> {
         .map(|c| c.id.as_str())
         .collect();
     let sensors: Vec<&str> = inputs.sensors.iter().map(|s| s.id.as_str()).collect();
-    let out = |m: OutMessage| -> Result<()> {
-        let mut stdout = std::io::stdout().lock();
-        writeln!(stdout, "{}", m.line())
-            .and_then(|()| stdout.flush())
-            .context("standard output")
-    };
+    let out = send;
     out(OutMessage::Hello {
         protocol: PROTOCOL,
         role: "session",
@@ -1035,6 +997,15 @@ fn serve(dir: &Path) -> Result<Outcome> {
         }
     }
     Ok(phase_outcome(session.phase()))
+}
+
+/// Sends one protocol message on standard output, flushed (a rig program
+/// waits for it): `serve`'s and `rig`'s one way to speak.
+pub(super) fn send(m: OutMessage) -> Result<()> {
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "{}", m.line())
+        .and_then(|()| stdout.flush())
+        .context("standard output")
 }
 
 /// The message field a refusal is about.
