@@ -13,7 +13,10 @@
 //!   plan.csv);
 //! - a whole closed-loop deployment of the default truth (μ = 0.2, 3 mm
 //!   backlash) by the frictionless controller, folded to connected (what
-//!   `tdeploy deploy` runs, without its files);
+//!   `tdeploy deploy` runs, without its files), and the same with the
+//!   truth's increments split at slip events
+//!   (`RelaxSettings::slip_event_substeps_enable`; issue 25 bounds its
+//!   cost at 1.2×);
 //! - `tdeploy session next` after 7 commands of that deployment, without
 //!   its files: the session rebuilt from its events and the 8th command
 //!   planned (issue 23: `session next` ≤ 50 ms);
@@ -133,6 +136,18 @@ fn bench(c: &mut Criterion) {
     group.bench_function("closed_loop_deployment_default_truth", |b| {
         b.iter(|| deploy_closed_loop(&setup, &mut ()).expect("deployment"))
     });
+    // The same deployment with the truth's increments split at slip
+    // events (issue 25: at most 1.2× the time above, same run).
+    let mut located_truth = truth.clone();
+    located_truth.settings.slip_event_substeps_enable = true;
+    let located = ClosedLoopSetup {
+        truth: &located_truth,
+        ..setup
+    };
+    group.bench_function(
+        "closed_loop_deployment_default_truth_slip_event_substeps",
+        |b| b.iter(|| deploy_closed_loop(&located, &mut ()).expect("deployment")),
+    );
     // `tdeploy session next` after 7 commands of that deployment: the
     // session rebuilt from its journal (the controller deciding and
     // observing every recorded step again) and the 8th command planned.

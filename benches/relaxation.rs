@@ -3,7 +3,8 @@
 //! - one 1 cm payout increment on one cable of the full bridge, μ = 0 and
 //!   0.2, warm-started from equilibrium, default tolerance;
 //! - a whole deployment: every cable reeled in 40 cm in 1 cm increments,
-//!   from the folded state (every cable paid out 40 cm), μ = 0 and 0.2;
+//!   from the folded state (every cable paid out 40 cm), μ = 0 and 0.2,
+//!   and μ = 0.2 with slip-event sub-steps (issue 25: at most 1.2×);
 //! - the 7×7 cable net from its initial geometry to 1e-6 m accuracy;
 //! - N×N cable nets (N = 5, 11, 21; the peer benchmark's nets) from flat
 //!   to a 1e-3 N force tolerance, default settings and pure DR;
@@ -19,10 +20,14 @@ use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Workspace};
 
 fn bridge_model(mu: f64) -> ForwardModel {
+    bridge_model_with(mu, RelaxSettings::default())
+}
+
+fn bridge_model_with(mu: f64, settings: RelaxSettings) -> ForwardModel {
     ForwardModel::new(
         reference_bridge(&BridgeParameters::default()).unwrap(),
         JointFriction::constant(mu).unwrap(),
-        RelaxSettings::default(),
+        settings,
     )
     .unwrap()
 }
@@ -62,8 +67,14 @@ fn single_increment(c: &mut Criterion) {
 fn whole_deployment(c: &mut Criterion) {
     let mut group = c.benchmark_group("bridge_deploy_40cm_1cm_steps");
     group.sample_size(10);
-    for mu in [0.0, 0.2] {
-        let model = bridge_model(mu);
+    for (mu, located) in [(0.0, false), (0.2, false), (0.2, true)] {
+        let model = bridge_model_with(
+            mu,
+            RelaxSettings {
+                slip_event_substeps_enable: located,
+                ..RelaxSettings::default()
+            },
+        );
         let n = model.structure().continuous_cables.len();
         let mut ws = Workspace::default();
         let mut folded = model.reference_state();
@@ -77,11 +88,16 @@ fn whole_deployment(c: &mut Criterion) {
             .apply_payout(&mut probe, &mut ws, &vec![-0.4; n], 0.01, &mut ())
             .unwrap();
         eprintln!(
-            "deploy 40 cm, μ = {mu}: {:?}, {} increments, {} Newton + {} DR iterations",
+            "deploy 40 cm, μ = {mu}, slip-event sub-steps {located}: {:?}, {} increments, {} Newton + {} DR iterations",
             r.status, r.increments, r.newton_iterations, r.iterations
         );
         eprintln!("  {:?}", ws.newton_counters());
-        group.bench_function(format!("mu{mu}"), |b| {
+        let name = if located {
+            format!("mu{mu}_slip_event_substeps")
+        } else {
+            format!("mu{mu}")
+        };
+        group.bench_function(name, |b| {
             b.iter_batched(
                 || folded.clone(),
                 |mut s| {

@@ -13,7 +13,9 @@ use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Works
 fn main() {
     let min: f64 = std::env::args()
         .nth(1)
-        .map_or(0.000125, |a| a.parse().unwrap());
+        .map_or(RelaxSettings::default().slip_event_min_substep_m, |a| {
+            a.parse().unwrap()
+        });
     for enable in [false, true] {
         let settings = RelaxSettings {
             slip_event_substeps_enable: enable,

@@ -111,10 +111,19 @@ pub struct RelaxSettings {
     /// solved again in halves, and inside it every sub-step in which a
     /// joint stops or reverses likewise, down to `slip_event_min_substep_m`;
     /// an increment whose Newton solve fails is also halved before DR (the
-    /// slow fallback) finishes it. Measured (`examples/slip_event_probe.rs`):
+    /// slow fallback) finishes it. Measured (`examples/slip_event_probe.rs`,
+    /// `cargo bench --bench relaxation -- bridge_deploy_40cm` and
+    /// `cargo bench --bench planner -- closed_loop`, each pair in one run):
     /// the cycle above ends within 62 µm between 1 cm and 1 mm increments;
-    /// the 40 cm deployment at μ = 0.2 in 1 cm increments costs 1.35× (92
-    /// against 68 ms). Off: every increment is one step, as before.
+    /// the 40 cm deployment at μ = 0.2 in 1 cm increments costs 1.26× (90.2
+    /// against 71.5 ms), a closed-loop deployment of the default truth
+    /// with the setting on in the truth 1.17× (173 against 148 ms). Off:
+    /// every increment is one step, as before. Why it stays off: switched
+    /// on in the truth, the more exact path moves two tuned outcomes (the
+    /// uneven 45/33 cm fold, seed 1, lowers a segment that starts 0.2 N
+    /// below its minimum by 0.5 N more; the memory policy's cycle-4 gap
+    /// falls 2.1×, not 3×, on the default truth), which the controller
+    /// must absorb first (issue 22).
     pub slip_event_substeps_enable: bool,
     /// Smallest sub-step of the splitting, m of the largest motor payout.
     /// Default 0.001 (the finest increment the tools use): a 1 cm increment
