@@ -16,7 +16,7 @@ use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::measure::comparison_verdict::where_it_fails;
 use tensegrity_deploy::measure::diagnose::{
-    diagnose, Candidate, DiagnoseError, DiagnoseSettings, Screened, Verdict,
+    diagnose, Candidate, DiagnoseError, DiagnoseSettings, ParameterFlag, Screened, Verdict,
 };
 use tensegrity_deploy::measure::evidence::{Statistic, Subject};
 use tensegrity_deploy::measure::local::Term;
@@ -127,7 +127,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
                 if c.converged { "" } else { " (not converged)" }
             );
             for f in &c.flags {
-                say!("    warning: {f}");
+                say!("    {}: {f}", flag_word(f));
             }
         }
         let describe = |s: &Screened| {
@@ -212,7 +212,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
                     100.0 * c.explained
                 );
                 for f in &c.flags {
-                    say!("  warning: {f}");
+                    say!("  {}: {f}", flag_word(f));
                 }
                 if !c.converged {
                     say!("  warning: the fit did not converge");
@@ -258,4 +258,13 @@ pub fn run(o: &Options) -> Result<Outcome> {
         say!("JSON report in {}", json.display());
     }
     Ok(Outcome::GoalReached)
+}
+
+/// How a parameter flag is introduced: a neutral limit is information
+/// (the effect lacks that part), every other flag a warning.
+fn flag_word(flag: &ParameterFlag) -> &'static str {
+    match flag {
+        ParameterFlag::AtNeutralLimit { .. } => "note",
+        _ => "warning",
+    }
 }

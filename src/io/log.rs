@@ -143,66 +143,98 @@ pub fn read_sensors(path: &Path, structure: &Structure) -> Result<Vec<Sensor>, F
         if id.is_empty() || sensors.iter().any(|s| s.id == id) {
             return Err(err("sensor", format!("\"{id}\" is empty or repeated")));
         }
-        let target_text = &r[2];
-        let target = match &r[1] {
-            "tension" => {
-                if let Some((cable_id, segment)) = target_text.split_once(':') {
-                    let cable = structure
-                        .continuous_cables
-                        .iter()
-                        .position(|c| c.id == cable_id)
-                        .ok_or_else(|| err("target", format!("no continuous cable \"{cable_id}\"")))?;
-                    let segment: usize = segment
-                        .parse()
-                        .ok()
-                        .filter(|s| *s < structure.continuous_cables[cable].segment_count())
-                        .ok_or_else(|| err("target", format!("\"{target_text}\": no such segment")))?;
-                    SensorTarget::SegmentTension { cable, segment }
-                } else {
-                    let member = structure
-                        .members
-                        .iter()
-                        .position(|m| m.id == target_text)
-                        .ok_or_else(|| err("target", format!("no member \"{target_text}\"")))?;
-                    SensorTarget::MemberForce { member }
-                }
-            }
-            kind @ ("position_x" | "position_y" | "position_z") => {
-                let node = structure
-                    .node_index(target_text)
-                    .ok_or_else(|| err("target", format!("no node \"{target_text}\"")))?;
-                let axis = match kind {
-                    "position_x" => 0,
-                    "position_y" => 1,
-                    _ => 2,
-                };
-                SensorTarget::Position { node, axis }
-            }
-            "temperature" => SensorTarget::Temperature,
-            other => {
-                return Err(err(
-                    "kind",
-                    format!("unknown kind \"{other}\" (tension, position_x, position_y, position_z, temperature)"),
-                ))
-            }
-        };
-        let noise_sd = parse_finite(&r[3], path, line, "noise_sd")?;
-        target.noise_sd_range().check(noise_sd).map_err(|reason| {
-            err(
-                "noise_sd",
-                format!("{reason} (the sensor's noise SD in its unit)"),
-            )
-        })?;
-        sensors.push(Sensor {
-            id,
-            target,
-            noise_sd,
-        });
+        let sensor = sensor_row(path, line, &r, structure).map_err(|e| naming_sensor(e, &id))?;
+        sensors.push(sensor);
     }
     if sensors.is_empty() {
         return Err(FileError::field(path, 1, "row", "no sensors".into()));
     }
     Ok(sensors)
+}
+
+/// `error` on a row of `sensors.csv` with the row's sensor named, so that
+/// a layout of many sensors says which one is wrong.
+fn naming_sensor(error: FileError, id: &str) -> FileError {
+    match error {
+        FileError::Field {
+            path,
+            line,
+            field,
+            message,
+        } => FileError::Field {
+            path,
+            line,
+            field,
+            message: format!("{message} (sensor \"{id}\")"),
+        },
+        other => other,
+    }
+}
+
+/// One row of `sensors.csv` (its id checked by the caller).
+fn sensor_row(
+    path: &Path,
+    line: usize,
+    r: &csv::StringRecord,
+    structure: &Structure,
+) -> Result<Sensor, FileError> {
+    let err = |field: &str, message: String| FileError::field(path, line, field, message);
+    let id = r[0].to_string();
+    let target_text = &r[2];
+    let target = match &r[1] {
+        "tension" => {
+            if let Some((cable_id, segment)) = target_text.split_once(':') {
+                let cable = structure
+                    .continuous_cables
+                    .iter()
+                    .position(|c| c.id == cable_id)
+                    .ok_or_else(|| err("target", format!("no continuous cable \"{cable_id}\"")))?;
+                let segment: usize = segment
+                    .parse()
+                    .ok()
+                    .filter(|s| *s < structure.continuous_cables[cable].segment_count())
+                    .ok_or_else(|| err("target", format!("\"{target_text}\": no such segment")))?;
+                SensorTarget::SegmentTension { cable, segment }
+            } else {
+                let member = structure
+                    .members
+                    .iter()
+                    .position(|m| m.id == target_text)
+                    .ok_or_else(|| err("target", format!("no member \"{target_text}\"")))?;
+                SensorTarget::MemberForce { member }
+            }
+        }
+        kind @ ("position_x" | "position_y" | "position_z") => {
+            let node = structure
+                .node_index(target_text)
+                .ok_or_else(|| err("target", format!("no node \"{target_text}\"")))?;
+            let axis = match kind {
+                "position_x" => 0,
+                "position_y" => 1,
+                _ => 2,
+            };
+            SensorTarget::Position { node, axis }
+        }
+        "temperature" => SensorTarget::Temperature,
+        other => {
+            return Err(err(
+                "kind",
+                format!("unknown kind \"{other}\" (tension, position_x, position_y, position_z, temperature)"),
+            ))
+        }
+    };
+    let noise_sd = parse_finite(&r[3], path, line, "noise_sd")?;
+    target.noise_sd_range().check(noise_sd).map_err(|reason| {
+        err(
+            "noise_sd",
+            format!("{reason} (the sensor's noise SD in its unit)"),
+        )
+    })?;
+    Ok(Sensor {
+        id,
+        target,
+        noise_sd,
+    })
 }
 
 fn read_commands(path: &Path, structure: &Structure) -> Result<Vec<Cycle>, FileError> {
@@ -465,6 +497,8 @@ mod tests {
         );
         let e = edit("sensors.csv", "A_cc0:3", "A_cc0:9");
         assert!(e.contains("sensors.csv: line 2, field `target`"), "{e}");
+        // Issue 24: every error on a sensor row names the sensor.
+        assert!(e.ends_with("(sensor \"lc0\")"), "{e}");
         let e = edit("commands.csv", "A_cc1", "A_cc7");
         assert!(e.contains("commands.csv: line 3, field `cable`"), "{e}");
         let e = edit("log.toml", "hollow-rope", "another");
@@ -487,6 +521,7 @@ mod tests {
             e.contains("sensors.csv: line 2, field `noise_sd`: must be a finite number in (0, 10000], got 0"),
             "{e}"
         );
+        assert!(e.contains("(sensor \"lc0\")"), "{e}");
         std::fs::write(&sensors, text).unwrap();
         // Every reading but the thermometer's blanked: nothing to compare.
         let mut log = sample(&s);

@@ -90,7 +90,9 @@
 //!   within [`explained_rms`](DiagnoseSettings::explained_rms) (1.5). It
 //!   is *confident* only if every fitted parameter is off its search
 //!   bounds (by [`near_bound`](DiagnoseSettings::near_bound) (0.02) of the
-//!   range), inside its plausible range (by more than
+//!   range; a bound that is both the end of the parameter's admissible
+//!   range and its neutral value, a backlash of 0, does not count: the
+//!   data may well say the effect lacks that part), inside its plausible range (by more than
 //!   [`outside_plausible_std_errors`](DiagnoseSettings::outside_plausible_std_errors)
 //!   (2) standard errors) and identified ([`ParameterFlag`]); the flags
 //!   are reported in words;
@@ -202,6 +204,17 @@ pub enum ParameterFlag {
         /// The plausible range.
         plausible: (f64, f64),
     },
+    /// At a search bound that is both the end of its admissible range and
+    /// its neutral value (a backlash of 0 m): the physics stops the fit
+    /// there, not the search range, and the value says the effect lacks
+    /// this part (a drum that slips without backlash). Reported, and no
+    /// reason by itself to distrust the fit.
+    AtNeutralLimit {
+        /// Parameter name.
+        parameter: String,
+        /// Fitted value.
+        value: f64,
+    },
     /// Its standard error is not finite or exceeds
     /// [`DiagnoseSettings::max_identified_std_error`] times its plausible
     /// range's width: the log does not identify it, so its value (at a
@@ -233,6 +246,10 @@ impl std::fmt::Display for ParameterFlag {
                 "{parameter} = {value:.4e} is outside its plausible range {:.4e} to {:.4e}",
                 plausible.0, plausible.1
             ),
+            ParameterFlag::AtNeutralLimit { parameter, value } => write!(
+                f,
+                "{parameter} = {value:.4e} is at its neutral value, the end of its admissible range: the log finds none of it"
+            ),
             ParameterFlag::NotIdentified { parameter } => {
                 write!(
                     f,
@@ -245,14 +262,27 @@ impl std::fmt::Display for ParameterFlag {
 
 impl Candidate {
     /// Whether the fit can be trusted: converged, no parameter at a search
-    /// bound or outside its plausible range, and at least one identified.
+    /// bound (other than a neutral limit, [`ParameterFlag::AtNeutralLimit`])
+    /// or outside its plausible range, and at least one identified and
+    /// off its neutral limit (an effect fitted as absent is no finding).
     pub fn trusted(&self) -> bool {
         let unidentified = self
             .flags
             .iter()
-            .filter(|f| matches!(f, ParameterFlag::NotIdentified { .. }))
+            .filter(|f| {
+                matches!(
+                    f,
+                    ParameterFlag::NotIdentified { .. } | ParameterFlag::AtNeutralLimit { .. }
+                )
+            })
             .count();
-        self.converged && unidentified == self.flags.len() && unidentified < self.values.len()
+        let distrusted = self.flags.iter().any(|f| {
+            !matches!(
+                f,
+                ParameterFlag::NotIdentified { .. } | ParameterFlag::AtNeutralLimit { .. }
+            )
+        });
+        self.converged && !distrusted && unidentified < self.values.len()
     }
 }
 
@@ -604,10 +634,18 @@ fn parameter_flags(
         let (lo, hi) = (bounds.lower[i], bounds.upper[i]);
         if x[i] - lo <= near || hi - x[i] <= near {
             let bound = if x[i] - lo <= hi - x[i] { lo } else { hi };
-            flags.push(ParameterFlag::AtSearchBound {
-                parameter: parameter.clone(),
-                value: x[i],
-                bound,
+            let physical_end = bound == spec.admissible.0 || bound == spec.admissible.1;
+            flags.push(if physical_end && bound == spec.neutral {
+                ParameterFlag::AtNeutralLimit {
+                    parameter: parameter.clone(),
+                    value: x[i],
+                }
+            } else {
+                ParameterFlag::AtSearchBound {
+                    parameter: parameter.clone(),
+                    value: x[i],
+                    bound,
+                }
             });
         }
         // Outside by more than a few standard errors: the data, not the
@@ -954,6 +992,64 @@ mod tests {
         }
     }
 
+    /// Issue 24: a drum that slips without backlash was diagnosed "motor
+    /// missing", but "not confident" only because the fitted backlash sat
+    /// at its search bound 0, its true value. 0 is the end of backlash's
+    /// admissible range and its neutral value: the physics stops the fit
+    /// there. Reported, and the fit trusted; a slip fraction at a search
+    /// bound is still distrusted.
+    #[test]
+    fn a_backlash_of_zero_at_its_bound_does_not_make_the_motor_fit_untrusted() {
+        let kind = EffectKind::Motor;
+        let term = Term::Global(kind);
+        let s = DiagnoseSettings::default();
+        let b = SearchBox::of(kind.parameters(), &s.fit);
+        let ses = [1.6e-3, 2.6e-5];
+        let flags = parameter_flags(term, &b, &[0.03, 0.0], &ses, &s);
+        assert!(
+            matches!(flags[..], [ParameterFlag::AtNeutralLimit { .. }]),
+            "{flags:?}"
+        );
+        let candidate = Candidate {
+            term,
+            name: kind.name().into(),
+            penalty: 0.0,
+            values: vec![0.03, 0.0],
+            std_errors: ses.to_vec(),
+            condition: 1.0,
+            held_out_rms: 1.0,
+            held_out_gain: 10.0,
+            bic: 0.0,
+            explained: 1.0,
+            converged: true,
+            leaves_clean: true,
+            flags,
+        };
+        assert!(candidate.trusted());
+        // Its every part at the neutral limit: the effect fitted as absent.
+        let absent = Candidate {
+            values: vec![0.0, 0.0],
+            flags: vec![
+                ParameterFlag::NotIdentified {
+                    parameter: "motor.slip_fraction".into(),
+                },
+                ParameterFlag::AtNeutralLimit {
+                    parameter: "motor.backlash_m".into(),
+                    value: 0.0,
+                },
+            ],
+            ..candidate.clone()
+        };
+        assert!(!absent.trusted());
+        let at_slip_bound = parameter_flags(term, &b, &[b.upper[0], 0.002], &ses, &s);
+        assert!(
+            at_slip_bound
+                .iter()
+                .any(|f| matches!(f, ParameterFlag::AtSearchBound { .. })),
+            "{at_slip_bound:?}"
+        );
+    }
+
     #[test]
     fn fits_at_a_bound_or_implausible_are_flagged_and_not_trusted() {
         let kind = EffectKind::Thermal;
@@ -1001,6 +1097,12 @@ mod tests {
         };
         assert!(candidate(vec![]).trusted());
         assert!(!candidate(flags).trusted());
+        // Thermal's lower search bound is its neutral 0 but no end of its
+        // admissible range: a search bound still.
+        assert!(matches!(
+            parameter_flags(term, &b, &[b.lower[0]], &[se], &s)[0],
+            ParameterFlag::AtSearchBound { .. }
+        ));
         // Its only parameter unidentified: nothing to trust.
         assert!(!candidate(wide).trusted());
     }
