@@ -211,6 +211,63 @@ fn two_hidden_effects_are_found_in_two_rounds() {
 /// An effect outside the library: one strut of the truth is 4 mm too long
 /// (a fabrication error no candidate models). The verdict must be a
 /// structured residual, not a library effect with a confident parameter.
+/// Issue 24: `tdeploy lab` of the default truth (μ = 0.2 and 3 mm
+/// backlash, what every deployment test runs on), with its default
+/// cycles (0.01, 0.05, 0.1 and 0.4 m in 5 steps), diagnosed "a structured
+/// residual remains" on seeds 1–4: the screen linearised friction at
+/// μ = 0, where its response is one-sided, predicted it a χ² gain of 0
+/// and never fitted it, while the motor alone made the held-out residual
+/// worse. (The smaller logs of the other tests did not show it.) Screened
+/// also by the χ² the fit's start removes, friction is found, then the
+/// motor, and the joint refit gives all three parameters within 3
+/// standard errors.
+#[test]
+fn the_default_truths_friction_and_backlash_are_both_found() {
+    let truth = model(
+        reference_structure(),
+        tensegrity_deploy::sim::default_truth_effects(),
+    );
+    let cycles = tensegrity_deploy::measure::lab::standard_cycles(
+        truth.structure.continuous_cables.len(),
+        &[0.01, 0.05, 0.1, 0.4],
+        5,
+        DAILY_SWING_K,
+    );
+    let sensors = tensegrity_deploy::sim::standard_sensors(&truth.structure);
+    let log = tensegrity_deploy::measure::lab::run_lab(&truth, &sensors, &cycles, 1).unwrap();
+    let d = diagnose(
+        &model(reference_structure(), Effects::default()),
+        &log,
+        &DiagnoseSettings::default(),
+    )
+    .unwrap();
+    let Verdict::Missing { found, .. } = &d.verdict else {
+        panic!("{:?}", d.verdict);
+    };
+    let mut terms: Vec<_> = found.iter().map(|c| c.term).collect();
+    terms.sort();
+    assert_eq!(
+        terms,
+        vec![
+            Term::Global(EffectKind::JointFriction),
+            Term::Global(EffectKind::Motor)
+        ]
+    );
+    for (kind, truth) in [
+        (EffectKind::JointFriction, vec![0.2]),
+        (EffectKind::Motor, vec![0.0, 0.003]),
+    ] {
+        let c = found.iter().find(|c| c.term == Term::Global(kind)).unwrap();
+        for ((v, se), t) in c.values.iter().zip(&c.std_errors).zip(&truth) {
+            assert!(
+                (v - t).abs() <= 3.0 * se,
+                "{}: {v} ± {se} (joint), truth {t}",
+                kind.name()
+            );
+        }
+    }
+}
+
 #[test]
 fn a_strut_too_long_is_a_structured_residual_no_candidate_explains() {
     let mut long_strut = reference_structure();
