@@ -514,10 +514,14 @@ impl Base<'_> {
         // a gain of 0, while friction alone removes half the held-out
         // residual. The χ² the fit's own start already removes is a gain
         // the fit can only better (it minimises that χ²), so it counts too.
+        // Only where the linear screen alone would not pass: the start's
+        // replay costs as much as the screen.
+        let threshold = penalty(specs.len(), base_z.len(), tier, s);
         let one_sided = specs
             .iter()
             .any(|p| p.neutral == p.admissible.0 || p.neutral == p.admissible.1);
-        let at_start = one_sided
+        let needed = linear.is_none_or(|g| !(g > threshold));
+        let at_start = (one_sided && needed)
             .then(|| eval(&fit_start(specs, &bounds, s)))
             .flatten()
             .filter(|z| z.len() == base_z.len())
@@ -530,7 +534,7 @@ impl Base<'_> {
             term,
             name: term.label(&self.model.structure, &self.log.sensors),
             predicted_gain: gain.unwrap_or(f64::NAN),
-            threshold: penalty(specs.len(), base_z.len(), tier, s),
+            threshold,
         }
     }
 
