@@ -1011,6 +1011,40 @@ fn a_session_keeps_the_interlock_thresholds_it_was_started_with() {
         2,
     );
     assert!(e.contains("--interlock-sigmas"), "{e}");
+    // The thermometer's plausible range: 20 °C is outside −30 to 10 °C
+    // (a cold store), inside the default.
+    let warm = with_reading(&rig.start, "temperature", 20.0);
+    let cold_store = new_session(
+        dir.path(),
+        "cold",
+        &["--interlock-temperature-range", "-30,10"],
+    );
+    let e = failed_with(
+        &record_message(&cold_store, &warm, RunOptions::default()),
+        1,
+    );
+    assert!(
+        e.contains("stopped") && e.contains("outside the plausible"),
+        "{e}"
+    );
+    let toml = std::fs::read_to_string(cold_store.join("session.toml")).unwrap();
+    assert!(toml.contains("temperature_range_c"), "{toml}");
+    for bad in ["10,-30", "5"] {
+        let e = failed_with(
+            &tdeploy(
+                &[
+                    "session",
+                    "start",
+                    "-o",
+                    &arg(&dir.path().join("bad2")),
+                    &format!("--interlock-temperature-range={bad}"),
+                ],
+                Path::new("."),
+            ),
+            2,
+        );
+        assert!(e.contains("--interlock-temperature-range"), "{bad}: {e}");
+    }
 }
 
 /// Second review's finding: `serve` gave no answer to a `resume` that

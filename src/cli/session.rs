@@ -93,6 +93,7 @@ pub fn command() -> Command {
                 .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature at the bridge, °C: with --memory, the case is retrieved for it"))
                 .arg(Arg::new("interlock-sigmas").long("interlock-sigmas").value_parser(value_parser!(f64)).help("Standard deviations (of a load cell's noise and the bias estimate) beyond its member's limit at which a reading stops the session, in (0, 10]. Default 3"))
                 .arg(Arg::new("interlock-position-offset").long("interlock-position-offset").value_parser(value_parser!(f64)).help("Largest distance of a position reading from where the model puts its node before the session stops, m, in (0, 10]. Default 0.5"))
+                .arg(Arg::new("interlock-temperature-range").long("interlock-temperature-range").value_name("LOW,HIGH").allow_hyphen_values(true).value_delimiter(',').num_args(1).value_parser(value_parser!(f64)).help("Plausible air temperature, °C, as LOW,HIGH: a thermometer reading outside it stops the session (the thermometer, not the weather, is at fault). Default -40,60"))
                 .arg(Arg::new("approve").long("approve").action(ArgAction::SetTrue).help("Every command needs an operator's approval before it may be executed"))
                 .arg(Arg::new("out").long("out").short('o').required(true).value_parser(value_parser!(PathBuf)).help("The new session folder (refused if it exists)")),
         )
@@ -226,9 +227,20 @@ impl Options {
                     if let Some(d) = a.get_one::<f64>("interlock-position-offset") {
                         i.max_position_offset_m = *d;
                     }
+                    if let Some(range) = a.get_many::<f64>("interlock-temperature-range") {
+                        let range: Vec<f64> = range.copied().collect();
+                        let [low, high] = range[..] else {
+                            bail!(
+                                "--interlock-temperature-range: give LOW,HIGH (two numbers, °C), got {} number(s)",
+                                range.len()
+                            );
+                        };
+                        i.temperature_range_c = (low, high);
+                    }
                     if let Err((field, why)) = i.validate() {
                         let flag = match field {
                             "limit_sigmas" => "--interlock-sigmas",
+                            "temperature_range_c" => "--interlock-temperature-range",
                             _ => "--interlock-position-offset",
                         };
                         bail!("{flag}: {why}");
