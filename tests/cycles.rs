@@ -103,9 +103,6 @@ fn the_memory_policy_learns_the_approach_on_a_fixed_truth() {
     }
 }
 
-/// The memoryless policy on the same truth and noise does not learn: its
-/// gap stays within noise of its first cycle's, and every later cycle of
-/// the memory policy ends nearer the connection than the memoryless one.
 /// Issue 24: on a truth with heavy joints, soft cables and drum slip
 /// −5 % (`experiments/truths/heavy-joints-soft-cables.toml`), the first
 /// cycle needs two corrective commands after its approach (seed 1), and
@@ -127,10 +124,13 @@ fn a_learnt_approach_does_not_replay_the_cases_corrections() {
     assert_eq!(r[0].corrective_commands, Some(2), "{:?}", r[0]);
     assert_eq!(r[1].learnt_from_case, Some(0));
     assert_eq!(r[1].learnt_commands, Some(r[0].commands - 1), "{:?}", r[1]);
-    assert!(r[1].corrective_commands <= Some(1), "{:?}", r[1]);
+    assert!(matches!(r[1].corrective_commands, Some(0 | 1)), "{:?}", r[1]);
     assert!(r.iter().all(|c| c.truth_limit_violations == 0));
 }
 
+/// The memoryless policy on the same truth and noise does not learn: its
+/// gap stays within noise of its first cycle's, and every later cycle of
+/// the memory policy ends nearer the connection than the memoryless one.
 #[test]
 fn without_memory_the_gap_does_not_fall_and_the_memory_policy_ends_nearer() {
     let plain = cycles("policies/qp.toml", 5);

@@ -208,9 +208,6 @@ fn two_hidden_effects_are_found_in_two_rounds() {
     }
 }
 
-/// An effect outside the library: one strut of the truth is 4 mm too long
-/// (a fabrication error no candidate models). The verdict must be a
-/// structured residual, not a library effect with a confident parameter.
 /// Issue 24: `tdeploy lab` of the default truth (μ = 0.2 and 3 mm
 /// backlash, what every deployment test runs on), with its default
 /// cycles (0.01, 0.05, 0.1 and 0.4 m in 5 steps), diagnosed "a structured
@@ -268,6 +265,9 @@ fn the_default_truths_friction_and_backlash_are_both_found() {
     }
 }
 
+/// An effect outside the library: one strut of the truth is 4 mm too long
+/// (a fabrication error no candidate models). The verdict must be a
+/// structured residual, not a library effect with a confident parameter.
 #[test]
 fn a_strut_too_long_is_a_structured_residual_no_candidate_explains() {
     let mut long_strut = reference_structure();

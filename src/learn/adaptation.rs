@@ -176,7 +176,12 @@ pub fn adapt(
         })
         .collect();
     let data = IlcData {
-        commands_m: merged_tail(&case.commands_m, &context.motors.max_step_m),
+        commands_m: merged_tail(
+            &case.commands_m,
+            case.outcome.corrective_commands.unwrap_or(0),
+            &context.motors.max_step_m,
+            settings.ilc_max_change_m,
+        ),
         end_gaps_m: case.final_gap_vectors_m.clone(),
         gap_weights: context.gap_weights.clone(),
         gap_sensitivity,
@@ -204,10 +209,12 @@ pub fn adapt(
     }))
 }
 
-/// The case's commands with their tail merged: the last command is added
-/// to the one before while every motor moves the same way in both (or
-/// not at all in one) and the sum stays within its drum step
-/// (`max_step_m`, m), and so on backwards.
+/// The case's commands with its corrections merged: of the last
+/// `corrections + 1` commands (the closed loop's corrective commands and
+/// the command they corrected), the last is added to the one before
+/// while every motor moves the same way in both (or not at all in one)
+/// and the sum stays within its drum step `max_step_m` (m) less `room_m`
+/// (m), and so on backwards.
 ///
 /// Why: a case's last commands are often the closed loop's corrections
 /// (two small reel-ins after the approach fell short); the ILC update
@@ -217,16 +224,27 @@ pub fn adapt(
 /// cycle of seed 1 had 2 corrective commands where the memoryless
 /// controller had 1). The merged commands end at the same payouts; only
 /// commands that reel the same way are merged, as a reversal inside one
-/// command would take another friction path.
-pub fn merged_tail(commands_m: &[Vec<f64>], max_step_m: &[f64]) -> Vec<Vec<f64>> {
+/// command would take another friction path; and a merged command keeps
+/// `room_m` below the step (the ILC's largest change of a motor's total,
+/// `ilc_max_change_m`), so that the update can still move the last
+/// command rather than the approach's.
+pub fn merged_tail(
+    commands_m: &[Vec<f64>],
+    corrections: usize,
+    max_step_m: &[f64],
+    room_m: f64,
+) -> Vec<Vec<f64>> {
     let mut out = commands_m.to_vec();
-    while out.len() >= 2 {
+    let first_mergeable = commands_m.len().saturating_sub(corrections + 1);
+    let same_way = |a: f64, b: f64| a == 0.0 || b == 0.0 || a.signum() == b.signum();
+    while out.len() >= 2 && out.len() - 2 >= first_mergeable {
         let (last, previous) = (&out[out.len() - 1], &out[out.len() - 2]);
-        let mergeable = last
-            .iter()
-            .zip(previous)
-            .zip(max_step_m)
-            .all(|((a, b), max)| a * b >= 0.0 && (a + b).abs() <= *max);
+        let mergeable = last.len() == previous.len()
+            && last.iter().zip(previous).enumerate().all(|(m, (&a, &b))| {
+                max_step_m
+                    .get(m)
+                    .is_some_and(|max| same_way(a, b) && (a + b).abs() + room_m <= *max)
+            });
         if !mergeable {
             break;
         }
@@ -320,18 +338,11 @@ mod tests {
         .expect("model")
     }
 
-    /// The end reached from the as-built state (or from a cached end) must
-    /// be the end the case's own path reaches: a frictionless elastic
-    /// structure's equilibrium depends on the payout alone. The solver
-    /// stops at an out-of-balance force of 1e-6 of the largest member
-    /// force; with member stiffnesses of order 1e6–1e7 N/m that leaves
-    /// node positions uncertain by well under 1e-7 m, so two paths must
-    /// agree to 1e-6 m.
     /// Issue 24: the memory replayed a case's corrective commands as
     /// commands of their own in every later cycle. Merged: the two small
     /// reel-ins after the approach become one, the totals are kept, a
-    /// merge that would exceed the drum step or reverse a motor is not
-    /// made.
+    /// merge that would exceed the drum step (less the ILC's room) or
+    /// reverse a motor is not made, nor one of approach commands.
     #[test]
     fn a_cases_corrective_tail_is_merged_into_one_command() {
         let approach = vec![-0.048; 3];
@@ -341,7 +352,7 @@ mod tests {
             vec![-0.023; 3],
             vec![-0.011, -0.012, 0.0],
         ];
-        let merged = merged_tail(&commands, &[0.05; 3]);
+        let merged = merged_tail(&commands, 2, &[0.05; 3], 0.004);
         assert_eq!(merged.len(), 3);
         assert_eq!(merged[..2], commands[..2]);
         let totals =
@@ -355,12 +366,29 @@ mod tests {
             vec![-0.02, -0.02, 0.01],
             vec![-0.01, -0.01, -0.01],
         ];
-        assert_eq!(merged_tail(&reversing, &[0.05; 3]).len(), 3);
-        // So does the drum step.
-        assert_eq!(merged_tail(&commands, &[0.03; 3]).len(), 4);
-        assert_eq!(merged_tail(&[], &[0.05; 3]).len(), 0);
+        assert_eq!(merged_tail(&reversing, 1, &[0.05; 3], 0.004).len(), 3);
+        // So does the drum step, less the ILC's room: −34 mm fits a 40 mm
+        // step, but leaves the update no room to reel further.
+        assert_eq!(merged_tail(&commands, 2, &[0.04; 3], 0.0).len(), 3);
+        assert_eq!(merged_tail(&commands, 2, &[0.04; 3], 0.008).len(), 4);
+        // Approach commands are not corrections: with none recorded, the
+        // same small commands stay as they are.
+        assert_eq!(merged_tail(&commands, 0, &[0.05; 3], 0.004).len(), 4);
+        // A motor the step list does not cover is never merged.
+        assert_eq!(merged_tail(&commands, 2, &[0.05; 2], 0.004).len(), 4);
+        // A tiny opposite-sign pair is a reversal, however small.
+        let tiny = vec![approach.clone(), vec![-1e-200; 3], vec![1e-200; 3]];
+        assert_eq!(merged_tail(&tiny, 2, &[0.05; 3], 0.004).len(), 3);
+        assert_eq!(merged_tail(&[], 3, &[0.05; 3], 0.004).len(), 0);
     }
 
+    /// The end reached from the as-built state (or from a cached end) must
+    /// be the end the case's own path reaches: a frictionless elastic
+    /// structure's equilibrium depends on the payout alone. The solver
+    /// stops at an out-of-balance force of 1e-6 of the largest member
+    /// force; with member stiffnesses of order 1e6–1e7 N/m that leaves
+    /// node positions uncertain by well under 1e-7 m, so two paths must
+    /// agree to 1e-6 m.
     #[test]
     fn a_frictionless_case_end_does_not_depend_on_where_the_solve_starts() {
         let model = frictionless_bridge();
