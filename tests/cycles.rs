@@ -124,7 +124,11 @@ fn a_learnt_approach_does_not_replay_the_cases_corrections() {
     assert_eq!(r[0].corrective_commands, Some(2), "{:?}", r[0]);
     assert_eq!(r[1].learnt_from_case, Some(0));
     assert_eq!(r[1].learnt_commands, Some(r[0].commands - 1), "{:?}", r[1]);
-    assert!(matches!(r[1].corrective_commands, Some(0 | 1)), "{:?}", r[1]);
+    assert!(
+        matches!(r[1].corrective_commands, Some(0 | 1)),
+        "{:?}",
+        r[1]
+    );
     assert!(r.iter().all(|c| c.truth_limit_violations == 0));
 }
 

@@ -7,8 +7,10 @@
 //! # Outliers
 //! Readings of the model's comparison beyond
 //! [`OutlierSettings::limit_robust_sds`](super::settings::OutlierSettings::limit_robust_sds)
-//! robust SDs from their sensor's median are removed (made missing) before
-//! anything is fitted, and listed in [`Diagnosis::outliers`].
+//! robust SDs from their sensor's median, with both clock neighbours
+//! within half that of it (a spike, not a run of readings a model error
+//! moved), are removed (made missing) before anything is fitted, and
+//! listed in [`Diagnosis::outliers`].
 //!
 //! # Settings
 //! Every number that tunes the search is a field of [`DiagnoseSettings`]

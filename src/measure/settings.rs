@@ -447,7 +447,9 @@ pub struct OutlierSettings {
     /// a reading is an outlier. Default 6: under pure noise a reading
     /// passes 6 SDs once in 500 million, so a log of 2000 readings shows
     /// one once in 250 000 logs. Smaller: more spikes set aside, and
-    /// sooner a real model error.
+    /// sooner a real model error. Its readings just before and after on
+    /// the log's clock must lie within half of it (a spike is isolated;
+    /// [`super::outliers`]).
     pub limit_robust_sds: f64,
     /// Most outliers a sensor may have, as a share of its readings (at
     /// least one). Default 0.1: outliers are rare; a sensor with more
