@@ -137,7 +137,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| deploy_closed_loop(&setup, &mut ()).expect("deployment"))
     });
     // The same deployment with the truth's increments split at slip
-    // events (issue 25: at most 1.2× the time above, same run).
+    // events (issue 25 asks at most 1.2× the time above, same run).
     let mut located_truth = truth.clone();
     located_truth.settings.slip_event_substeps_enable = true;
     let located = ClosedLoopSetup {

@@ -4,7 +4,7 @@
 //!   0.2, warm-started from equilibrium, default tolerance;
 //! - a whole deployment: every cable reeled in 40 cm in 1 cm increments,
 //!   from the folded state (every cable paid out 40 cm), μ = 0 and 0.2,
-//!   and μ = 0.2 with slip-event sub-steps (issue 25: at most 1.2×);
+//!   and μ = 0.2 with slip-event sub-steps (issue 25 asks at most 1.2×);
 //! - the 7×7 cable net from its initial geometry to 1e-6 m accuracy;
 //! - N×N cable nets (N = 5, 11, 21; the peer benchmark's nets) from flat
 //!   to a 1e-3 N force tolerance, default settings and pure DR;

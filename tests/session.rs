@@ -1029,6 +1029,22 @@ fn a_session_keeps_the_interlock_thresholds_it_was_started_with() {
     );
     let toml = std::fs::read_to_string(cold_store.join("session.toml")).unwrap();
     assert!(toml.contains("temperature_range_c"), "{toml}");
+    let e = failed_with(
+        &tdeploy(
+            &[
+                "session",
+                "start",
+                "-o",
+                &arg(&dir.path().join("bad3")),
+                "--temperature",
+                "20",
+                "--interlock-temperature-range=-30,10",
+            ],
+            Path::new("."),
+        ),
+        2,
+    );
+    assert!(e.contains("--temperature"), "{e}");
     for bad in ["10,-30", "5"] {
         let e = failed_with(
             &tdeploy(

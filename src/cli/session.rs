@@ -245,6 +245,13 @@ impl Options {
                         };
                         bail!("{flag}: {why}");
                     }
+                    // The session's own temperature is a reading too.
+                    if let Some(t) = a.get_one::<f64>("temperature") {
+                        let (low, high) = i.temperature_range_c;
+                        if !(low..=high).contains(t) {
+                            bail!("--temperature: {t} °C is outside the plausible range {low} to {high} °C (--interlock-temperature-range)");
+                        }
+                    }
                     i
                 },
                 out: value(a, "out")?,

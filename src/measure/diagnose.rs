@@ -251,7 +251,7 @@ impl std::fmt::Display for ParameterFlag {
             ),
             ParameterFlag::AtNeutralLimit { parameter, value } => write!(
                 f,
-                "{parameter} = {value:.4e} is at its neutral value, the end of its admissible range: the log finds none of it"
+                "{parameter} = {value:.4e} sits at its neutral limit (its neutral value and the end of its admissible range): the log finds little or none of it"
             ),
             ParameterFlag::NotIdentified { parameter } => {
                 write!(
@@ -267,7 +267,8 @@ impl Candidate {
     /// Whether the fit can be trusted: converged, no parameter at a search
     /// bound (other than a neutral limit, [`ParameterFlag::AtNeutralLimit`])
     /// or outside its plausible range, and at least one identified and
-    /// off its neutral limit (an effect fitted as absent is no finding).
+    /// off its neutral limit (an effect fitted as absent is not trusted:
+    /// the verdict says "not confident").
     pub fn trusted(&self) -> bool {
         let unidentified = self
             .flags

@@ -110,8 +110,9 @@ pub struct RelaxSettings {
     /// increments. On: an increment in which a sliding joint reverses is
     /// solved again in halves, and inside it every sub-step in which a
     /// joint stops or reverses likewise, down to `slip_event_min_substep_m`;
-    /// an increment whose Newton solve fails is also halved before DR (the
-    /// slow fallback) finishes it. Measured (`examples/slip_event_probe.rs`,
+    /// a sub-step whose Newton solve fails is also halved before DR (the
+    /// slow fallback) finishes it (a whole increment goes to DR as without
+    /// the setting, and is split afterwards if a joint reversed in it). Measured (`examples/slip_event_probe.rs`,
     /// `cargo bench --bench relaxation -- bridge_deploy_40cm` and
     /// `cargo bench --bench planner -- closed_loop`, each pair in one run):
     /// the cycle above ends within 62 µm between 1 cm and 1 mm increments;
