@@ -163,6 +163,32 @@ fn nothing_hidden_is_nothing_missing_on_19_of_20_seeds() {
     assert!(clean >= 19, "nothing missing on {clean} of 20 seeds");
 }
 
+/// Diagnoses `log` on the baseline model: the verdict must be the two
+/// library effects `kinds` (in `EffectKind` order) missing. Returns the
+/// diagnosis and the candidates found.
+fn two_found(
+    log: &MeasurementLog,
+    kinds: [EffectKind; 2],
+) -> (
+    tensegrity_deploy::measure::diagnose::Diagnosis,
+    Vec<tensegrity_deploy::measure::diagnose::Candidate>,
+) {
+    let d = diagnose(
+        &model(reference_structure(), Effects::default()),
+        log,
+        &DiagnoseSettings::default(),
+    )
+    .unwrap();
+    let Verdict::Missing { found, .. } = &d.verdict else {
+        panic!("{:?}", d.verdict);
+    };
+    let found = found.clone();
+    let mut terms: Vec<_> = found.iter().map(|c| c.term).collect();
+    terms.sort();
+    assert_eq!(terms, kinds.map(Term::Global).to_vec());
+    (d, found)
+}
+
 /// Friction plus support flexibility: both are found, one per round, and
 /// their joint refit puts both parameters within three joint standard
 /// errors of the truth.
@@ -173,23 +199,9 @@ fn two_hidden_effects_are_found_in_two_rounds() {
         .with_parameters(EffectKind::SupportFlexibility, &[3e-5]);
     let truth = model(reference_structure(), truth_effects);
     let log = lab_log(&truth, 21);
-    let d = diagnose(
-        &model(reference_structure(), Effects::default()),
+    let (d, found) = two_found(
         &log,
-        &DiagnoseSettings::default(),
-    )
-    .unwrap();
-    let Verdict::Missing { found, .. } = &d.verdict else {
-        panic!("{:?}", d.verdict);
-    };
-    let mut terms: Vec<_> = found.iter().map(|c| c.term).collect();
-    terms.sort();
-    assert_eq!(
-        terms,
-        vec![
-            Term::Global(EffectKind::JointFriction),
-            Term::Global(EffectKind::SupportFlexibility)
-        ]
+        [EffectKind::JointFriction, EffectKind::SupportFlexibility],
     );
     assert_eq!(d.rounds.len(), 2);
     for (kind, truth) in [
@@ -232,24 +244,7 @@ fn the_default_truths_friction_and_backlash_are_both_found() {
     );
     let sensors = tensegrity_deploy::sim::standard_sensors(&truth.structure);
     let log = tensegrity_deploy::measure::lab::run_lab(&truth, &sensors, &cycles, 1).unwrap();
-    let d = diagnose(
-        &model(reference_structure(), Effects::default()),
-        &log,
-        &DiagnoseSettings::default(),
-    )
-    .unwrap();
-    let Verdict::Missing { found, .. } = &d.verdict else {
-        panic!("{:?}", d.verdict);
-    };
-    let mut terms: Vec<_> = found.iter().map(|c| c.term).collect();
-    terms.sort();
-    assert_eq!(
-        terms,
-        vec![
-            Term::Global(EffectKind::JointFriction),
-            Term::Global(EffectKind::Motor)
-        ]
-    );
+    let (_, found) = two_found(&log, [EffectKind::JointFriction, EffectKind::Motor]);
     for (kind, truth) in [
         (EffectKind::JointFriction, vec![0.2]),
         (EffectKind::Motor, vec![0.0, 0.003]),
