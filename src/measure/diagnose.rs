@@ -1028,6 +1028,34 @@ mod tests {
         }
     }
 
+    /// A converged fit of `term` that explains everything and leaves the
+    /// model clean, with `flags`: what `Candidate::trusted` is tested on.
+    fn clean_fit(
+        term: Term,
+        values: Vec<f64>,
+        std_errors: Vec<f64>,
+        flags: Vec<ParameterFlag>,
+    ) -> Candidate {
+        let Term::Global(kind) = term else {
+            panic!("a library effect")
+        };
+        Candidate {
+            term,
+            name: kind.name().into(),
+            penalty: 0.0,
+            values,
+            std_errors,
+            condition: 1.0,
+            held_out_rms: 1.0,
+            held_out_gain: 10.0,
+            bic: 0.0,
+            explained: 1.0,
+            converged: true,
+            leaves_clean: true,
+            flags,
+        }
+    }
+
     /// Issue 24: a drum that slips without backlash was diagnosed "motor
     /// missing", but "not confident" only because the fitted backlash sat
     /// at its search bound 0, its true value. 0 is the end of backlash's
@@ -1046,21 +1074,7 @@ mod tests {
             matches!(flags[..], [ParameterFlag::AtNeutralLimit { .. }]),
             "{flags:?}"
         );
-        let candidate = Candidate {
-            term,
-            name: kind.name().into(),
-            penalty: 0.0,
-            values: vec![0.03, 0.0],
-            std_errors: ses.to_vec(),
-            condition: 1.0,
-            held_out_rms: 1.0,
-            held_out_gain: 10.0,
-            bic: 0.0,
-            explained: 1.0,
-            converged: true,
-            leaves_clean: true,
-            flags,
-        };
+        let candidate = clean_fit(term, vec![0.03, 0.0], ses.to_vec(), flags);
         assert!(candidate.trusted());
         // Its every part at the neutral limit: the effect fitted as absent.
         let absent = Candidate {
@@ -1116,21 +1130,7 @@ mod tests {
         // and nothing else said about its value.
         let wide = parameter_flags(term, &b, &[b.lower[0]], &[1.0], &s);
         assert!(matches!(wide[..], [ParameterFlag::NotIdentified { .. }]));
-        let candidate = |flags: Vec<ParameterFlag>| Candidate {
-            term,
-            name: kind.name().into(),
-            penalty: 0.0,
-            values: vec![mid],
-            std_errors: vec![se],
-            condition: 1.0,
-            held_out_rms: 1.0,
-            held_out_gain: 10.0,
-            bic: 0.0,
-            explained: 1.0,
-            converged: true,
-            leaves_clean: true,
-            flags,
-        };
+        let candidate = |flags: Vec<ParameterFlag>| clean_fit(term, vec![mid], vec![se], flags);
         assert!(candidate(vec![]).trusted());
         assert!(!candidate(flags).trusted());
         // Thermal's lower search bound is its neutral 0 but no end of its
