@@ -23,8 +23,9 @@
 //! reading passes 6 SDs once in 500 million: a log of 2000 readings shows
 //! one once in 250 000 logs. Outliers are rare: a sensor with more than
 //! [`OutlierSettings::max_share`] (default one in ten) of its readings
-//! beyond the limit has a fault (a clip, a jump), left in as structure to
-//! be located.
+//! spikes has a fault (a loose connector), left in as structure to be
+//! located; a clip or a jump leaves runs, which are no spikes and stay
+//! in anyway (and are not counted, so that they hide no real spike).
 //!
 //! `diagnose` removes the outliers of the model's comparison (as missing
 //! readings) before its search and lists them; `compare` lists them and
@@ -128,11 +129,8 @@ pub fn find_outliers(c: &Comparison, sensors: usize, settings: &OutlierSettings)
             })
         })
         .collect();
-    let count = |s: usize| found.iter().filter(|o| o.sensor == s).count();
-    let most = |s: usize| ((settings.max_share * z_of[s].len() as f64).floor() as usize).max(1);
-    found
-        .iter()
-        .filter(|o| count(o.sensor) <= most(o.sensor))
+    let spikes: Vec<Outlier> = found
+        .into_iter()
         .filter(|o| {
             let step_index = c
                 .residuals
@@ -141,6 +139,14 @@ pub fn find_outliers(c: &Comparison, sensors: usize, settings: &OutlierSettings)
                 .map_or(0, |r| r.step_index);
             isolated(o.sensor, step_index)
         })
+        .collect();
+    // Spikes are counted, not the runs a model error or a clip leaves:
+    // those stay in anyway, and counted they would hide a real spike.
+    let count = |s: usize| spikes.iter().filter(|o| o.sensor == s).count();
+    let most = |s: usize| ((settings.max_share * z_of[s].len() as f64).floor() as usize).max(1);
+    spikes
+        .iter()
+        .filter(|o| count(o.sensor) <= most(o.sensor))
         .copied()
         .collect()
 }
@@ -305,5 +311,16 @@ mod tests {
             _ => noise(k),
         });
         assert!(find_outliers(&pair, 2, &settings).is_empty());
+        // A run of four readings out (a model error) and one spike: the
+        // run is not counted towards the sensor's share of outliers (at
+        // most 4 of 40), so the spike is still named (review finding).
+        let run_and_spike = comparison(|s, k| match (s, k) {
+            (0, 10..=13) => 20.0,
+            (0, 30) => 20.0,
+            _ => noise(k),
+        });
+        let o = find_outliers(&run_and_spike, 2, &settings);
+        assert_eq!(o.len(), 1, "{o:?}");
+        assert_eq!((o[0].cycle, o[0].step), (3, 0));
     }
 }

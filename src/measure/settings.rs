@@ -453,7 +453,7 @@ pub struct OutlierSettings {
     pub limit_robust_sds: f64,
     /// Most outliers a sensor may have, as a share of its readings (at
     /// least one). Default 0.1: outliers are rare; a sensor with more
-    /// readings that far out has a fault (a clip, a jump), which is
+    /// isolated spikes has a fault (a loose connector), which is
     /// structure to be located, not set aside.
     pub max_share: f64,
 }
