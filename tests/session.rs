@@ -68,6 +68,21 @@ impl Drop for Rig {
     }
 }
 
+/// `tdeploy session serve SESSION --stdio` started, its hello read: the
+/// process, its input and its output.
+fn serve(session: &Path) -> (Child, ChildStdin, BufReader<ChildStdout>) {
+    let mut child = Command::new(BIN)
+        .args(["session", "serve", &arg(session), "--stdio"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let input = child.stdin.take().unwrap();
+    let mut output = BufReader::new(child.stdout.take().unwrap());
+    let _hello = read_line(&mut output);
+    (child, input, output)
+}
+
 fn read_line(r: &mut impl BufRead) -> String {
     let mut line = String::new();
     r.read_line(&mut line).unwrap();
@@ -559,15 +574,7 @@ fn malformed_readings_are_refused_naming_file_line_and_field_and_leave_the_sessi
         assert_eq!(files(&session), before, "{}", file.display());
     }
     // The protocol refuses the same with an error message, unchanged.
-    let mut child = Command::new(BIN)
-        .args(["session", "serve", &arg(&session), "--stdio"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut input = child.stdin.take().unwrap();
-    let mut output = BufReader::new(child.stdout.take().unwrap());
-    let _hello = read_line(&mut output);
+    let (mut child, mut input, mut output) = serve(&session);
     let pending = read_line(&mut output);
     assert!(pending.contains("\"type\":\"command\""), "{pending}");
     for (message, field) in [
@@ -836,14 +843,7 @@ fn one_process_writes_a_session_at_a_time() {
         assert_eq!(a.stdout, b.stdout, "both see the one pending command");
     }
     assert_eq!(status_json(&session)["pending_step"], 1);
-    let mut serve = Command::new(BIN)
-        .args(["session", "serve", &arg(&session), "--stdio"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut output = BufReader::new(serve.stdout.take().unwrap());
-    let _hello = read_line(&mut output);
+    let (mut serve, _input, mut output) = serve(&session);
     let _command = read_line(&mut output);
     let e = failed_with(
         &tdeploy(
@@ -1070,15 +1070,7 @@ fn serve_answers_a_discarding_resume_with_a_request_to_read_again() {
     let dir = tempfile::tempdir().unwrap();
     let rig = Rig::new(1);
     let session = new_session(dir.path(), "s", &[]);
-    let mut child = Command::new(BIN)
-        .args(["session", "serve", &arg(&session), "--stdio"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut input = child.stdin.take().unwrap();
-    let mut output = BufReader::new(child.stdout.take().unwrap());
-    let _hello = read_line(&mut output);
+    let (mut child, mut input, mut output) = serve(&session);
     writeln!(input, "{}", with_reading(&rig.start, "temperature", 95.0)).unwrap();
     let stopped: Value = serde_json::from_str(&read_line(&mut output)).unwrap();
     assert_eq!(stopped["type"], "stopped", "{stopped}");
