@@ -270,23 +270,15 @@ impl Candidate {
     /// off its neutral limit (an effect fitted as absent is not trusted:
     /// the verdict says "not confident").
     pub fn trusted(&self) -> bool {
-        let unidentified = self
-            .flags
-            .iter()
-            .filter(|f| {
-                matches!(
-                    f,
-                    ParameterFlag::NotIdentified { .. } | ParameterFlag::AtNeutralLimit { .. }
-                )
-            })
-            .count();
-        let distrusted = self.flags.iter().any(|f| {
-            !matches!(
+        // Flags that say a parameter tells nothing, not that it misleads.
+        let silent = |f: &ParameterFlag| {
+            matches!(
                 f,
                 ParameterFlag::NotIdentified { .. } | ParameterFlag::AtNeutralLimit { .. }
             )
-        });
-        self.converged && !distrusted && unidentified < self.values.len()
+        };
+        let uninformative = self.flags.iter().filter(|f| silent(f)).count();
+        self.converged && self.flags.iter().all(silent) && uninformative < self.values.len()
     }
 }
 
@@ -522,7 +514,7 @@ impl Base<'_> {
         let threshold = penalty(specs.len(), base_z.len(), tier, s);
         let one_sided = specs
             .iter()
-            .any(|p| p.neutral == p.admissible.0 || p.neutral == p.admissible.1);
+            .any(ParameterSpec::neutral_ends_admissible_range);
         let needed = linear.is_none_or(|g| !(g > threshold));
         let at_start = (one_sided && needed)
             .then(|| eval(&fit_start(specs, &bounds, s)))
@@ -670,19 +662,20 @@ fn parameter_flags(
         let (lo, hi) = (bounds.lower[i], bounds.upper[i]);
         if x[i] - lo <= near || hi - x[i] <= near {
             let bound = if x[i] - lo <= hi - x[i] { lo } else { hi };
-            let physical_end = bound == spec.admissible.0 || bound == spec.admissible.1;
-            flags.push(if physical_end && bound == spec.neutral {
-                ParameterFlag::AtNeutralLimit {
-                    parameter: parameter.clone(),
-                    value: x[i],
-                }
-            } else {
-                ParameterFlag::AtSearchBound {
-                    parameter: parameter.clone(),
-                    value: x[i],
-                    bound,
-                }
-            });
+            flags.push(
+                if spec.neutral_ends_admissible_range() && bound == spec.neutral {
+                    ParameterFlag::AtNeutralLimit {
+                        parameter: parameter.clone(),
+                        value: x[i],
+                    }
+                } else {
+                    ParameterFlag::AtSearchBound {
+                        parameter: parameter.clone(),
+                        value: x[i],
+                        bound,
+                    }
+                },
+            );
         }
         // Outside by more than a few standard errors: the data, not the
         // sampling, put it there.

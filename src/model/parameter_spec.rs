@@ -20,6 +20,13 @@ pub struct ParameterSpec {
 }
 
 impl ParameterSpec {
+    /// Whether the neutral value is also an end of the admissible range
+    /// (μ = 0, a backlash of 0): the effect can only be added on one side,
+    /// and a fit stopped there says the effect lacks this part.
+    pub fn neutral_ends_admissible_range(&self) -> bool {
+        self.neutral == self.admissible.0 || self.neutral == self.admissible.1
+    }
+
     /// Why `value` is not admissible ([`Self::admissible`], and finite);
     /// `None` if it is.
     pub fn admissible_reason(&self, value: f64) -> Option<String> {
