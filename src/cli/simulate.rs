@@ -58,7 +58,7 @@ pub fn command() -> Command {
         )
         .arg(Arg::new("increment").long("increment").value_parser(value_parser!(f64)).default_value("0.001").help("Largest payout increment per relaxation, m, in (0, 0.1]"))
         .arg(Arg::new("tol").long("tol").value_parser(value_parser!(f64)).default_value("1e-6").help("Force tolerance relative to the largest member force, in (0, 0.01]"))
-        .arg(Arg::new("slip-event-substeps").long("slip-event-substeps").action(clap::ArgAction::SetTrue).help("Split increments at friction reversals (and their sub-steps where Newton fails) down to 1 mm, so the path hardly depends on --increment (62 µm between 1 cm and 1 mm over a 5 cm reel-in and pay-out at μ 0.2, against 1.7 mm); about 1.26× the time of a 40 cm deployment"))
+        .arg(Arg::new("slip-event-substeps").long("slip-event-substeps").action(clap::ArgAction::SetTrue).help("Split increments at friction reversals (and their sub-steps where Newton fails) down to 1 mm, so the path hardly depends on --increment (62 µm between 1 cm and 1 mm over a 5 cm reel-in and pay-out at μ 0.2, against 1.7 mm); about 1.17× the time of a 40 cm deployment"))
         .arg(Arg::new("max-iter").long("max-iter").value_parser(value_parser!(usize)).default_value("200000").help("Most dynamic-relaxation iterations per solve; a solve that needs more stops the run (exit 1)"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/simulate").value_parser(value_parser!(PathBuf)))
         .arg(Arg::new("quiet").long("quiet").short('q').action(ArgAction::SetTrue).help("No progress bar"))

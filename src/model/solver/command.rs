@@ -10,8 +10,9 @@
 //! while every joint keeps its state through the increment. With
 //! `RelaxSettings::slip_event_substeps_enable` (off by default, see its
 //! cost there), an increment in which a sliding joint ends
-//! sliding the other way (the command reversed) is solved again in two
-//! halves, and inside it every sub-step in which a joint that was sliding
+//! sliding the other way (the command reversed), passing more material
+//! than `RelaxSettings::slip_event_min_transfer_m` the new way, is solved
+//! again in two halves, and inside it every sub-step in which a joint that was sliding
 //! ends stuck or reversed (a *slip event*), recursively, down to
 //! `RelaxSettings::slip_event_min_substep_m`; a sub-step whose Newton
 //! solve fails is halved the same way before DR finishes it (a whole
@@ -244,11 +245,17 @@ impl ForwardModel {
             ws.drop_kept_tangent();
             ws.counters.slip_event_splits += 1;
             let half: Vec<f64> = increment.iter().map(|d| 0.5 * d).collect();
+            // Newton's continuation step is a fraction of the increment: the
+            // halves keep the payout per step that worked, not the fraction
+            // (it would halve the step at every level of the splitting).
+            ws.continuation_step = (2.0 * ws.continuation_step).min(1.0);
             let first = self.increment_locating_slip_events(state, ws, &half, true, out);
             if !first.status.is_converged() {
                 return first;
             }
-            self.increment_locating_slip_events(state, ws, &half, true, out)
+            let second = self.increment_locating_slip_events(state, ws, &half, true, out);
+            ws.continuation_step *= 0.5;
+            second
         };
         if !newton.converged && locating {
             if let Some(start) = start {
@@ -267,13 +274,33 @@ impl ForwardModel {
         let event = if locating {
             slip_event(&start.joint_slip, &state.joint_slip)
         } else {
-            slip_reversal(&start.joint_slip, &state.joint_slip)
+            largest_reversal_transfer_m(&start, state) >= self.settings.slip_event_min_transfer_m
+                && slip_reversal(&start.joint_slip, &state.joint_slip)
         };
         if !(r.status.is_converged() && event) {
             return r;
         }
         split(state, ws, out, start)
     }
+}
+
+/// Largest material, m, passed in the increment from `start` to `end`
+/// through a joint that slid one way at the start and the other way at the
+/// end (0 if none reversed). What passes a joint is what its downstream
+/// segments gained.
+fn largest_reversal_transfer_m(start: &DeploymentState, end: &DeploymentState) -> f64 {
+    let mut largest = 0.0f64;
+    for cable in start.segment_offsets.windows(2) {
+        let mut passed = 0.0;
+        // Joint `j` sits between segments `j − 1` and `j` (none at the motor).
+        for j in (cable[0] + 1..cable[1]).rev() {
+            passed += end.segment_rest_lengths_m[j] - start.segment_rest_lengths_m[j];
+            if slip_reversal(&start.joint_slip[j..=j], &end.joint_slip[j..=j]) {
+                largest = largest.max(passed.abs());
+            }
+        }
+    }
+    largest
 }
 
 /// Whether a joint sliding at the start (`before`) ends sliding the other
@@ -361,6 +388,38 @@ mod tests {
             apart(&coarse_off, &fine_off) > 1e-3,
             "the bug is what the setting fixes"
         );
+    }
+
+    /// The material a reversing joint passed is what its downstream
+    /// segments gained; a joint that stopped, or kept its direction, is
+    /// no reversal, whatever passed it.
+    #[test]
+    fn a_reversals_transfer_is_what_passed_the_reversed_joint() {
+        let model = bridge(0.2);
+        let start = model.reference_state();
+        let (o, e) = (start.segment_offsets[0], start.segment_offsets[1]);
+        assert!(e - o >= 4, "the first cable has at least 4 segments");
+        let mut before = start.clone();
+        let mut after = start.clone();
+        // 0.3 mm moves from segment o+1 into o+2 (past joint o+2) and
+        // 0.1 mm on from o+2 into o+3 (past joint o+3).
+        after.segment_rest_lengths_m[o + 1] -= 3e-4;
+        after.segment_rest_lengths_m[o + 2] += 2e-4;
+        after.segment_rest_lengths_m[o + 3] += 1e-4;
+        before.joint_slip[o + 2] = JointSlip::TowardsMotor;
+        after.joint_slip[o + 2] = JointSlip::TowardsEnd;
+        let passed = largest_reversal_transfer_m(&before, &after);
+        assert!((passed - 3e-4).abs() < 1e-12, "{passed}");
+        // Joint o+3 reversing instead passed only 0.1 mm.
+        before.joint_slip[o + 2] = JointSlip::TowardsMotor;
+        after.joint_slip[o + 2] = JointSlip::TowardsMotor;
+        before.joint_slip[o + 3] = JointSlip::TowardsEnd;
+        after.joint_slip[o + 3] = JointSlip::TowardsMotor;
+        let passed = largest_reversal_transfer_m(&before, &after);
+        assert!((passed - 1e-4).abs() < 1e-12, "{passed}");
+        // Stopping is no reversal.
+        after.joint_slip[o + 3] = JointSlip::Stuck;
+        assert_eq!(largest_reversal_transfer_m(&before, &after), 0.0);
     }
 
     #[test]
