@@ -30,7 +30,9 @@ use crate::numerics::{check_ranges, FieldError, NumberRange, Ranged};
 #[serde(default, deny_unknown_fields)]
 pub struct DiagnoseSettings {
     /// Greedy rounds: effects (library or local) found at most, one per
-    /// round; the search stops earlier when a round accepts nothing.
+    /// round; the search stops earlier when a round accepts nothing, or
+    /// when the effects found already explain the log to its noise (a
+    /// further round could only fit noise).
     /// Default 2: a second effect that the first one's signal hid can be
     /// found (the joint refit then separates the two). Each round screens
     /// every candidate and fits those that pass (minutes on the reference
