@@ -534,7 +534,9 @@ impl Base<'_> {
                 .map(|c| fit_z(&c, cycles, s))
         };
         let bounds = SearchBox::of(specs, &s.fit);
-        let linear = predicted_gain(&eval, &neutral, &bounds, base_z.len(), &s.fit);
+        // At its neutral value the candidate is absent: the replay there is
+        // the model's own, `base_z`.
+        let linear = predicted_gain(&eval, &neutral, base_z.clone(), &bounds, &s.fit);
         // Where a neutral value is also the end of its admissible range
         // (μ = 0, a backlash of 0), the linearisation there is one-sided,
         // and for the hysteretic effects it is no guide: on a lab log of
@@ -1038,6 +1040,61 @@ pub fn effects_found(base: Effects, verdict: &Verdict) -> Effects {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The screen takes the model's own residuals for a candidate at its
+    /// neutral value (`predicted_gain`'s `r0`) instead of replaying the
+    /// log there. That is exact only if the replay at the neutral value is
+    /// the model's own, bit for bit: checked for every library effect the
+    /// model lacks and every local term, on a model that already has
+    /// friction (a second round's base) and a log of friction and
+    /// backlash.
+    #[test]
+    fn a_candidate_at_its_neutral_value_replays_the_models_own_residuals() {
+        use crate::design::{reference_bridge, BridgeParameters};
+        use crate::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
+        use crate::model::RelaxSettings;
+        use crate::sim::standard_sensors;
+        let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+        let model = |effects: Effects| EffectModel {
+            structure: structure.clone(),
+            effects,
+            settings: RelaxSettings::default(),
+            increment_m: 0.01,
+        };
+        let truth = model(
+            Effects::default()
+                .with_parameters(EffectKind::JointFriction, &[0.15])
+                .with_parameters(EffectKind::Motor, &[0.0, 0.002]),
+        );
+        let sensors = standard_sensors(&structure);
+        let cycles = standard_cycles(
+            structure.continuous_cables.len(),
+            &[0.02],
+            2,
+            DAILY_SWING_K,
+        );
+        let log = run_lab(&truth, &sensors, &cycles, 5).unwrap();
+        let base = model(Effects::default().with_parameters(EffectKind::JointFriction, &[0.1]));
+        let h = Hypothesis::of(base.effects);
+        let current = compare_hypothesis(&base, &h, &log).unwrap();
+        let z = |c: &Comparison| c.residuals.iter().map(|r| r.z).collect::<Vec<f64>>();
+        let terms: Vec<Term> = EffectKind::ALL
+            .into_iter()
+            .map(Term::Global)
+            .filter(|t| h.parameters(*t).is_none())
+            .chain(
+                local_candidates(&structure, &log.sensors)
+                    .into_iter()
+                    .map(Term::Local),
+            )
+            .collect();
+        assert!(terms.len() > EffectKind::ALL.len());
+        for term in terms {
+            let neutral: Vec<f64> = term.parameters().iter().map(|p| p.neutral).collect();
+            let at_neutral = compare_with(&base, &h, &current, term, &neutral, &log).unwrap();
+            assert_eq!(z(&at_neutral), z(&current), "{term:?}");
+        }
+    }
 
     #[test]
     fn every_search_range_holds_the_neutral_value() {
