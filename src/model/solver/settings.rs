@@ -126,7 +126,7 @@ pub struct RelaxSettings {
     /// joint; located, the reversal shows the joints sticking first, so
     /// reeling in tensions the segments next to the motor while the ones
     /// beyond them fall (the uneven 45/33 cm fold, seed 1: segments
-    /// A_cc1[2] and [3], at 4.8 N below their 5 N minimum since the start,
+    /// `A_cc1[2]` and `A_cc1[3]`, at 4.8 N below their 5 N minimum since the start,
     /// dip to 4.3–4.4 N in the first two increments, then recover). Once
     /// mapped at the end of a 1 cm increment, the reversal slides at once
     /// and hides the dip; the frictionless controller predicts equal
