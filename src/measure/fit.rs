@@ -153,26 +153,8 @@ pub fn predicted_gain(
     let jtj = jac.transpose() * &jac;
     let grad = jac.transpose() * &r;
     let solve = |free: &[bool]| -> DVector<f64> {
-        let idx: Vec<usize> = (0..k).filter(|i| free[*i]).collect();
-        let mut step = DVector::zeros(k);
-        if idx.is_empty() {
-            return step;
-        }
-        let a = DMatrix::from_fn(idx.len(), idx.len(), |i, j| {
-            jtj[(idx[i], idx[j])]
-                + if i == j {
-                    SCREEN_RIDGE * jtj[(idx[i], idx[i])].max(SCREEN_DIAGONAL_FLOOR)
-                } else {
-                    0.0
-                }
-        });
-        let rhs = DVector::from_fn(idx.len(), |i, _| -grad[idx[i]]);
-        if let Some(d) = a.lu().solve(&rhs) {
-            for (i, &v) in idx.iter().zip(d.iter()) {
-                step[*i] = v;
-            }
-        }
-        step
+        damped_step_on(&jtj, &grad, free, SCREEN_RIDGE, SCREEN_DIAGONAL_FLOOR)
+            .unwrap_or_else(|| DVector::zeros(k))
     };
     let mut free = vec![true; k];
     let mut step = solve(&free);
@@ -201,6 +183,37 @@ pub struct Fit {
     pub converged: bool,
 }
 
+/// The step `(JᵀJ + λ·diag(JᵀJ))·d = −Jᵀr` on the parameters `free`
+/// (the others held: 0), with `λ = damping` and the diagonal floored at
+/// `floor`; `None` where that system is singular.
+fn damped_step_on(
+    jtj: &DMatrix<f64>,
+    grad: &DVector<f64>,
+    free: &[bool],
+    damping: f64,
+    floor: f64,
+) -> Option<DVector<f64>> {
+    let idx: Vec<usize> = (0..free.len()).filter(|&i| free[i]).collect();
+    let mut step = DVector::zeros(free.len());
+    if idx.is_empty() {
+        return Some(step);
+    }
+    let a = DMatrix::from_fn(idx.len(), idx.len(), |i, j| {
+        jtj[(idx[i], idx[j])]
+            + if i == j {
+                damping * jtj[(idx[i], idx[i])].max(floor)
+            } else {
+                0.0
+            }
+    });
+    let rhs = DVector::from_fn(idx.len(), |i, _| -grad[idx[i]]);
+    let d = a.lu().solve(&rhs)?;
+    for (&i, v) in idx.iter().zip(d.iter()) {
+        step[i] = *v;
+    }
+    Some(step)
+}
+
 /// The damped Gauss–Newton step (scaled parameters) from `x` with damping
 /// `lambda` on `JᵀJ = jtj` and gradient `Jᵀr = grad`, with every parameter
 /// that sits on a bound of `b` and that the step would push through it
@@ -223,26 +236,9 @@ fn bounded_step(
     let k = x.len();
     let mut free = vec![true; k];
     loop {
-        let idx: Vec<usize> = (0..k).filter(|&i| free[i]).collect();
-        let mut step = DVector::zeros(k);
-        if !idx.is_empty() {
-            let a = DMatrix::from_fn(idx.len(), idx.len(), |i, j| {
-                jtj[(idx[i], idx[j])]
-                    + if i == j {
-                        lambda * jtj[(idx[i], idx[i])].max(DAMPING_DIAGONAL_FLOOR)
-                    } else {
-                        0.0
-                    }
-            });
-            let rhs = DVector::from_fn(idx.len(), |i, _| -grad[idx[i]]);
-            let d = a.lu().solve(&rhs)?;
-            for (&i, v) in idx.iter().zip(d.iter()) {
-                step[i] = *v;
-            }
-        }
-        let pushed: Vec<usize> = idx
-            .iter()
-            .copied()
+        let step = damped_step_on(jtj, grad, &free, lambda, DAMPING_DIAGONAL_FLOOR)?;
+        let pushed: Vec<usize> = (0..k)
+            .filter(|&i| free[i])
             .filter(|&i| {
                 (x[i] >= b.upper[i] && step[i] > 0.0) || (x[i] <= b.lower[i] && step[i] < 0.0)
             })
