@@ -90,7 +90,9 @@ fn path_difference(mu: f64, commands: &[Vec<f64>], enable: bool) -> f64 {
         let mut s = model.reference_state();
         let mut out = Vec::new();
         for d in commands {
-            model.apply_payout(&mut s, &mut ws, d, inc, &mut ()).unwrap();
+            model
+                .apply_payout(&mut s, &mut ws, d, inc, &mut ())
+                .unwrap();
             out.push(s.positions_m.clone());
         }
         out
@@ -118,9 +120,21 @@ fn untuned_cases() {
         ("5 cm in-out, mu 0.1", 0.1, vec![all(-0.05), all(0.05)]),
         ("5 cm in-out, mu 0.3", 0.3, vec![all(-0.05), all(0.05)]),
         ("10 cm in-out, mu 0.2", 0.2, vec![all(-0.1), all(0.1)]),
-        ("cable 0 alone 5 cm in-out, mu 0.2", 0.2, vec![one(0, -0.05), one(0, 0.05)]),
-        ("cable 7 alone 5 cm in-out, mu 0.2", 0.2, vec![one(7, -0.05), one(7, 0.05)]),
-        ("3 cm in-out-in, mu 0.2", 0.2, vec![all(-0.03), all(0.03), all(-0.03)]),
+        (
+            "cable 0 alone 5 cm in-out, mu 0.2",
+            0.2,
+            vec![one(0, -0.05), one(0, 0.05)],
+        ),
+        (
+            "cable 7 alone 5 cm in-out, mu 0.2",
+            0.2,
+            vec![one(7, -0.05), one(7, 0.05)],
+        ),
+        (
+            "3 cm in-out-in, mu 0.2",
+            0.2,
+            vec![all(-0.03), all(0.03), all(-0.03)],
+        ),
         ("cable 0 alone 5 cm in, mu 0.2", 0.2, vec![one(0, -0.05)]),
         ("40 cm out, mu 0.2", 0.2, vec![all(0.4)]),
     ];

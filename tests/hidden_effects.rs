@@ -130,27 +130,33 @@ hidden_effect_tests! {
     hidden_support_flexibility_is_found: EffectKind::SupportFlexibility, 18;
 }
 
-/// Issue 24 (diagnose speed): once the effects found explain the log to
-/// its noise (what the verdict calls clean), another round can only fit
-/// noise, which its acceptance test refuses; it used to screen and fit
-/// every remaining effect anyway (on the README walkthrough's log 3.3 s
-/// of 7.6 s). With the default two rounds, a log with friction alone
-/// hidden ends after the round that finds it, with the same verdict.
+/// Review of the diagnose speed work (issue 24): ending the search once
+/// the model passed the noise tests lost a real second effect. The noise
+/// limit leaves up to about 4·√(2n) of held-out χ² unexplained, while a
+/// candidate is accepted for a gain above its penalty (about 11), so
+/// friction alone left this log "clean" and the 5 % joint-mass error
+/// under it was never searched for (seed 22: its second-round held-out
+/// gain is 12.8 against a penalty of 10.6). Every round runs.
 #[test]
-fn a_model_that_explains_the_log_ends_the_search() {
-    let kind = EffectKind::JointFriction;
+fn a_second_effect_under_the_noise_limit_is_still_found() {
     let truth = model(
         reference_structure(),
-        Effects::default().with_parameters(kind, &plausible_draw(kind, 11)),
+        Effects::default()
+            .with_parameters(EffectKind::JointFriction, &[0.15])
+            .with_parameters(EffectKind::JointMassError, &[1.05]),
     );
-    let log = lab_log(&truth, 11);
+    let log = lab_log(&truth, 22);
     let baseline = model(reference_structure(), Effects::default());
-    let settings = DiagnoseSettings::default();
-    assert!(settings.max_rounds >= 2);
-    let d = diagnose(&baseline, &log, &settings).unwrap();
-    assert_eq!(d.rounds.len(), 1, "{:?}", d.verdict);
+    let d = diagnose(&baseline, &log, &DiagnoseSettings::default()).unwrap();
+    let found: Vec<Term> = match &d.verdict {
+        Verdict::Missing { found, .. } | Verdict::Unexplained { found, .. } => {
+            found.iter().map(|c| c.term).collect()
+        }
+        Verdict::NothingMissing => vec![],
+    };
     assert!(
-        matches!(&d.verdict, Verdict::Missing { found, .. } if found.len() == 1 && found[0].term == Term::Global(kind)),
+        found.contains(&Term::Global(EffectKind::JointFriction))
+            && found.contains(&Term::Global(EffectKind::JointMassError)),
         "{:?}",
         d.verdict
     );

@@ -534,9 +534,15 @@ impl Base<'_> {
                 .map(|c| fit_z(&c, cycles, s))
         };
         let bounds = SearchBox::of(specs, &s.fit);
-        // At its neutral value the candidate is absent: the replay there is
-        // the model's own, `base_z`.
-        let linear = predicted_gain(&eval, &neutral, base_z.clone(), &bounds, &s.fit);
+        // At its neutral value a candidate the model lacks is absent: the
+        // replay there is the model's own, `base_z`. (One the model has,
+        // which `screen_candidate` may be asked for, is replayed there.)
+        let at_neutral = if self.h.parameters(term).is_none() {
+            Some(base_z.clone())
+        } else {
+            eval(&neutral)
+        };
+        let linear = at_neutral.and_then(|r0| predicted_gain(&eval, &neutral, r0, &bounds, &s.fit));
         // Where a neutral value is also the end of its admissible range
         // (μ = 0, a backlash of 0), the linearisation there is one-sided,
         // and for the hysteretic effects it is no guide: on a lab log of
@@ -797,12 +803,6 @@ pub fn diagnose(
     let first_held = part(&current, cycles, true, settings);
     let first_clean = is_clean(&current, log, settings);
     while rounds.len() < settings.max_rounds {
-        // A model the log cannot tell from noise (what the verdict calls
-        // clean) has nothing left for another round to find: any gain
-        // would be a fit to noise, which the acceptance test refuses.
-        if !found.is_empty() && is_clean(&current, log, settings) {
-            break;
-        }
         let held = part(&current, cycles, true, settings);
         let base_fit = part(&current, cycles, false, settings);
         let base_bic = chi2(&base_fit).0
@@ -1067,12 +1067,7 @@ mod tests {
                 .with_parameters(EffectKind::Motor, &[0.0, 0.002]),
         );
         let sensors = standard_sensors(&structure);
-        let cycles = standard_cycles(
-            structure.continuous_cables.len(),
-            &[0.02],
-            2,
-            DAILY_SWING_K,
-        );
+        let cycles = standard_cycles(structure.continuous_cables.len(), &[0.02], 2, DAILY_SWING_K);
         let log = run_lab(&truth, &sensors, &cycles, 5).unwrap();
         let base = model(Effects::default().with_parameters(EffectKind::JointFriction, &[0.1]));
         let h = Hypothesis::of(base.effects);

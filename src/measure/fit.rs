@@ -6,6 +6,7 @@
 //! Every choice that tunes them is a field of [`FitSettings`].
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::settings::FitSettings;
 use crate::model::effects::ParameterSpec;
@@ -113,13 +114,21 @@ pub fn jacobian(
     b: &SearchBox,
     settings: &FitSettings,
 ) -> Option<DMatrix<f64>> {
+    // The columns are independent replays: run side by side (the screens
+    // of the last candidates of a round are otherwise one thread's work).
+    let columns: Vec<Option<(f64, Vec<f64>)>> = (0..x.len())
+        .into_par_iter()
+        .map(|i| {
+            let h = settings.difference_step * b.scale[i];
+            let mut xp = x.to_vec();
+            xp[i] += if xp[i] + h <= b.upper[i] { h } else { -h };
+            let step = xp[i] - x[i];
+            eval(&xp).map(|rp| (step, rp))
+        })
+        .collect();
     let mut jac = DMatrix::<f64>::zeros(r.len(), x.len());
-    for i in 0..x.len() {
-        let h = settings.difference_step * b.scale[i];
-        let mut xp = x.to_vec();
-        xp[i] += if xp[i] + h <= b.upper[i] { h } else { -h };
-        let step = xp[i] - x[i];
-        let rp = eval(&xp)?;
+    for (i, column) in columns.into_iter().enumerate() {
+        let (step, rp) = column?;
         if rp.len() != r.len() {
             return None;
         }
@@ -139,7 +148,8 @@ pub fn jacobian(
 /// `r0` is passed, not evaluated: the screen starts every candidate at
 /// its neutral value, where the replay is the model's own (the same
 /// residuals, bit for bit; a test in `measure::diagnose` checks it), so
-/// it is known before the screen and one replay of two is saved.
+/// it is known before the screen and one replay of a `k`-parameter
+/// candidate's `k + 1` is saved.
 pub fn predicted_gain(
     eval: &Residuals,
     x0: &[f64],
@@ -420,6 +430,10 @@ mod tests {
         assert_eq!(fit.values[0], a);
         // Clamped steps stalled 1.25e-3 from it (no clamped step lowered
         // χ², so the fit ended there as "converged").
-        assert!((fit.values[1] - slope).abs() < 1e-6, "{:?} vs {slope}", fit.values);
+        assert!(
+            (fit.values[1] - slope).abs() < 1e-6,
+            "{:?} vs {slope}",
+            fit.values
+        );
     }
 }
