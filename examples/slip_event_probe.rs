@@ -72,13 +72,9 @@ fn main() {
 }
 
 /// Largest node distance, m, after each of `commands` (payout changes,
-/// m, per cable, from the reference state) at μ = `mu`, between 1 cm and
-/// 1 mm increments.
-fn path_difference(mu: f64, commands: &[Vec<f64>], enable: bool) -> f64 {
-    let settings = RelaxSettings {
-        slip_event_substeps_enable: enable,
-        ..RelaxSettings::default()
-    };
+/// m, per cable, from the reference state) at μ = `mu` with `settings`,
+/// between 1 cm and 1 mm increments.
+fn path_difference(mu: f64, commands: &[Vec<f64>], settings: RelaxSettings) -> f64 {
     let model = ForwardModel::new(
         reference_bridge(&BridgeParameters::default()).unwrap(),
         JointFriction::constant(mu).unwrap(),
@@ -138,11 +134,15 @@ fn untuned_cases() {
         ("cable 0 alone 5 cm in, mu 0.2", 0.2, vec![one(0, -0.05)]),
         ("40 cm out, mu 0.2", 0.2, vec![all(0.4)]),
     ];
+    let substeps = |enable: bool| RelaxSettings {
+        slip_event_substeps_enable: enable,
+        ..RelaxSettings::default()
+    };
     for (name, mu, commands) in cases {
         println!(
             "  {name}: 1 cm vs 1 mm {:.1} um off, {:.1} um on",
-            1e6 * path_difference(mu, &commands, false),
-            1e6 * path_difference(mu, &commands, true)
+            1e6 * path_difference(mu, &commands, substeps(false)),
+            1e6 * path_difference(mu, &commands, substeps(true))
         );
     }
 }
@@ -150,33 +150,14 @@ fn untuned_cases() {
 /// Largest node distance, m, between the cycle (every cable reeled in
 /// 5 cm, then paid out 5 cm) at 1 cm and at 1 mm increments.
 fn cycle_difference(enable: bool, min: f64) -> f64 {
+    let n = reference_bridge(&BridgeParameters::default())
+        .unwrap()
+        .continuous_cables
+        .len();
     let settings = RelaxSettings {
         slip_event_substeps_enable: enable,
         slip_event_min_substep_m: min,
         ..RelaxSettings::default()
     };
-    let model = ForwardModel::new(
-        reference_bridge(&BridgeParameters::default()).unwrap(),
-        JointFriction::constant(0.2).unwrap(),
-        settings,
-    )
-    .unwrap();
-    let n = model.structure().continuous_cables.len();
-    let run = |inc: f64| {
-        let mut ws = Workspace::default();
-        let mut s = model.reference_state();
-        let mut out = Vec::new();
-        for d in [-0.05, 0.05] {
-            model
-                .apply_payout(&mut s, &mut ws, &vec![d; n], inc, &mut ())
-                .unwrap();
-            out.push(s.positions_m.clone());
-        }
-        out
-    };
-    let (a, b) = (run(0.01), run(0.001));
-    a.iter()
-        .zip(&b)
-        .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).norm()))
-        .fold(0.0, f64::max)
+    path_difference(0.2, &[vec![-0.05; n], vec![0.05; n]], settings)
 }

@@ -335,10 +335,14 @@ mod tests {
     use crate::model::{JointFriction, RelaxSettings};
 
     fn bridge(mu: f64) -> ForwardModel {
+        bridge_with(mu, RelaxSettings::default())
+    }
+
+    fn bridge_with(mu: f64, settings: RelaxSettings) -> ForwardModel {
         ForwardModel::new(
             reference_bridge(&BridgeParameters::default()).unwrap(),
             JointFriction::constant(mu).unwrap(),
-            RelaxSettings::default(),
+            settings,
         )
         .unwrap()
     }
@@ -352,16 +356,13 @@ mod tests {
     #[test]
     fn a_reversal_gives_the_same_path_at_1_cm_and_1_mm_increments() {
         let run = |enable: bool, increment_m: f64| {
-            let settings = RelaxSettings {
-                slip_event_substeps_enable: enable,
-                ..RelaxSettings::default()
-            };
-            let model = ForwardModel::new(
-                reference_bridge(&BridgeParameters::default()).unwrap(),
-                JointFriction::constant(0.2).unwrap(),
-                settings,
-            )
-            .unwrap();
+            let model = bridge_with(
+                0.2,
+                RelaxSettings {
+                    slip_event_substeps_enable: enable,
+                    ..RelaxSettings::default()
+                },
+            );
             let n = model.structure().continuous_cables.len();
             let mut ws = Workspace::default();
             let mut state = model.reference_state();
@@ -434,17 +435,14 @@ mod tests {
     #[test]
     fn a_reversal_passing_under_the_threshold_is_not_split() {
         let run = |min_transfer_m: f64| {
-            let settings = RelaxSettings {
-                slip_event_substeps_enable: true,
-                slip_event_min_transfer_m: min_transfer_m,
-                ..RelaxSettings::default()
-            };
-            let model = ForwardModel::new(
-                reference_bridge(&BridgeParameters::default()).unwrap(),
-                JointFriction::constant(0.2).unwrap(),
-                settings,
-            )
-            .unwrap();
+            let model = bridge_with(
+                0.2,
+                RelaxSettings {
+                    slip_event_substeps_enable: true,
+                    slip_event_min_transfer_m: min_transfer_m,
+                    ..RelaxSettings::default()
+                },
+            );
             let n = model.structure().continuous_cables.len();
             let mut ws = Workspace::default();
             let mut s = model.reference_state();
