@@ -1052,15 +1052,9 @@ mod tests {
     fn a_candidate_at_its_neutral_value_replays_the_models_own_residuals() {
         use crate::design::{reference_bridge, BridgeParameters};
         use crate::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
-        use crate::model::RelaxSettings;
         use crate::sim::standard_sensors;
         let structure = reference_bridge(&BridgeParameters::default()).unwrap();
-        let model = |effects: Effects| EffectModel {
-            structure: structure.clone(),
-            effects,
-            settings: RelaxSettings::default(),
-            increment_m: 0.01,
-        };
+        let model = |effects: Effects| EffectModel::for_measurement(structure.clone(), effects);
         let truth = model(
             Effects::default()
                 .with_parameters(EffectKind::JointFriction, &[0.15])

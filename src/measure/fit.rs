@@ -292,6 +292,11 @@ pub fn levenberg_marquardt(
             };
             let mut trial: Vec<f64> = (0..k).map(|i| x[i] + delta[i] * b.scale[i]).collect();
             b.clamp(&mut trial);
+            // Every parameter held on its bound (or a zero gradient): no
+            // damping moves it, and replaying `x` again gains nothing.
+            if trial == x {
+                break;
+            }
             if let Some(rt) = eval(&trial) {
                 let c: f64 = rt.iter().map(|v| v * v).sum();
                 if rt.len() == r.len() && c < cost {
