@@ -11,9 +11,9 @@
 //! 1677, 51, 137, 0 µm). Cable 0 alone differs by 137 µm with or without
 //! them, even on a monotone reel-in and with every slip event split at
 //! the top level too; against 1 mm it is 40 µm at 5 mm increments, 7 µm
-//! at 2.5 mm and 0 at 2 mm. Likely (not verified) a joint that starts and
-//! stops sliding inside one increment: the start and end states, which
-//! decide the splitting, both show it stuck.
+//! at 2.5 mm and 0 at 2 mm. The cause (verified, known limitations 15):
+//! a joint sliding at both ends of an increment stops inside it (a stall),
+//! which no end state shows.
 //!
 //! `cargo run --release --example slip_event_probe [-- MIN_SUBSTEP_M]`
 //! (default the setting's default, 0.001); `-- --untuned` for the cases

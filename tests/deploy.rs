@@ -747,3 +747,35 @@ fn an_uneven_fold_connects_without_breaking_a_limit() {
     let v = d.verdict(problem.connection_tolerance_m);
     assert!(v.violations > 10, "gaps only: {}", v.describe());
 }
+
+/// Issue 22, item 7: scenario 34 of `scenarios/wide.toml`, seed 777 (half
+/// A folded 46 cm, half B 57 cm, μ 0.08, the halves' stiffnesses and
+/// joint masses apart). Half B's fold leaves `B_cc0` slack in the
+/// controller's model; the first command reeled every other cable in by
+/// 5 cm and held `B_cc0`, whose force rows read 0 N before and after, and
+/// the truth's `B_cc0`, still taut at 2–4 N, went slack in all four
+/// segments (36 truth limits broken before the deployment connected). A
+/// trial that slackens a cable the model has slack is now refused
+/// (`plan::slack`): the trust region shrinks until the first command
+/// reels `B_cc0` in with the others, and the deployment connects with
+/// every truth limit kept.
+#[test]
+fn the_first_command_does_not_slacken_a_cable_the_fold_left_slack() {
+    use tensegrity_deploy::io::evaluation_files::read_distribution;
+    let distribution = read_distribution(&common::repo_path("scenarios/wide.toml")).unwrap();
+    let scenario = distribution.draw(777, 34);
+    let d = scenario.with_setup(
+        &frictionless_reference_model(),
+        &DeploymentProblem::default(),
+        &Policy::default(),
+        |setup| deploy_closed_loop(setup, &mut ()).expect("deployment starts"),
+    );
+    let first = &d.records[0];
+    assert!(
+        first.command_m[5] < -0.01,
+        "B_cc0 held on the first command: {:?}",
+        first.command_m
+    );
+    assert_eq!(broken_limits(&d), 0);
+    assert!(matches!(d.status, PlanStatus::Connected), "{:?}", d.status);
+}

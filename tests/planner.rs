@@ -500,7 +500,8 @@ fn bad_policy_and_problem_files_are_rejected_naming_file_line_and_field() {
 /// is slack and every limit held on the model.
 #[test]
 fn a_slack_cable_is_taken_up_before_the_qp_plans_on_it() {
-    use tensegrity_deploy::plan::take_up::{slack_per_cable_m, take_up};
+    use tensegrity_deploy::plan::slack::cable_slack_m;
+    use tensegrity_deploy::plan::take_up::take_up;
     use tensegrity_deploy::plan::{planner_for, Decision};
     let model = ForwardModel::new(
         reference_structure(),
@@ -517,7 +518,7 @@ fn a_slack_cable_is_taken_up_before_the_qp_plans_on_it() {
     let start = folded_start(&model, &problem, policy.increment_m).unwrap();
     let context = PlanContext::new(&model, &problem, &policy, &start).unwrap();
     let cables = &model.structure().continuous_cables;
-    let slack = slack_per_cable_m(&context, &start);
+    let slack = cable_slack_m(context.model, &start);
     for (c, cable) in cables.iter().enumerate() {
         // More than a millimetre of slack on cc1, none elsewhere.
         assert_eq!(
@@ -549,7 +550,7 @@ fn a_slack_cable_is_taken_up_before_the_qp_plans_on_it() {
         }
     }
     assert!(command.trial.admissible());
-    let after = slack_per_cable_m(&context, &command.trial.state);
+    let after = cable_slack_m(context.model, &command.trial.state);
     assert!(after.iter().all(|&l| l <= 1e-6), "{after:?}");
     let mut planner = planner_for(&context, &start);
     match planner.next_command(&context, &start) {

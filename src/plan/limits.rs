@@ -202,6 +202,16 @@ pub enum LimitViolation {
         /// The lower limit, N.
         lower_n: f64,
     },
+    /// A continuous cable the model has slack grew slacker (see
+    /// [`super::slack`]): a cable the bridge may still hold taut.
+    SlackGrew {
+        /// The cable's id.
+        cable: String,
+        /// Its slack, m.
+        slack_m: f64,
+        /// Its slack at the command's start, m.
+        start_slack_m: f64,
+    },
 }
 
 impl LimitViolation {
@@ -253,6 +263,15 @@ impl LimitViolation {
             } => format!(
                 "{member} (unmeasured) at {force_n:.1} N after a {fall_n:.1} N fall: less than {margin} × the fall above {lower_n:.1} N"
             ),
+            LimitViolation::SlackGrew {
+                cable,
+                slack_m,
+                start_slack_m,
+            } => format!(
+                "cable {cable} slack by {:.2} mm, slacker than the {:.2} mm at the command's start",
+                1e3 * slack_m,
+                1e3 * start_slack_m
+            ),
         }
     }
 }
@@ -278,6 +297,7 @@ impl LimitViolation {
             LimitViolation::StrutsTooClose {
                 strut_a, strut_b, ..
             } => format!("clearance {strut_a}–{strut_b}"),
+            LimitViolation::SlackGrew { cable, .. } => format!("{cable} slack"),
         }
     }
 
@@ -314,6 +334,11 @@ impl LimitViolation {
             LimitViolation::StrutsTooClose {
                 distance_m, min_m, ..
             } => min_m - distance_m,
+            LimitViolation::SlackGrew {
+                slack_m,
+                start_slack_m,
+                ..
+            } => slack_m - start_slack_m,
         }
     }
 }

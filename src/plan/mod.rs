@@ -36,6 +36,7 @@ pub mod problem;
 pub mod qp_step;
 pub mod response;
 pub mod search;
+pub mod slack;
 pub mod take_up;
 pub mod verdict;
 

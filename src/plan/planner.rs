@@ -12,6 +12,7 @@ use super::outcome::{PlanError, PlanStatus};
 use super::policy::{Policy, PolicyError};
 use super::problem::{DeploymentProblem, MotorLimits};
 use super::qp_step::QpStepStatus;
+use super::slack::{cable_slack_m, slack_growth};
 use crate::model::{
     DeploymentState, ForwardModel, IncrementObserver, RelaxReport, RelaxStatus, Workspace,
 };
@@ -190,6 +191,7 @@ impl<'a> PlanContext<'a> {
         let mut watch = LimitWatch {
             context: self,
             start_rows_n: self.corrected_force_rows(state),
+            start_slack_m: cable_slack_m(self.model, state),
             worst: None,
         };
         let status = match self.model.apply_payout(
@@ -301,6 +303,8 @@ struct LimitWatch<'c, 'a> {
     context: &'c PlanContext<'a>,
     /// Force rows at the command's start, with offsets, N.
     start_rows_n: Vec<f64>,
+    /// Each continuous cable's slack at the command's start, m.
+    start_slack_m: Vec<f64>,
     worst: Option<LimitCheck>,
 }
 
@@ -318,6 +322,11 @@ impl IncrementObserver for LimitWatch<'_, '_> {
             &self.start_rows_n,
             &rows,
             r.tolerance_n,
+        ));
+        c.violations.extend(slack_growth(
+            self.context.model,
+            &self.start_slack_m,
+            &cable_slack_m(self.context.model, state),
         ));
         self.worst = Some(worst_along_path(self.worst.take(), c));
     }

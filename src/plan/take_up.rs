@@ -16,28 +16,9 @@
 //! trial keeps every limit; otherwise the QP plans as before.
 
 use super::planner::{PlanContext, PlannedCommand};
+use super::slack::{cable_slack_m, SLACK_M};
 use crate::model::DeploymentState;
 
-/// A segment slack by less than this is taut, m: below the solver's
-/// length resolution on a 1 m segment.
-const SLACK_M: f64 = 1e-6;
-
-/// Per motor, the cable length its continuous cable is slack by at
-/// `state`, m (0 for a taut cable).
-pub fn slack_per_cable_m(context: &PlanContext, state: &DeploymentState) -> Vec<f64> {
-    let s = context.model.structure();
-    let forces = context.model.member_forces(state);
-    s.continuous_cables
-        .iter()
-        .enumerate()
-        .map(|(c, cable)| {
-            let o = state.segment_offsets[c];
-            (o..o + cable.segment_count())
-                .map(|k| (state.segment_rest_lengths_m[k] - forces.segment_length_m[k]).max(0.0))
-                .sum()
-        })
-        .collect()
-}
 
 /// The take-up command at `state`: every motor of a slack cable reels in
 /// its slack and the stretch to the minimum tension (within its step and
@@ -45,7 +26,7 @@ pub fn slack_per_cable_m(context: &PlanContext, state: &DeploymentState) -> Vec<
 /// trial of the command breaks a limit.
 pub fn take_up(context: &PlanContext, state: &DeploymentState) -> Option<PlannedCommand> {
     let s = context.model.structure();
-    let slack = slack_per_cable_m(context, state);
+    let slack = cable_slack_m(context.model, state);
     if slack.iter().all(|&l| l <= SLACK_M) {
         return None;
     }
