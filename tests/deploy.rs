@@ -762,20 +762,42 @@ fn an_uneven_fold_connects_without_breaking_a_limit() {
 #[test]
 fn the_first_command_does_not_slacken_a_cable_the_fold_left_slack() {
     use tensegrity_deploy::io::evaluation_files::read_distribution;
+    use tensegrity_deploy::plan::slack::cable_slack_m;
     let distribution = read_distribution(&common::repo_path("scenarios/wide.toml")).unwrap();
     let scenario = distribution.draw(777, 34);
+    let model = frictionless_reference_model();
+    let cables = &model.structure().continuous_cables;
+    let motor = |id: &str| cables.iter().position(|c| c.id == id).unwrap();
     let d = scenario.with_setup(
-        &frictionless_reference_model(),
+        &model,
         &DeploymentProblem::default(),
         &Policy::default(),
-        |setup| deploy_closed_loop(setup, &mut ()).expect("deployment starts"),
+        |setup| {
+            // The premise: the fold leaves half B's `cc0` and `cc1` slack
+            // in the controller's model (a change to the distribution
+            // that loses it would make this test test nothing).
+            let policy = Policy::default();
+            let start =
+                tensegrity_deploy::plan::folded_start(&model, setup.problem, policy.increment_m)
+                    .unwrap();
+            let slack = cable_slack_m(&model, &start);
+            for id in ["B_cc0", "B_cc1"] {
+                assert!(
+                    slack[motor(id)] > 1e-3,
+                    "{id} slack by {} m",
+                    slack[motor(id)]
+                );
+            }
+            deploy_closed_loop(setup, &mut ()).expect("deployment starts")
+        },
     );
-    let first = &d.records[0];
-    assert!(
-        first.command_m[5] < -0.01,
-        "B_cc0 held on the first command: {:?}",
-        first.command_m
-    );
+    let first = &d.records[0].command_m;
+    for id in ["B_cc0", "B_cc1"] {
+        assert!(
+            first[motor(id)] < -0.01,
+            "{id} held on the first command: {first:?}"
+        );
+    }
     assert_eq!(broken_limits(&d), 0);
     assert!(matches!(d.status, PlanStatus::Connected), "{:?}", d.status);
 }

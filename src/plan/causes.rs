@@ -140,7 +140,9 @@ impl NotReachable {
 impl NotReachable {
     /// The limits or motors that bind, when the stop is the controller
     /// refusing to break a limit (named as the QP names its rows: `segment
-    /// A_cc1[2] min`, `A_cc0 stroke min`, `A_cc0 reel-in max step`); empty
+    /// A_cc1[2] min`, `A_cc0 stroke min`, `A_cc0 reel-in max step`; and
+    /// `A_cc1 slack` for a cable the trial may not slacken, which has no
+    /// QP row, [`super::slack`]); empty
     /// when the stop has another cause (a spent sequence, a low reduction
     /// ratio, no linearisation) or names nothing.
     pub fn binding(&self) -> Vec<String> {

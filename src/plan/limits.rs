@@ -202,15 +202,16 @@ pub enum LimitViolation {
         /// The lower limit, N.
         lower_n: f64,
     },
-    /// A continuous cable the model has slack grew slacker (see
-    /// [`super::slack`]): a cable the bridge may still hold taut.
+    /// A continuous cable got slacker than it is held to (see
+    /// [`super::slack`]): the model reads it at 0 N either way, the
+    /// bridge may still hold it taut.
     SlackGrew {
-        /// The cable's id.
+        /// The continuous cable's id.
         cable: String,
         /// Its slack, m.
         slack_m: f64,
-        /// Its slack at the command's start, m.
-        start_slack_m: f64,
+        /// The slack it is held to, m.
+        bound_m: f64,
     },
 }
 
@@ -266,11 +267,11 @@ impl LimitViolation {
             LimitViolation::SlackGrew {
                 cable,
                 slack_m,
-                start_slack_m,
+                bound_m,
             } => format!(
-                "cable {cable} slack by {:.2} mm, slacker than the {:.2} mm at the command's start",
+                "{cable} slack by {:.3} mm, more than the {:.3} mm it is held to",
                 1e3 * slack_m,
-                1e3 * start_slack_m
+                1e3 * bound_m
             ),
         }
     }
@@ -302,7 +303,7 @@ impl LimitViolation {
     }
 
     /// How far beyond its bound the value is (N for forces, m for
-    /// clearances; positive): which of two breaches of one limit is the
+    /// clearances and slack; positive): which of two breaches of one limit is the
     /// worse.
     pub fn excess(&self) -> f64 {
         match self {
@@ -335,10 +336,8 @@ impl LimitViolation {
                 distance_m, min_m, ..
             } => min_m - distance_m,
             LimitViolation::SlackGrew {
-                slack_m,
-                start_slack_m,
-                ..
-            } => slack_m - start_slack_m,
+                slack_m, bound_m, ..
+            } => slack_m - bound_m,
         }
     }
 }
@@ -819,6 +818,14 @@ mod tests {
                     lower_n: 10.0,
                 },
                 "spring A_k0 (unmeasured) at 12.3 N after a 30.0 N fall: less than 0.5 × the fall above 10.0 N",
+            ),
+            (
+                LimitViolation::SlackGrew {
+                    cable: "A_cc1".into(),
+                    slack_m: 3.2e-3,
+                    bound_m: 1.9104e-3,
+                },
+                "A_cc1 slack by 3.200 mm, more than the 1.910 mm it is held to",
             ),
         ];
         for (v, text) in cases {

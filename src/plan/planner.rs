@@ -303,7 +303,8 @@ struct LimitWatch<'c, 'a> {
     context: &'c PlanContext<'a>,
     /// Force rows at the command's start, with offsets, N.
     start_rows_n: Vec<f64>,
-    /// Each continuous cable's slack at the command's start, m.
+    /// Each continuous cable's slack at the command's start, m: what it is
+    /// held to ([`super::slack`]).
     start_slack_m: Vec<f64>,
     worst: Option<LimitCheck>,
 }

@@ -19,7 +19,6 @@ use super::planner::{PlanContext, PlannedCommand};
 use super::slack::{cable_slack_m, SLACK_M};
 use crate::model::DeploymentState;
 
-
 /// The take-up command at `state`: every motor of a slack cable reels in
 /// its slack and the stretch to the minimum tension (within its step and
 /// stroke), the others stay; `None` when no cable is slack or the model's
