@@ -303,8 +303,8 @@ impl LimitViolation {
     }
 
     /// How far beyond its bound the value is (N for forces, m for
-    /// clearances and slack; positive): which of two breaches of one limit is the
-    /// worse.
+    /// clearances and slack; positive): which of two breaches of one
+    /// limit is the worse.
     pub fn excess(&self) -> f64 {
         match self {
             LimitViolation::BelowLower {

@@ -52,17 +52,25 @@ pub fn slack_growth_tolerance_m(segments: usize) -> f64 {
 
 /// Per continuous cable, the length it is slack by at `state`, m: the sum
 /// over its segments of rest length less length, where positive (0 for a
-/// taut cable).
+/// taut cable). A segment's length is the distance between its path
+/// nodes, as the force law reads it; computed from the positions alone,
+/// so a trial's increments do not pay a second force pass for it.
 pub fn cable_slack_m(model: &ForwardModel, state: &DeploymentState) -> Vec<f64> {
-    let s = model.structure();
-    let forces = model.member_forces(state);
-    s.continuous_cables
+    let x = &state.positions_m;
+    model
+        .structure()
+        .continuous_cables
         .iter()
         .enumerate()
         .map(|(c, cable)| {
             let o = state.segment_offsets[c];
-            (o..o + cable.segment_count())
-                .map(|k| (state.segment_rest_lengths_m[k] - forces.segment_length_m[k]).max(0.0))
+            cable
+                .path
+                .windows(2)
+                .enumerate()
+                .map(|(k, w)| {
+                    (state.segment_rest_lengths_m[o + k] - (x[w[1]] - x[w[0]]).norm()).max(0.0)
+                })
                 .sum()
         })
         .collect()
@@ -96,6 +104,38 @@ mod tests {
     use crate::design::{reference_bridge, BridgeParameters};
     use crate::model::{JointFriction, RelaxSettings};
     use crate::plan::{folded_start, DeploymentProblem, PerMotor, PlanContext, Policy};
+
+    /// The slack read from positions is the one the force law's segment
+    /// lengths give, to rounding (the same subtraction, summed in the
+    /// same order).
+    #[test]
+    fn slack_from_positions_matches_the_force_laws_lengths() {
+        let model = ForwardModel::new(
+            reference_bridge(&BridgeParameters::default()).unwrap(),
+            JointFriction::frictionless(),
+            RelaxSettings::default(),
+        )
+        .unwrap();
+        let problem = DeploymentProblem {
+            start_payout_m: PerMotor::All(0.55),
+            max_payout_m: PerMotor::All(0.7),
+            ..DeploymentProblem::default()
+        };
+        let state = folded_start(&model, &problem, Policy::default().increment_m).unwrap();
+        let lengths = model.member_forces(&state).segment_length_m;
+        let by_force_law: Vec<f64> = (0..state.payout_m.len())
+            .map(|c| {
+                (state.segment_offsets[c]..state.segment_offsets[c + 1])
+                    .map(|k| (state.segment_rest_lengths_m[k] - lengths[k]).max(0.0))
+                    .sum()
+            })
+            .collect();
+        let from_positions = cable_slack_m(&model, &state);
+        assert!(by_force_law.iter().any(|&s| s > 1e-3));
+        for (a, b) in from_positions.iter().zip(&by_force_law) {
+            assert!((a - b).abs() <= 1e-15, "{a} vs {b}");
+        }
+    }
 
     /// Issue 22, item 7: on `scenarios/wide.toml` (seed 777) the first
     /// command after folds of 46–58 cm reeled every cable in but the slack
