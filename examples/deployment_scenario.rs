@@ -43,8 +43,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         distribution = read_distribution(std::path::Path::new(path))?;
         args.drain(k..k + 2);
     }
+    // The truths are drawn on the reference bridge whatever the controller
+    // plans on (a model file's effects are the controller's, not theirs).
+    let bridge = reference_bridge(&BridgeParameters::default())?;
     let mut model = ForwardModel::new(
-        reference_bridge(&BridgeParameters::default())?,
+        bridge.clone(),
         JointFriction::frictionless(),
         RelaxSettings::default(),
     )?;
@@ -71,7 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for s in wanted.iter().map(|&i| distribution.draw(seed, i)) {
         println!("== scenario {} effects {:?}", s.index, s.effects);
         // As `tdeploy evaluate` sets a scenario up.
-        s.with_setup(&model, &base_problem, &policy, |setup| {
+        s.with_setup(&bridge, &model, &base_problem, &policy, |setup| {
             if cycles > 1 {
                 match run_cycles(setup, cycles, &mut CaseMemory::default(), &mut PrintCycles) {
                     Err(e) => println!("error: {e}"),

@@ -300,6 +300,7 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
     let distribution = ScenarioDistribution::default();
     let problem = DeploymentProblem::default();
     let setup = EvaluationSetup {
+        bridge: model.structure(),
         model: &model,
         policies: &policies,
         distribution: &distribution,
@@ -311,9 +312,13 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
     assert_eq!(results.len(), 4);
     for r in &results {
         let scenario = scenarios.iter().find(|s| s.index == r.scenario).unwrap();
-        let end = scenario.with_setup(&model, &problem, &policies[r.policy], |run| {
-            run_cycles(run, 2, &mut CaseMemory::default(), &mut ()).unwrap()
-        });
+        let end = scenario.with_setup(
+            model.structure(),
+            &model,
+            &problem,
+            &policies[r.policy],
+            |run| run_cycles(run, 2, &mut CaseMemory::default(), &mut ()).unwrap(),
+        );
         assert_eq!(end.stopped, None);
         let last = end.results.last().unwrap();
         assert_eq!(r.status, last.status);
@@ -345,11 +350,17 @@ fn scenario_cycles(
 ) -> Vec<CycleResult> {
     let (_, model, _) = bridge();
     let scenario = ScenarioDistribution::default().draw(seed, index);
-    scenario.with_setup(&model, &DeploymentProblem::default(), policy, |setup| {
-        let end = run_cycles(setup, 5, &mut CaseMemory::default(), observer).unwrap();
-        assert_eq!(end.stopped, None);
-        end.results
-    })
+    scenario.with_setup(
+        model.structure(),
+        &model,
+        &DeploymentProblem::default(),
+        policy,
+        |setup| {
+            let end = run_cycles(setup, 5, &mut CaseMemory::default(), observer).unwrap();
+            assert_eq!(end.stopped, None);
+            end.results
+        },
+    )
 }
 
 /// Each motor's total payout change over `commands`, m.

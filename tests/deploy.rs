@@ -487,6 +487,7 @@ fn the_evaluation_is_the_same_at_any_thread_count_and_sharding() {
     let policies = [Policy::default()];
     let problem = DeploymentProblem::default();
     let setup = EvaluationSetup {
+        bridge: model.structure(),
         model: &model,
         policies: &policies,
         distribution: &distribution,
@@ -531,9 +532,13 @@ fn scenario_904(policy: &Policy) -> Deployment {
     use tensegrity_deploy::studies::evaluation::ScenarioDistribution;
     let model = frictionless_reference_model();
     let scenario = ScenarioDistribution::default().draw(1, 904);
-    scenario.with_setup(&model, &DeploymentProblem::default(), policy, |setup| {
-        deploy_closed_loop(setup, &mut ()).expect("deployment starts")
-    })
+    scenario.with_setup(
+        model.structure(),
+        &model,
+        &DeploymentProblem::default(),
+        policy,
+        |setup| deploy_closed_loop(setup, &mut ()).expect("deployment starts"),
+    )
 }
 
 /// Issue 10: on seed 1 scenario 904 (drums 4 % short, cables 19 % stiffer,
@@ -769,6 +774,7 @@ fn the_first_command_does_not_slacken_a_cable_the_fold_left_slack() {
     let cables = &model.structure().continuous_cables;
     let motor = |id: &str| cables.iter().position(|c| c.id == id).unwrap();
     let d = scenario.with_setup(
+        model.structure(),
         &model,
         &DeploymentProblem::default(),
         &Policy::default(),

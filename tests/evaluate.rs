@@ -224,3 +224,26 @@ fn a_bad_distribution_file_exits_2_naming_file_line_and_field() {
         "{err}"
     );
 }
+
+/// A controller's model with flexible supports has more nodes than the
+/// bridge the truths are drawn on: every run would stop unstarted, so the
+/// model file is refused up front, named, with nothing written.
+#[test]
+fn a_model_that_is_not_the_truths_bridge_node_for_node_exits_2_naming_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("supports.toml");
+    std::fs::write(
+        &file,
+        "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n[effects.support_flexibility]\ncompliance_m_per_n = 1e-6\n",
+    )
+    .unwrap();
+    let o = tmp.path().join("o");
+    let out = evaluate(&o, &["--model", file.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(
+        err.contains("supports.toml") && err.contains("nodes"),
+        "{err}"
+    );
+    assert!(!o.exists(), "nothing written");
+}

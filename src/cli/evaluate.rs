@@ -23,6 +23,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
+use tensegrity_deploy::control::check_same_bridge;
 use tensegrity_deploy::io::evaluation_files::{
     read_distribution, EvaluationRecord, EvaluationRuns,
 };
@@ -34,7 +35,7 @@ use tensegrity_deploy::studies::evaluation::{
 };
 
 use super::evaluation_table::{all_policies, print_and_write};
-use super::inputs::{planning_model, policy_or_default, problem_or_default};
+use super::inputs::{planning_model_and_bridge, policy_or_default, problem_or_default};
 use super::progress::{Progress, Unit};
 use super::{value, with_threads, Outcome};
 
@@ -149,7 +150,17 @@ pub fn run(o: &Options) -> Result<Outcome> {
         Some(p) => read_distribution(p)?,
         None => ScenarioDistribution::default(),
     };
-    let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
+    let (model, bridge) =
+        planning_model_and_bridge(o.model.as_deref(), JointFriction::frictionless())?;
+    // Every truth is drawn on the bridge; a model that is not that bridge
+    // node for node (flexible supports add nodes) would leave every run
+    // unstarted, so it is refused once, here.
+    if let (Some(path), Err(e)) = (&o.model, check_same_bridge(model.structure(), &bridge)) {
+        bail!(
+            "{}: the controller cannot plan on this model against truths drawn on its bridge: {e}",
+            path.display()
+        );
+    }
     let problem = problem_or_default(
         o.problem.as_deref(),
         model.structure().continuous_cables.len(),
@@ -186,6 +197,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         false,
     );
     let setup = EvaluationSetup {
+        bridge: &bridge,
         model: &model,
         policies: &policies,
         distribution: &distribution,

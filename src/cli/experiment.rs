@@ -292,7 +292,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         .collect::<Result<Vec<_>>>()?;
     let structure = reference_bridge(&BridgeParameters::default())?;
     let model = ForwardModel::new(
-        structure,
+        structure.clone(),
         JointFriction::constant(e.model_mu)?,
         RelaxSettings::default(),
     )?;
@@ -312,6 +312,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         false,
     );
     let setup = EvaluationSetup {
+        bridge: &structure,
         model: &model,
         policies: &policies,
         distribution: &distribution,

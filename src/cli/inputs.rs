@@ -13,7 +13,7 @@ use tensegrity_deploy::io::model_file::{
 };
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::problem_file::read_problem_for;
-use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction, RelaxSettings};
+use tensegrity_deploy::model::{Effects, ForwardModel, JointFriction, RelaxSettings, Structure};
 use tensegrity_deploy::plan::{DeploymentProblem, Policy};
 use tensegrity_deploy::sim::default_truth::{default_truth, default_truth_effects};
 use tensegrity_deploy::sim::EffectModel;
@@ -26,18 +26,30 @@ pub fn planning_model(
     path: Option<&Path>,
     default_friction: JointFriction,
 ) -> Result<ForwardModel> {
+    Ok(planning_model_and_bridge(path, default_friction)?.0)
+}
+
+/// [`planning_model`] and the structure it was built on before the model
+/// file's effects: the bridge a simulated truth is drawn on.
+pub fn planning_model_and_bridge(
+    path: Option<&Path>,
+    default_friction: JointFriction,
+) -> Result<(ForwardModel, Structure)> {
     Ok(match path {
         Some(p) => {
             let file = read_model(p)?;
-            EffectModel::for_measurement(file.load_structure()?, file.effects)
+            let bridge = file.load_structure()?;
+            let model = EffectModel::for_measurement(bridge.clone(), file.effects)
                 .forward_model()
-                .with_context(|| format!("{}: applying its effects", p.display()))?
+                .with_context(|| format!("{}: applying its effects", p.display()))?;
+            (model, bridge)
         }
-        None => ForwardModel::new(
-            reference_bridge(&BridgeParameters::default())?,
-            default_friction,
-            RelaxSettings::default(),
-        )?,
+        None => {
+            let bridge = reference_bridge(&BridgeParameters::default())?;
+            let model =
+                ForwardModel::new(bridge.clone(), default_friction, RelaxSettings::default())?;
+            (model, bridge)
+        }
     })
 }
 

@@ -122,7 +122,7 @@ impl BridgeMismatch {
 /// Refuses a truth that is not the controller's bridge: the same nodes,
 /// continuous cables (segment for segment) and midspan pairs, so that
 /// commands, sensors and gaps mean the same on both.
-fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployError> {
+pub fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployError> {
     let mismatch = |what| Err(DeployError::Mismatch(what));
     if model.nodes.len() != truth.nodes.len() {
         return mismatch(BridgeMismatch::NodeCount {

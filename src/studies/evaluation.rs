@@ -560,19 +560,25 @@ impl Scenario {
 
     /// Runs `run` on this scenario's closed-loop setup, as [`evaluate`]
     /// deploys it: the controller's `model` and `policy`, `base` with this
-    /// scenario's fold, and on the model's structure this scenario's truth,
-    /// sensors (with its noise), temperature and noise seed.
+    /// scenario's fold, and on `bridge` this scenario's truth, sensors
+    /// (with its noise), temperature and noise seed.
+    ///
+    /// `bridge` is the structure the truths are drawn on: the one the
+    /// controller's model file names, *before* that file's effects. The
+    /// model's own structure carries them (a calibrated stiffness, flexible
+    /// supports), and a truth drawn on it would have its stiffness errors
+    /// applied twice and supports added twice.
     pub fn with_setup<R>(
         &self,
+        bridge: &Structure,
         model: &ForwardModel,
         base: &DeploymentProblem,
         policy: &Policy,
         run: impl FnOnce(&ClosedLoopSetup) -> R,
     ) -> R {
-        let structure = model.structure();
-        let truth = self.truth(structure);
-        let sensors = self.sensors(structure);
-        let problem = self.problem(base, structure);
+        let truth = self.truth(bridge);
+        let sensors = self.sensors(bridge);
+        let problem = self.problem(base, bridge);
         run(&ClosedLoopSetup {
             model,
             problem: &problem,
@@ -936,7 +942,11 @@ pub fn first_against_others(results: &[RunResult], policies: usize) -> Vec<Paire
 /// Everything an evaluation runs with.
 #[derive(Debug, Clone, Copy)]
 pub struct EvaluationSetup<'a> {
-    /// The controller's model (its structure is also the truths').
+    /// The structure every scenario's truth is drawn on: the bridge the
+    /// controller's model file names, before its effects (see
+    /// [`Scenario::with_setup`]).
+    pub bridge: &'a Structure,
+    /// The controller's model.
     pub model: &'a ForwardModel,
     /// The policies, compared on the same scenarios.
     pub policies: &'a [Policy],
@@ -974,23 +984,25 @@ pub fn evaluate(
         .map(|&(s, p)| {
             let scenario = &scenarios[s];
             let policy = &setup.policies[p];
-            let result = scenario.with_setup(setup.model, setup.problem, policy, |run| {
-                if setup.cycles <= 1 {
-                    let deployment = deploy_closed_loop(run, &mut ()).ok();
-                    RunResult::of(scenario.index, p, deployment.as_ref(), tolerance)
-                } else {
-                    let mut each = CycleRuns {
-                        scenario: scenario.index,
-                        policy: p,
-                        tolerance_m: tolerance,
-                        results: Vec::new(),
-                    };
-                    // A run that could not start, or stopped early, shows
-                    // in its cycles' results.
-                    let _ = run_cycles(run, setup.cycles, &mut CaseMemory::default(), &mut each);
-                    RunResult::of_cycles(scenario.index, p, each.results, setup.cycles)
-                }
-            });
+            let result =
+                scenario.with_setup(setup.bridge, setup.model, setup.problem, policy, |run| {
+                    if setup.cycles <= 1 {
+                        let deployment = deploy_closed_loop(run, &mut ()).ok();
+                        RunResult::of(scenario.index, p, deployment.as_ref(), tolerance)
+                    } else {
+                        let mut each = CycleRuns {
+                            scenario: scenario.index,
+                            policy: p,
+                            tolerance_m: tolerance,
+                            results: Vec::new(),
+                        };
+                        // A run that could not start, or stopped early, shows
+                        // in its cycles' results.
+                        let _ =
+                            run_cycles(run, setup.cycles, &mut CaseMemory::default(), &mut each);
+                        RunResult::of_cycles(scenario.index, p, each.results, setup.cycles)
+                    }
+                });
             run_done();
             result
         })
@@ -1001,6 +1013,55 @@ pub fn evaluate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression (issue 22, sixth session): `evaluate --model M` drew
+    /// every scenario's truth on M's structure, so a model file with a
+    /// stiffness error (a calibrated model) had that error applied to the
+    /// truths a second time, and the controller was judged on bridges the
+    /// distribution never drew. The truth must not depend on the model.
+    #[test]
+    fn a_controller_model_with_effects_leaves_the_truths_as_drawn() {
+        use crate::design::reference_bridge::{reference_bridge, BridgeParameters};
+        use crate::model::effects::StiffnessErrorEffect;
+        use crate::model::{JointFriction, RelaxSettings};
+        let bridge = reference_bridge(&BridgeParameters::default()).unwrap();
+        let nominal = ForwardModel::new(
+            bridge.clone(),
+            JointFriction::frictionless(),
+            RelaxSettings::default(),
+        )
+        .unwrap();
+        let calibrated = EffectModel::for_measurement(
+            bridge.clone(),
+            Effects {
+                stiffness_error: Some(StiffnessErrorEffect {
+                    strut_scale: 1.0,
+                    cable_scale: 0.7,
+                    spring_scale: 1.0,
+                }),
+                ..Effects::default()
+            },
+        )
+        .forward_model()
+        .unwrap();
+        assert_ne!(
+            calibrated.structure(),
+            &bridge,
+            "the premise: M carries its effect"
+        );
+        let scenario = ScenarioDistribution::default().draw(1, 0);
+        let policy = Policy::default();
+        let problem = DeploymentProblem::default();
+        let truth_with = |model: &ForwardModel| {
+            scenario.with_setup(&bridge, model, &problem, &policy, |setup| {
+                assert!(std::ptr::eq(setup.model, model));
+                (setup.truth.structure.clone(), setup.truth.effects)
+            })
+        };
+        let (structure, effects) = truth_with(&calibrated);
+        assert_eq!(structure, bridge);
+        assert_eq!((structure, effects), truth_with(&nominal));
+    }
 
     fn cycle(commands: usize, violations: usize, utilisation: f64) -> RunResult {
         RunResult {

@@ -1,0 +1,115 @@
+//! What perfect knowledge of the bridge would buy the controller: each
+//! scenario of a distribution deployed by the default policy planning on
+//!
+//! - `nominal`: the frictionless reference bridge (the default);
+//! - `truth_mu`: the reference bridge with the truth's own joint friction
+//!   (its μ and angle convention, exactly);
+//! - `truth_structure`: the truth's structure (its stiffness and mass
+//!   errors, local faults and seats) without friction;
+//! - `truth_model`: both, the truth's forward model (the motor, thermal and
+//!   sensor effects stay hidden: they act in the plant).
+//!
+//! Flexible supports stay out of both: they add nodes and members, and a
+//! controller's model must be the truth's bridge node for node
+//! (`control::BridgeMismatch`).
+//!
+//! `cargo run --release --example perfect_knowledge -- DISTRIBUTION SEED SCENARIOS`
+//! prints one CSV row per scenario: for each controller its status,
+//! whether it succeeded (connected, no truth limit broken), truth
+//! violations, commands, final true gap (m) and wall time (s), then the
+//! truth's μ and fold. The truths, sensors and noise are the ones `tdeploy
+//! evaluate --distribution D --seed S` draws; only the controller's model
+//! changes (issue 22, items 4 and 6: how much an estimate of each part of
+//! the model could be worth, measured before building the estimator).
+
+use rayon::prelude::*;
+use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup};
+use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::io::evaluation_files::read_distribution;
+use tensegrity_deploy::io::policy_file::read_policy;
+use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
+use tensegrity_deploy::plan::DeploymentProblem;
+use tensegrity_deploy::studies::evaluation::RunResult;
+
+const CONTROLLERS: [&str; 4] = ["nominal", "truth_mu", "truth_structure", "truth_model"];
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.len() != 3 {
+        return Err("usage: DISTRIBUTION.toml SEED SCENARIOS".into());
+    }
+    let distribution = read_distribution(std::path::Path::new(&args[0]))?;
+    let seed: u64 = args[1].parse()?;
+    let count: usize = args[2].parse()?;
+    let policy = read_policy(std::path::Path::new("policies/qp.toml"))?;
+    let bridge = reference_bridge(&BridgeParameters::default())?;
+    let nominal = ForwardModel::new(
+        bridge.clone(),
+        JointFriction::frictionless(),
+        RelaxSettings::default(),
+    )?;
+    let base = DeploymentProblem::default();
+    let header: Vec<String> = CONTROLLERS
+        .iter()
+        .flat_map(|c| {
+            [
+                "status",
+                "succeeded",
+                "violations",
+                "commands",
+                "final_true_gap_m",
+                "time_s",
+            ]
+            .map(|f| format!("{c}_{f}"))
+        })
+        .chain(["truth_mu".into(), "fold_m".into()])
+        .collect();
+    println!("scenario,{}", header.join(","));
+    let rows: Vec<Result<String, String>> = (0..count)
+        .into_par_iter()
+        .map(|i| {
+            let s = distribution.draw(seed, i);
+            let truth = s.truth(&bridge);
+            let mut known = truth.clone();
+            known.effects.support_flexibility = None;
+            let truth_model = known.forward_model().map_err(|e| e.to_string())?;
+            let mut structure_only = known;
+            structure_only.effects.joint_friction = None;
+            let truth_mu = ForwardModel::new(
+                bridge.clone(),
+                truth.effects.joint_friction(),
+                RelaxSettings::default(),
+            )
+            .map_err(|e| e.to_string())?;
+            let truth_structure = structure_only.forward_model().map_err(|e| e.to_string())?;
+            let mut row = format!("{i}");
+            for (k, model) in [&nominal, &truth_mu, &truth_structure, &truth_model]
+                .into_iter()
+                .enumerate()
+            {
+                let started = std::time::Instant::now();
+                let r = s.with_setup(&bridge, &nominal, &base, &policy, |setup| {
+                    let setup = ClosedLoopSetup { model, ..*setup };
+                    let d = deploy_closed_loop(&setup, &mut ()).ok();
+                    RunResult::of(i, k, d.as_ref(), base.connection_tolerance_m)
+                });
+                row += &format!(
+                    ",{},{},{},{},{},{:.2}",
+                    r.status,
+                    u8::from(r.succeeded),
+                    r.truth_violations,
+                    r.commands,
+                    r.final_true_gap_m
+                        .map_or(String::new(), |g| format!("{g:.4}")),
+                    started.elapsed().as_secs_f64()
+                );
+            }
+            let mu = truth.effects.joint_friction.map_or(0.0, |f| f.mu);
+            Ok(format!("{row},{mu:.3},{:.3}", s.fold_m))
+        })
+        .collect();
+    for r in rows {
+        println!("{}", r?);
+    }
+    Ok(())
+}
