@@ -13,8 +13,8 @@
 //! controller's model must be the truth's bridge node for node
 //! (`control::BridgeMismatch`).
 //!
-//! `cargo run --release --example perfect_knowledge -- DISTRIBUTION SEED SCENARIOS`
-//! prints one CSV row per scenario: for each controller its status,
+//! `cargo run --release --example perfect_knowledge -- DISTRIBUTION SEED SCENARIOS [POLICY]`
+//! (POLICY default `policies/qp.toml`) prints one CSV row per scenario: for each controller its status,
 //! whether it succeeded (connected, no truth limit broken), truth
 //! violations, commands, final true gap (m) and wall time (s), then the
 //! truth's μ and fold. The truths, sensors and noise are the ones `tdeploy
@@ -35,13 +35,15 @@ const CONTROLLERS: [&str; 4] = ["nominal", "truth_mu", "truth_structure", "truth
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.len() != 3 {
-        return Err("usage: DISTRIBUTION.toml SEED SCENARIOS".into());
+    if !(3..=4).contains(&args.len()) {
+        return Err("usage: DISTRIBUTION.toml SEED SCENARIOS [POLICY.toml]".into());
     }
     let distribution = read_distribution(std::path::Path::new(&args[0]))?;
     let seed: u64 = args[1].parse()?;
     let count: usize = args[2].parse()?;
-    let policy = read_policy(std::path::Path::new("policies/qp.toml"))?;
+    let policy = read_policy(std::path::Path::new(
+        args.get(3).map_or("policies/qp.toml", String::as_str),
+    ))?;
     let bridge = reference_bridge(&BridgeParameters::default())?;
     let nominal = ForwardModel::new(
         bridge.clone(),

@@ -321,7 +321,7 @@ impl CommandPlanner for QpPlanner {
         order.extend(first.fallbacks().iter().map(|&k| Linearisation::Fresh(k)));
         let radius = self.trust_region_m;
         let mut kept = kept.map(|k| k.response);
-        let mut last = None;
+        let mut failures: Vec<(Linearisation, PlanStatus)> = Vec::new();
         for (n, source) in order.into_iter().enumerate() {
             // Every linearisation starts from the radius the command
             // started with.
@@ -334,7 +334,7 @@ impl CommandPlanner for QpPlanner {
                         // Another kind may still linearise here; the
                         // failure is the status only if none does.
                         Err(cause) => {
-                            last = Some(PlanStatus::SolverFailure { cause });
+                            failures.push((source, PlanStatus::SolverFailure { cause }));
                             None
                         }
                     }
@@ -351,13 +351,35 @@ impl CommandPlanner for QpPlanner {
                     return Decision::Command(command);
                 }
                 Err(StepFailure::Stop(s)) => return Decision::Stop(s),
-                Err(StepFailure::Unconfirmed(s)) => last = Some(s),
+                Err(StepFailure::Unconfirmed(s)) => failures.push((source, s)),
             }
         }
-        Decision::Stop(last.unwrap_or(PlanStatus::NotReachable {
-            cause: NotReachable::NoLinearisation,
-        }))
+        Decision::Stop(why_no_linearisation(failures))
     }
+}
+
+/// The status of a command no linearisation gave, from each one's failure
+/// in the order tried. What bound the first fresh linearisation that gave
+/// a step (a limit, the trust region) says why the plan stops; a fallback
+/// that could not even be computed (an unstable tangent tried last) is
+/// not the reason, and kept responses only say they were stale. A solver
+/// failure is the status only when no fresh linearisation got as far as a
+/// step.
+fn why_no_linearisation(failures: Vec<(Linearisation, PlanStatus)>) -> PlanStatus {
+    let fresh = |(source, _): &&(Linearisation, PlanStatus)| source != &Linearisation::Kept;
+    let reached_a_step = |(_, status): &&(Linearisation, PlanStatus)| {
+        matches!(status, PlanStatus::NotReachable { .. })
+    };
+    failures
+        .iter()
+        .filter(fresh)
+        .find(reached_a_step)
+        .or_else(|| failures.iter().find(fresh))
+        .or_else(|| failures.first())
+        .map(|(_, status)| status.clone())
+        .unwrap_or(PlanStatus::NotReachable {
+            cause: NotReachable::NoLinearisation,
+        })
 }
 
 /// The limits of `data` whose current value already lies beyond their
@@ -516,5 +538,67 @@ impl QpPlanner {
             positions_m: after.positions_m.clone(),
             payout_m: after.payout_m.clone(),
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{MotorDirection, SensitivityError};
+
+    fn binding(name: &str) -> PlanStatus {
+        PlanStatus::NotReachable {
+            cause: NotReachable::NoReducingCommand {
+                largest_gap_m: 0.18,
+                active_constraints: vec![name.to_string()],
+            },
+        }
+    }
+
+    fn unstable_tangent() -> PlanStatus {
+        PlanStatus::SolverFailure {
+            cause: SolverFailure::TangentSensitivities(SensitivityError::UnstableTangent {
+                motor: 5,
+                direction: MotorDirection::PayOut,
+            }),
+        }
+    }
+
+    /// Regression (issue 22, sixth session): on wide seed 777 the
+    /// controller planning on the truth's friction stopped five runs with
+    /// "solver failure: unstable tangent": the sliding-limit tangent and
+    /// the secants had each planned steps the model refused, and the
+    /// exact tangent, tried last, could not be computed. What bound the
+    /// first linearisation is the reason.
+    #[test]
+    fn a_fallback_that_cannot_be_computed_does_not_hide_what_bound_the_plan() {
+        use Linearisation::{Fresh, Kept};
+        use SensitivityKind::{Secant, SlidingTangent, Tangent};
+        let failures = vec![
+            (Kept, binding("kept")),
+            (Fresh(SlidingTangent), unstable_tangent()),
+            (Fresh(Secant), binding("segment A_cc1[0] min")),
+            (Fresh(Tangent), unstable_tangent()),
+        ];
+        assert_eq!(
+            why_no_linearisation(failures),
+            binding("segment A_cc1[0] min")
+        );
+        // No fresh linearisation reached a step: the first one's failure.
+        let failures = vec![
+            (Kept, binding("kept")),
+            (Fresh(SlidingTangent), unstable_tangent()),
+        ];
+        assert_eq!(why_no_linearisation(failures), unstable_tangent());
+        assert_eq!(
+            why_no_linearisation(vec![(Kept, binding("kept"))]),
+            binding("kept")
+        );
+        assert_eq!(
+            why_no_linearisation(Vec::new()),
+            PlanStatus::NotReachable {
+                cause: NotReachable::NoLinearisation
+            }
+        );
     }
 }
