@@ -9,7 +9,7 @@
 //! deployment-fold cycles as `tdeploy evaluate --cycles N` does, and each
 //! cycle's commands are printed.
 
-use tensegrity_deploy::control::{deploy_closed_loop, Deployment};
+use tensegrity_deploy::control::{check_same_bridge, deploy_closed_loop, Deployment};
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::evaluation_files::read_distribution;
 use tensegrity_deploy::io::model_file::read_model;
@@ -43,9 +43,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         distribution = read_distribution(std::path::Path::new(path))?;
         args.drain(k..k + 2);
     }
-    // The truths are drawn on the reference bridge whatever the controller
-    // plans on (a model file's effects are the controller's, not theirs).
-    let bridge = reference_bridge(&BridgeParameters::default())?;
+    // The truths are drawn on the bridge the model file names, before its
+    // effects (those are the controller's belief), as `tdeploy evaluate`
+    // draws them.
+    let mut bridge = reference_bridge(&BridgeParameters::default())?;
     let mut model = ForwardModel::new(
         bridge.clone(),
         JointFriction::frictionless(),
@@ -53,9 +54,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     if let Some(k) = args.iter().position(|a| a == "--model") {
         let path = args.get(k + 1).ok_or("--model needs a file")?;
-        model = read_model(std::path::Path::new(path))?
-            .measurement_model()?
-            .forward_model()?;
+        let file = read_model(std::path::Path::new(path))?;
+        bridge = file.load_structure()?;
+        model = file.measurement_model()?.forward_model()?;
+        check_same_bridge(model.structure(), &bridge)?;
         args.drain(k..k + 2);
     }
     if args.len() < 3 {

@@ -5,19 +5,21 @@
 //! - `truth_mu`: the reference bridge with the truth's own joint friction
 //!   (its μ and angle convention, exactly);
 //! - `truth_structure`: the truth's structure (its stiffness and mass
-//!   errors, local faults and seats) without friction;
-//! - `truth_model`: both, the truth's forward model (the motor, thermal and
-//!   sensor effects stay hidden: they act in the plant).
+//!   errors and local faults) without friction;
+//! - `truth_model`: both, the truth's forward model (the motor, thermal,
+//!   joint-eccentricity and sensor effects stay hidden: they act in the
+//!   plant).
 //!
 //! Flexible supports stay out of both: they add nodes and members, and a
 //! controller's model must be the truth's bridge node for node
 //! (`control::BridgeMismatch`).
 //!
-//! `cargo run --release --example perfect_knowledge -- DISTRIBUTION SEED SCENARIOS [POLICY]`
+//! From the repository root:
+//! `cargo run --release --example perfect_knowledge -- D.toml SEED N [POLICY]`
 //! (POLICY default `policies/qp.toml`) prints one CSV row per scenario: for each controller its status,
 //! whether it succeeded (connected, no truth limit broken), truth
 //! violations, commands, final true gap (m) and wall time (s), then the
-//! truth's μ and fold. The truths, sensors and noise are the ones `tdeploy
+//! μ and fold the scenario drew. The truths, sensors and noise are the ones `tdeploy
 //! evaluate --distribution D --seed S` draws; only the controller's model
 //! changes (issue 22, items 4 and 6: how much an estimate of each part of
 //! the model could be worth, measured before building the estimator).
@@ -64,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ]
             .map(|f| format!("{c}_{f}"))
         })
-        .chain(["truth_mu".into(), "fold_m".into()])
+        .chain(["drawn_mu".into(), "fold_m".into()])
         .collect();
     println!("scenario,{}", header.join(","));
     let rows: Vec<Result<String, String>> = (0..count)

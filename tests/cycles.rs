@@ -458,3 +458,36 @@ fn keeping_a_halfs_motors_together_keeps_the_unmeasured_axial_cables_taut() {
         }
     }
 }
+
+/// Regression (issue 22, sixth session, found in review): `tdeploy cycles
+/// --model M` built its default truth on M's structure, so a calibrated
+/// stiffness error in M was applied to the bridge a second time. The
+/// truth, and so its measured start (same noise seed), must not depend
+/// on what the controller plans on.
+#[test]
+fn cycles_with_a_calibrated_model_deploys_the_same_default_truth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = tmp.path().join("calibrated.toml");
+    std::fs::write(
+        &model,
+        "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n[effects.stiffness_error]\ncable_scale = 0.8\n",
+    )
+    .unwrap();
+    let start_gap = |extra: &[&str], name: &str| {
+        let out = tmp.path().join(name);
+        let mut args = vec!["cycles", "--cycles", "1", "--policy", "policies/qp.toml"];
+        args.extend(extra);
+        args.extend(["-o", out.to_str().unwrap()]);
+        let run = tdeploy(&args, repo_root());
+        succeeded(&run);
+        let memory = read_memory(&out.join("memory.tdm")).unwrap();
+        memory.cases[0].conditions.start_gap_m.unwrap()
+    };
+    let nominal = start_gap(&[], "nominal");
+    let calibrated = start_gap(&["--model", model.to_str().unwrap()], "calibrated");
+    assert_eq!(
+        nominal.to_bits(),
+        calibrated.to_bits(),
+        "{nominal} vs {calibrated}"
+    );
+}

@@ -30,7 +30,6 @@ use clap::{value_parser, Arg, ArgMatches, Command};
 use tensegrity_deploy::control::{ClosedLoopSetup, Deployment};
 use tensegrity_deploy::io::cycles_files::write_cycles;
 use tensegrity_deploy::io::memory_file::{append_case, read_memory_or_empty};
-use tensegrity_deploy::io::model_file::read_model;
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::policy_file::{parse_policy, read_policy};
 use tensegrity_deploy::io::{write_atomically, FileError};
@@ -38,11 +37,10 @@ use tensegrity_deploy::learn::{Case, CaseMemory};
 use tensegrity_deploy::model::JointFriction;
 use tensegrity_deploy::plan::Policy;
 use tensegrity_deploy::report::cycles_figure::cycles_svg;
-use tensegrity_deploy::sim::default_truth::default_truth;
 use tensegrity_deploy::sim::standard_sensors;
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult};
 
-use super::inputs::{deployment_temperature, planning_model, problem_or_default};
+use super::inputs::{deployment_temperature, planning_model, problem_or_default, truth_or_default};
 use super::words::mm;
 use super::{value, with_threads, Outcome};
 
@@ -153,14 +151,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         None => parse_policy(MEMORY_POLICY, Path::new("policies/memory.toml (built in)"))?,
     };
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
-    let truth = match &o.truth {
-        Some(p) => read_model(p)?.measurement_model()?,
-        None => default_truth(model.structure().clone()),
-    };
-    let truth_words = o
-        .truth
-        .as_ref()
-        .map_or("default".to_string(), |p| p.display().to_string());
+    // The default truth stands on the bridge the model file names, before
+    // its effects: those are the controller's belief, not the bridge's.
+    let (_, truth, truth_words) = truth_or_default(o.truth.as_deref(), o.model.as_deref())?;
     let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &truth_words)?;
     let problem = problem_or_default(
         o.problem.as_deref(),

@@ -157,7 +157,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     // unstarted, so it is refused once, here.
     if let (Some(path), Err(e)) = (&o.model, check_same_bridge(model.structure(), &bridge)) {
         bail!(
-            "{}: the controller cannot plan on this model against truths drawn on its bridge: {e}",
+            "{}: the controller cannot plan on this model against truths drawn on its bridge (effects.support_flexibility adds the support bars' nodes): {e}",
             path.display()
         );
     }

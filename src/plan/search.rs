@@ -359,21 +359,31 @@ impl CommandPlanner for QpPlanner {
 }
 
 /// The status of a command no linearisation gave, from each one's failure
-/// in the order tried. What bound the first fresh linearisation that gave
-/// a step (a limit, the trust region) says why the plan stops; a fallback
-/// that could not even be computed (an unstable tangent tried last) is
-/// not the reason, and kept responses only say they were stale. A solver
-/// failure is the status only when no fresh linearisation got as far as a
-/// step.
+/// in the order tried. The first fresh linearisation whose steps the model
+/// tried and refused until the trust region collapsed names what bound
+/// (the limit of its last trial); else the first whose QP found no
+/// reducing step (the active limits); a fallback that could not even be
+/// computed (an unstable tangent tried last) is not the reason, and kept
+/// responses only say they were stale. A solver failure is the status
+/// only when no fresh linearisation got as far as a QP step.
 fn why_no_linearisation(failures: Vec<(Linearisation, PlanStatus)>) -> PlanStatus {
     let fresh = |(source, _): &&(Linearisation, PlanStatus)| source != &Linearisation::Kept;
+    let reached_a_trial = |(_, status): &&(Linearisation, PlanStatus)| {
+        matches!(
+            status,
+            PlanStatus::NotReachable {
+                cause: NotReachable::TrustRegionCollapsed { .. }
+            }
+        )
+    };
     let reached_a_step = |(_, status): &&(Linearisation, PlanStatus)| {
         matches!(status, PlanStatus::NotReachable { .. })
     };
     failures
         .iter()
         .filter(fresh)
-        .find(reached_a_step)
+        .find(reached_a_trial)
+        .or_else(|| failures.iter().filter(fresh).find(reached_a_step))
         .or_else(|| failures.iter().find(fresh))
         .or_else(|| failures.first())
         .map(|(_, status)| status.clone())
@@ -584,6 +594,22 @@ mod tests {
             why_no_linearisation(failures),
             binding("segment A_cc1[0] min")
         );
+        // A linearisation whose trials the model refused says more than one
+        // whose QP found no reducing step before any trial (review finding).
+        let collapsed = PlanStatus::NotReachable {
+            cause: NotReachable::TrustRegionCollapsed {
+                min_radius_m: 0.002,
+                last_trial: TrialRejection::LowReductionRatio {
+                    ratio: 0.01,
+                    required: 0.1,
+                },
+            },
+        };
+        let failures = vec![
+            (Fresh(Tangent), binding("no step")),
+            (Fresh(Secant), collapsed.clone()),
+        ];
+        assert_eq!(why_no_linearisation(failures), collapsed);
         // No fresh linearisation reached a step: the first one's failure.
         let failures = vec![
             (Kept, binding("kept")),

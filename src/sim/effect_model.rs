@@ -40,8 +40,9 @@ impl EffectModel {
 
     /// The forward model of this bridge at its reference temperature:
     /// the effects that change the structure applied to it (mass,
-    /// stiffness, supports, seats), with the effects' joint friction and
-    /// these solver settings. Motor, thermal and sensor effects act in a
+    /// stiffness, local faults, supports), with the effects' joint
+    /// friction and these solver settings. Motor, thermal,
+    /// joint-eccentricity (seat) and sensor effects act in a
     /// [`super::Plant`] and in the readings, not here.
     pub fn forward_model(&self) -> Result<ForwardModel, PlantError> {
         let structure = self.effects.apply_to_structure(&self.structure)?;

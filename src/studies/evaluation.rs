@@ -10,7 +10,7 @@
 //! every local fault listed (in [`FaultKind::ALL`] order), whether it is
 //! present (uniform on [0, 1) below its probability), where (a uniform
 //! `part_position` in [0, 1): the fault hits part ⌊position × parts⌋ of
-//! its kind on the controller's structure, so the draw needs no
+//! its kind on the bridge the truths are drawn on, so the draw needs no
 //! structure) and its parameters (drawn whether present or not, so that
 //! the stream does not depend on the outcome); then, if a range is given,
 //! the fold difference of half B. Draws are appended in this order so
