@@ -7,7 +7,9 @@ use std::path::Path;
 use std::process::Output;
 
 use common::cli::{stderr, succeeded, tdeploy};
-use common::fixtures::{frictionless_reference_model, reference_structure};
+use common::fixtures::{
+    dir_with, frictionless_reference_model, reference_structure, REFERENCE_MODEL,
+};
 use common::{repo_path, repo_root};
 use tensegrity_deploy::control::{ClosedLoopSetup, Deployment};
 use tensegrity_deploy::io::memory_file::read_memory;
@@ -466,13 +468,9 @@ fn keeping_a_halfs_motors_together_keeps_the_unmeasured_axial_cables_taut() {
 /// on what the controller plans on.
 #[test]
 fn cycles_with_a_calibrated_model_deploys_the_same_default_truth() {
-    let tmp = tempfile::tempdir().unwrap();
+    let calibrated = format!("{REFERENCE_MODEL}[effects.stiffness_error]\ncable_scale = 0.8\n");
+    let tmp = dir_with(&[("calibrated.toml", &calibrated)]);
     let model = tmp.path().join("calibrated.toml");
-    std::fs::write(
-        &model,
-        "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n[effects.stiffness_error]\ncable_scale = 0.8\n",
-    )
-    .unwrap();
     let start_gap = |extra: &[&str], name: &str| {
         let out = tmp.path().join(name);
         let mut args = vec!["cycles", "--cycles", "1", "--policy", "policies/qp.toml"];

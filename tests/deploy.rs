@@ -807,3 +807,45 @@ fn the_first_command_does_not_slacken_a_cable_the_fold_left_slack() {
     assert_eq!(broken_limits(&d), 0);
     assert!(matches!(d.status, PlanStatus::Connected), "{:?}", d.status);
 }
+
+/// Regression (issue 22, sixth session): scenario 27 of
+/// `scenarios/wide.toml`, seed 777 (a 55 cm fold, μ = 0.24), with the
+/// controller planning on the reference bridge with the truth's own
+/// friction. Its first command's trials on the sliding-limit tangent and
+/// on the secants were all refused (a segment the fold left at 0.5 N
+/// falling to 0 N), and the exact tangent, tried last, could not be
+/// computed: the run stopped "solver failure: unstable tangent", naming
+/// no limit. The stop now names the member whose limit refused the
+/// trials.
+#[test]
+fn a_friction_aware_stop_names_the_limit_not_the_last_fallbacks_failure() {
+    use tensegrity_deploy::io::evaluation_files::read_distribution;
+    use tensegrity_deploy::model::{ForwardModel, RelaxSettings};
+    use tensegrity_deploy::plan::{NotReachable, TrialFailure, TrialRejection};
+    let distribution = read_distribution(&common::repo_path("scenarios/wide.toml")).unwrap();
+    let scenario = distribution.draw(777, 27);
+    let bridge = frictionless_reference_model().structure().clone();
+    let model = ForwardModel::new(
+        bridge.clone(),
+        scenario.effects.joint_friction(),
+        RelaxSettings::default(),
+    )
+    .unwrap();
+    let d = scenario.with_setup(
+        &bridge,
+        &model,
+        &DeploymentProblem::default(),
+        &Policy::default(),
+        |setup| deploy_closed_loop(setup, &mut ()).expect("deployment starts"),
+    );
+    match &d.status {
+        PlanStatus::NotReachable {
+            cause:
+                NotReachable::TrustRegionCollapsed {
+                    last_trial: TrialRejection::Inadmissible(TrialFailure::Limit(v)),
+                    ..
+                },
+        } => assert!(v.describe().contains("segment"), "{}", v.describe()),
+        other => panic!("{other:?}"),
+    }
+}

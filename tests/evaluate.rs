@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use common::cli::{failed_with, stderr, tdeploy};
+use common::fixtures::{dir_with, REFERENCE_MODEL};
 use common::repo_root;
 
 /// Runs `tdeploy args` in the repository (the policies are named relative
@@ -230,13 +231,10 @@ fn a_bad_distribution_file_exits_2_naming_file_line_and_field() {
 /// model file is refused up front, named, with nothing written.
 #[test]
 fn a_model_that_is_not_the_truths_bridge_node_for_node_exits_2_naming_it() {
-    let tmp = tempfile::tempdir().unwrap();
+    let supports =
+        format!("{REFERENCE_MODEL}[effects.support_flexibility]\ncompliance_m_per_n = 1e-6\n");
+    let tmp = dir_with(&[("supports.toml", &supports)]);
     let file = tmp.path().join("supports.toml");
-    std::fs::write(
-        &file,
-        "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n[effects.support_flexibility]\ncompliance_m_per_n = 1e-6\n",
-    )
-    .unwrap();
     let o = tmp.path().join("o");
     let out = evaluate(&o, &["--model", file.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
