@@ -29,7 +29,7 @@ fn five_cycle_replay(c: &mut Criterion) {
     let mut group = c.benchmark_group("five-cycle log");
     group.sample_size(10);
     let friction = Effects::default().with_parameters(EffectKind::JointFriction, &[0.1]);
-    let truth = model(friction);
+    let truth = model(friction.clone());
     let sensors = standard_sensors(&truth.structure);
     let cycles = standard_cycles(
         truth.structure.continuous_cables.len(),

@@ -198,7 +198,7 @@ fn the_memory_policy_is_never_worse_than_the_memoryless_one_on_paired_scenarios(
     let mut both = 0;
     for i in 0..8 {
         let effects = distribution.draw(1, i).effects;
-        let truth = || EffectModel::for_measurement(structure.clone(), effects);
+        let truth = || EffectModel::for_measurement(structure.clone(), effects.clone());
         let plain = cycles_on("policies/qp.toml", 3, truth());
         let learnt = cycles_on("policies/memory.toml", 3, truth());
         for (p, m) in plain.iter().zip(&learnt) {

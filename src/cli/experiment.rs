@@ -214,7 +214,7 @@ fn friction_vs_measurement_experiment(e: &FrictionVsMeasurementExperiment) -> Re
     let study = match friction_vs_measurement(
         &structure,
         &FrictionVsMeasurementSettings {
-            truth_effects: e.truth,
+            truth_effects: e.truth.clone(),
             model_mu: e.model_mu,
             actuation_m: e.actuation_m,
             steps: e.steps,

@@ -225,7 +225,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     let cf = match &calibration {
         Ok(c) => {
-            let truth = EffectModel::for_measurement(base.structure.clone(), c.effects);
+            let truth = EffectModel::for_measurement(base.structure.clone(), c.effects.clone());
             match counterfactual(&model, &problem, &policy, &truth, &log, &start, o.seed) {
                 Ok(d) => Ok(d),
                 Err(DeployError::TruthStart(e)) => Err(format!(

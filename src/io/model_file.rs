@@ -10,6 +10,9 @@
 //! [effects.joint_friction]
 //! mu = 0.12
 //! convention = "wrap"        # or "interior"
+//! # or, instead of `mu`, μ over the interior angle (linear between the
+//! # points, held beyond them; calibration scales the table's level):
+//! # mu_over_angle = { interior_angle_deg = [117, 146, 170], mu = [0.14, 0.10, 0.05] }
 //!
 //! [effects.motor]
 //! slip_fraction = 0.01       # fraction of each command lost
@@ -356,7 +359,7 @@ impl ModelFile {
     pub fn measurement_model(&self) -> Result<EffectModel, FileError> {
         Ok(EffectModel::for_measurement(
             self.load_structure()?,
-            self.effects,
+            self.effects.clone(),
         ))
     }
 
@@ -380,7 +383,7 @@ impl ModelFile {
         let doc = ModelDoc {
             format: MODEL_FORMAT.into(),
             structure,
-            effects: self.effects,
+            effects: self.effects.clone(),
             faults,
         };
         toml::to_string(&doc).expect("a model serialises to TOML")
@@ -492,6 +495,40 @@ backlash_m = 0.002
         let m = parse_model(GOOD, Path::new("m.toml")).unwrap();
         let again = parse_model(&m.to_toml(Path::new(".")), Path::new("m.toml")).unwrap();
         assert_eq!(m, again);
+    }
+
+    /// Issue 24, item 5: the seed's main finding, μ falling with the
+    /// interior angle, in a model file.
+    #[test]
+    fn a_model_file_takes_mu_as_a_table_over_the_interior_angle() {
+        let table = GOOD.replace(
+            "mu = 0.12",
+            "mu_over_angle = { interior_angle_deg = [117, 146, 170], mu = [0.14, 0.10, 0.05] }",
+        );
+        let m = parse_model(&table, Path::new("m.toml")).unwrap();
+        let law = m.effects.joint_friction();
+        let at = |deg: f64| law.static_mu.at(f64::to_radians(deg));
+        assert!((at(146.0) - 0.10).abs() < 1e-12);
+        assert!((at(158.0) - 0.075).abs() < 1e-12);
+        // Calibration sees one parameter, the table's level.
+        let level = m.effects.parameters(EffectKind::JointFriction).unwrap();
+        assert!((level[0] - 0.29 / 3.0).abs() < 1e-15);
+        let again = parse_model(&m.to_toml(Path::new(".")), Path::new("m.toml")).unwrap();
+        let back = again.effects.joint_friction.unwrap().tabulated_mu();
+        for (a, b) in back.iter().zip([0.14, 0.10, 0.05]) {
+            assert!((a - b).abs() < 1e-15, "{a} vs {b}");
+        }
+        let both = table.replace("mu_over_angle", "mu = 0.1\nmu_over_angle");
+        let e = parse_model(&both, Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("m.toml:5:"), "{e}");
+        assert!(e.contains("not both"), "{e}");
+        let bad = table.replace("[117, 146, 170]", "[117, 196, 170]");
+        let e = parse_model(&bad, Path::new("m.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("interior_angle_deg[1]"), "{e}");
     }
 
     #[test]

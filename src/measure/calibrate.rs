@@ -261,7 +261,7 @@ pub fn calibrate_on_log(
                 ..DiagnoseSettings::default()
             };
             let d = diagnose(base, log, &settings)?;
-            let effects = effects_found(base.effects, &d.verdict);
+            let effects = effects_found(base.effects.clone(), &d.verdict);
             let found = match &d.verdict {
                 Verdict::NothingMissing => &[][..],
                 Verdict::Missing { found, .. } | Verdict::Unexplained { found, .. } => &found[..],
@@ -280,7 +280,7 @@ pub fn calibrate_on_log(
                 .collect();
             Ok(Calibration {
                 method: method.clone(),
-                held_out_rms_after: held_out(&with(effects), log)?.rms,
+                held_out_rms_after: held_out(&with(effects.clone()), log)?.rms,
                 effects,
                 fitted,
                 verdict: Some(d.verdict.clone()),
@@ -292,11 +292,17 @@ pub fn calibrate_on_log(
             effects: kinds,
             keep,
         } => {
-            let mut effects = base.effects;
+            let mut effects = base.effects.clone();
             let mut rms = before.rms;
             let mut fitted = Vec::new();
             for kind in kinds {
-                let c = fit_candidate(base, effects, *kind, log, &DiagnoseSettings::default())?;
+                let c = fit_candidate(
+                    base,
+                    effects.clone(),
+                    *kind,
+                    log,
+                    &DiagnoseSettings::default(),
+                )?;
                 let mut f = fitted_effect(*kind, &c.values, &c.std_errors, c.converged);
                 // The candidate's held-out RMS is that of the model with
                 // its effects and this fit: the same replay, not redone.

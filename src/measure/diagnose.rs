@@ -781,7 +781,7 @@ pub fn diagnose(
     settings.validate()?;
     log.check_comparable()?;
     let cycles = log.cycles.len();
-    let mut h = Hypothesis::of(model.effects);
+    let mut h = Hypothesis::of(model.effects.clone());
     // Outliers of the model as it is are set aside (as missing readings)
     // before anything is fitted to them.
     let raw = compare_hypothesis(model, &h, log)?;
@@ -1064,7 +1064,7 @@ mod tests {
         let cycles = standard_cycles(structure.continuous_cables.len(), &[0.02], 2, DAILY_SWING_K);
         let log = run_lab(&truth, &sensors, &cycles, 5).unwrap();
         let base = model(Effects::default().with_parameters(EffectKind::JointFriction, &[0.1]));
-        let h = Hypothesis::of(base.effects);
+        let h = Hypothesis::of(base.effects.clone());
         let current = compare_hypothesis(&base, &h, &log).unwrap();
         let z = |c: &Comparison| c.residuals.iter().map(|r| r.z).collect::<Vec<f64>>();
         let terms: Vec<Term> = EffectKind::ALL

@@ -389,7 +389,7 @@ pub fn compare_hypothesis(
         } else {
             model.structure.clone()
         },
-        effects: h.effects,
+        effects: h.effects.clone(),
         settings: model.settings.clone(),
         increment_m: model.increment_m,
     };

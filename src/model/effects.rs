@@ -32,7 +32,8 @@ use thiserror::Error;
 use super::cable_seats::seat_material_m;
 use super::faults::Faults;
 use super::flexible_supports::with_flexible_supports;
-use super::friction::{AngleConvention, FrictionCoefficient, JointFriction};
+use super::friction::JointFriction;
+pub use super::friction_effect::{AngleShape, JointFrictionEffect};
 pub use super::parameter_spec::ParameterSpec;
 use super::structure::{MemberKind, Structure, StructureError};
 
@@ -185,19 +186,6 @@ impl EffectKind {
     }
 }
 
-/// Capstan friction at every joint of every continuous cable (see
-/// [`super::friction`]). Seed: μ falls with the interior angle; the values
-/// its rig gave are of order 0.1.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct JointFrictionEffect {
-    /// Friction coefficient μ, ≥ 0.
-    pub mu: f64,
-    /// Angle in the capstan exponent. Default: the wrap angle.
-    #[serde(default)]
-    pub convention: AngleConvention,
-}
-
 /// The motor drum does not pay out exactly what it is told. Slip: the drum
 /// turns but the cable creeps, so the actual payout change is
 /// `(1 − slip_fraction)·command`. Backlash: the gear train has play, so when
@@ -297,7 +285,7 @@ pub struct SupportFlexibilityEffect {
 }
 
 /// The effects switched on, each with its parameters; `None` is off.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Effects {
     /// Joint friction.
@@ -363,7 +351,7 @@ impl Effects {
     /// order; `None` if it is off.
     pub fn parameters(&self, kind: EffectKind) -> Option<Vec<f64>> {
         match kind {
-            EffectKind::JointFriction => self.joint_friction.map(|f| vec![f.mu]),
+            EffectKind::JointFriction => self.joint_friction.as_ref().map(|f| vec![f.mu]),
             EffectKind::Motor => self.motor.map(|m| vec![m.slip_fraction, m.backlash_m]),
             EffectKind::StiffnessError => self
                 .stiffness_error
@@ -386,15 +374,12 @@ impl Effects {
     /// If `values` has the wrong length: a programming error.
     pub fn with_parameters(&self, kind: EffectKind, values: &[f64]) -> Effects {
         assert_eq!(values.len(), kind.parameters().len(), "{}", kind.name());
-        let mut out = *self;
+        let mut out = self.clone();
         match kind {
             EffectKind::JointFriction => {
-                out.joint_friction = Some(JointFrictionEffect {
-                    mu: values[0],
-                    convention: self
-                        .joint_friction
-                        .map(|f| f.convention)
-                        .unwrap_or_default(),
+                out.joint_friction = Some(match &self.joint_friction {
+                    Some(f) => f.with_level(values[0]),
+                    None => JointFrictionEffect::constant(values[0], Default::default()),
                 })
             }
             EffectKind::Motor => {
@@ -530,14 +515,9 @@ impl Effects {
 
     /// Joint friction (frictionless when off).
     pub fn joint_friction(&self) -> JointFriction {
-        match self.joint_friction {
-            Some(f) => JointFriction {
-                static_mu: FrictionCoefficient::Constant(f.mu),
-                kinetic_mu: FrictionCoefficient::Constant(f.mu),
-                convention: f.convention,
-            },
-            None => JointFriction::frictionless(),
-        }
+        self.joint_friction
+            .as_ref()
+            .map_or_else(JointFriction::frictionless, JointFrictionEffect::law)
     }
 
     /// Thermal strain of steel at `temperature_c` (0 when off or when no

@@ -8,6 +8,7 @@ pub mod effects;
 pub mod faults;
 pub mod flexible_supports;
 pub mod friction;
+pub mod friction_effect;
 pub mod parameter_spec;
 pub mod sliding;
 pub mod solver;

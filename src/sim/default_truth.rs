@@ -37,10 +37,10 @@ pub const DEFAULT_TRUTH_BACKLASH_M: f64 = 0.003;
 /// 3 mm of motor backlash, nothing else (see the module notes).
 pub fn default_truth_effects() -> Effects {
     Effects {
-        joint_friction: Some(JointFrictionEffect {
-            mu: DEFAULT_TRUTH_MU,
-            convention: AngleConvention::Wrap,
-        }),
+        joint_friction: Some(JointFrictionEffect::constant(
+            DEFAULT_TRUTH_MU,
+            AngleConvention::Wrap,
+        )),
         motor: Some(MotorEffect {
             slip_fraction: 0.0,
             backlash_m: DEFAULT_TRUTH_BACKLASH_M,

@@ -101,7 +101,7 @@ impl Plant {
         // The as-built state has its arcs wrapped already.
         let seats_m = model.effects.seat_material_m(&base, &state.positions_m);
         let mut plant = Plant {
-            effects: model.effects,
+            effects: model.effects.clone(),
             bridge_members: model.structure.members.len(),
             friction,
             settings: model.settings.clone(),

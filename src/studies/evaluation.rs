@@ -486,7 +486,7 @@ impl Scenario {
     /// The truth of this scenario on `structure`: its hidden effects and
     /// the faults it has, on their parts of `structure`.
     pub fn truth(&self, structure: &Structure) -> EffectModel {
-        let mut effects = self.effects;
+        let mut effects = self.effects.clone();
         effects.faults = self
             .faults
             .iter()
@@ -1055,7 +1055,7 @@ mod tests {
         let truth_with = |model: &ForwardModel| {
             scenario.with_setup(&bridge, model, &problem, &policy, |setup| {
                 assert!(std::ptr::eq(setup.model, model));
-                (setup.truth.structure.clone(), setup.truth.effects)
+                (setup.truth.structure.clone(), setup.truth.effects.clone())
             })
         };
         let (structure, effects) = truth_with(&calibrated);
@@ -1184,7 +1184,7 @@ mod tests {
         let names = always.drawn_names();
         for i in 0..20 {
             let (a, b, n) = (plain.draw(3, i), always.draw(3, i), never.draw(3, i));
-            assert_eq!((a.effects, a.fold_m), (b.effects, b.fold_m));
+            assert_eq!((&a.effects, a.fold_m), (&b.effects, b.fold_m));
             assert_eq!(a.position_noise_m, b.position_noise_m);
             assert_eq!(b.drawn_values(&always).len(), names.len());
             let truth = b.truth(&s).effects.faults;

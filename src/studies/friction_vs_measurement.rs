@@ -141,7 +141,7 @@ pub fn friction_vs_measurement(
     };
     let cycles = [cycle];
     let log = run_lab(
-        &model(settings.truth_effects),
+        &model(settings.truth_effects.clone()),
         &sensors,
         &cycles,
         settings.seed,
