@@ -1,6 +1,7 @@
 //! Honest diagnosis of effects local to one member, one motor or one
 //! sensor: a load cell reading with a gain error, a position sensor that
-//! drifts over the log, one spring softer than designed. The overall RMS
+//! drifts over the log, one spring softer than designed, one continuous
+//! cable softer than designed, one drum zeroed off. The overall RMS
 //! dilutes each (one sensor of 34); the local candidates of the second
 //! tier must name the right one, with its parameter near the truth. A
 //! fault no candidate holds (a load cell that clips) must be located at
@@ -175,6 +176,46 @@ fn one_soft_spring_is_named_as_that_member() {
         &format!("member_stiffness({id})"),
         0,
         0.8,
+    );
+}
+
+/// Issue 24, item 5: a continuous cable 40 % softer was blamed, hedged,
+/// on its load cell's gain, because no candidate described one continuous
+/// cable.
+#[test]
+fn one_soft_continuous_cable_is_named_as_that_cable() {
+    let mut soft = reference_structure();
+    let cable = 2;
+    soft.continuous_cables[cable].ea_n *= 0.6;
+    let id = soft.continuous_cables[cable].id.clone();
+    let log = lab_log(&model(soft), 44);
+    found_as(
+        &baseline(),
+        &log,
+        LocalKind::CableStiffness { cable },
+        &format!("cable_stiffness({id})"),
+        0,
+        0.6,
+    );
+}
+
+/// Issue 24, item 5: one drum zeroed 15 mm off (the single truth of
+/// issue 22 that slackens a whole continuous cable) is named as that
+/// drum's offset, not fitted as a stiffness error that is not there.
+#[test]
+fn a_drum_zeroed_off_is_named_as_that_drums_offset() {
+    let mut long = reference_structure();
+    let cable = 6;
+    long.continuous_cables[cable].segment_rest_lengths_m[0] += 0.015;
+    let id = long.continuous_cables[cable].id.clone();
+    let log = lab_log(&model(long), 45);
+    found_as(
+        &baseline(),
+        &log,
+        LocalKind::DrumOffset { cable },
+        &format!("drum_offset({id})"),
+        0,
+        0.015,
     );
 }
 

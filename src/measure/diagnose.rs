@@ -38,7 +38,8 @@
 //! is left to explain); then, of the accepted candidates of either tier,
 //! the one that leaves the model clean is taken, else the one with the
 //! larger held-out gain beyond its penalty. Member groups,
-//! motors and sensors first, then the single members of the
+//! motors and sensors first, then the single members (stiffness and rest
+//! length) of the
 //! [`member_groups_opened`](DiagnoseSettings::member_groups_opened) (2)
 //! groups whose screen predicted most. At most
 //! [`max_local_fits`](DiagnoseSettings::max_local_fits) (4) local
@@ -52,7 +53,7 @@
 //! [`penalty_per_ln_candidates`](DiagnoseSettings::penalty_per_ln_candidates)
 //! (2). The largest of `M` useless candidates' gains exceeds `k·ln n` about
 //! `M` times as often as one does; the `2·ln M` takes that factor back (a
-//! χ² tail falls as `e^(−x/2)`), so trying 180 local candidates raises no
+//! χ² tail falls as `e^(−x/2)`), so trying 200 local candidates raises no
 //! more false alarms than trying one. Below, `k·ln n + 2·ln M` stands for
 //! the penalty with the default weights.
 //!
@@ -227,6 +228,29 @@ pub enum ParameterFlag {
         /// Parameter name.
         parameter: String,
     },
+    /// At least [`DiagnoseSettings::one_sensor_share`] of the candidate's
+    /// held-out χ² gain comes from one sensor, and the candidate is not a
+    /// term of that sensor's readings: a fault of that sensor (one no
+    /// candidate describes, such as clipping) would explain it as well.
+    /// Not a parameter's flag but the whole candidate's; it is not
+    /// trusted.
+    CarriedByOneSensor {
+        /// The sensor's id.
+        sensor: String,
+        /// Its share of the held-out χ² gain, 0–1.
+        share: f64,
+    },
+    /// Another fitted candidate explains the held-out cycles as well, to
+    /// within the candidate's penalty (`k·ln n + 2·ln M`, the resolution
+    /// of the criterion that accepted it): the log does not tell them
+    /// apart (a strut cut 4 mm long and its neighbours on the same
+    /// cable). The candidate's whole flag; it is not trusted.
+    Rival {
+        /// The rival's name.
+        name: String,
+        /// Its held-out RMS, noise SDs.
+        held_out_rms: f64,
+    },
 }
 
 impl std::fmt::Display for ParameterFlag {
@@ -252,6 +276,15 @@ impl std::fmt::Display for ParameterFlag {
             ParameterFlag::AtNeutralLimit { parameter, value } => write!(
                 f,
                 "{parameter} = {value:.4e} sits at its neutral limit (its neutral value and the end of its admissible range): the log finds little or none of it"
+            ),
+            ParameterFlag::CarriedByOneSensor { sensor, share } => write!(
+                f,
+                "{:.1} % of its held-out gain comes from one sensor, {sensor}: a fault of that sensor would explain it as well",
+                100.0 * share
+            ),
+            ParameterFlag::Rival { name, held_out_rms } => write!(
+                f,
+                "{name} explains the held-out cycles alike (held-out RMS {held_out_rms:.3} σ): the log does not tell them apart"
             ),
             ParameterFlag::NotIdentified { parameter } => {
                 write!(
@@ -406,6 +439,107 @@ pub fn part(c: &Comparison, cycles: usize, held: bool, settings: &DiagnoseSettin
         per_direction: vec![],
         overall,
     }
+}
+
+/// `best` and the candidates of `ranking` the log does not tell from it
+/// ([`is_rival`]): the most plausible of them a priori (least outside the
+/// plausible ranges of its parameters; [`implausibility`]) that the
+/// criterion accepts as well, ties kept in `best`'s favour, flagged with
+/// the others as its rivals. A load cell reading 3 % high was fitted as
+/// well by its cable 26 % stiffer (outside the 0.8–1.2 plausible for a
+/// rope) as by the cell's gain (1.048, inside 0.95–1.05): the log alone
+/// cannot choose, what a cable and a cell plausibly do can.
+fn alike_resolved(
+    best: Candidate,
+    ranking: &[Candidate],
+    base_bic: f64,
+    n: usize,
+    tier: usize,
+    settings: &DiagnoseSettings,
+) -> Candidate {
+    let alike: Vec<&Candidate> = ranking
+        .iter()
+        .filter(|c| c.term != best.term && is_rival(&best, c, n, tier, settings))
+        .collect();
+    let acceptable = |c: &&Candidate| {
+        accepted(std::slice::from_ref(*c), true, base_bic, n, tier, settings).is_some()
+    };
+    let mut chosen = std::iter::once(&best)
+        .chain(alike.iter().copied())
+        .filter(acceptable)
+        .min_by(|a, b| implausibility(a).total_cmp(&implausibility(b)))
+        .unwrap_or(&best)
+        .clone();
+    let others: Vec<ParameterFlag> = std::iter::once(&best)
+        .chain(alike)
+        .filter(|c| c.term != chosen.term)
+        .map(|c| ParameterFlag::Rival {
+            name: c.name.clone(),
+            held_out_rms: c.held_out_rms,
+        })
+        .collect();
+    chosen.flags.extend(others);
+    chosen
+}
+
+/// How far a candidate's values lie outside their plausible ranges, in
+/// half-widths of each range (0 inside), the largest over its parameters.
+fn implausibility(c: &Candidate) -> f64 {
+    c.term
+        .parameters()
+        .iter()
+        .zip(&c.values)
+        .map(|(spec, &v)| {
+            let (lo, hi) = spec.plausible;
+            let half = 0.5 * (hi - lo);
+            if !(half > 0.0) {
+                return 0.0;
+            }
+            ((lo - v).max(v - hi) / half).max(0.0)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Whether `other` explains the held-out cycles as well as `best` to
+/// within `best`'s penalty (its held-out χ² on `n` readings no more than
+/// the penalty of `best`'s parameters in a tier of `tier` above
+/// `best`'s): the information criterion cannot tell them apart.
+fn is_rival(
+    best: &Candidate,
+    other: &Candidate,
+    n: usize,
+    tier: usize,
+    settings: &DiagnoseSettings,
+) -> bool {
+    let chi2_held = |c: &Candidate| c.held_out_rms * c.held_out_rms * n as f64;
+    other.converged
+        && chi2_held(other) - chi2_held(best) <= penalty(best.values.len(), n, tier, settings)
+}
+
+/// The sensor that gives most of the χ² gain from `before` to `after`
+/// (comparisons of the same readings) and its share of the gain summed
+/// over the sensors that gain; `None` when none does.
+fn largest_sensor_share(before: &Comparison, after: &Comparison) -> Option<(usize, f64)> {
+    let sensors = before
+        .residuals
+        .iter()
+        .chain(&after.residuals)
+        .map(|r| r.sensor + 1)
+        .max()?;
+    let mut gain = vec![0.0; sensors];
+    for r in &before.residuals {
+        gain[r.sensor] += r.z * r.z;
+    }
+    for r in &after.residuals {
+        gain[r.sensor] -= r.z * r.z;
+    }
+    let total: f64 = gain.iter().filter(|g| **g > 0.0).sum();
+    let (sensor, largest) = gain
+        .iter()
+        .copied()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    (total > 0.0 && largest > 0.0).then(|| (sensor, largest / total))
 }
 
 /// χ² and count of the comparison's `z`.
@@ -605,10 +739,20 @@ impl Base<'_> {
         let base_held = part(self.current, cycles, true, s);
         let k = specs.len();
         let own = penalty(k, fitted.overall.count, tier, s);
+        let mut flags = parameter_flags(term, &bounds, &fit.values, &fit.std_errors, s);
+        let reading_term = matches!(term, Term::Local(l) if l.on_readings());
+        if let Some((sensor, share)) = largest_sensor_share(&base_held, &held) {
+            if !reading_term && share >= s.one_sensor_share {
+                flags.push(ParameterFlag::CarriedByOneSensor {
+                    sensor: self.log.sensors[sensor].id.clone(),
+                    share,
+                });
+            }
+        }
         Ok(Candidate {
             term,
             name: term.label(&self.model.structure, &self.log.sensors),
-            flags: parameter_flags(term, &bounds, &fit.values, &fit.std_errors, s),
+            flags,
             values: fit.values,
             std_errors: fit.std_errors,
             condition: fit.condition,
@@ -848,7 +992,12 @@ pub fn diagnose(
             local_tier = locals.len();
             let open: Vec<Term> = locals
                 .iter()
-                .filter(|l| !matches!(l, LocalKind::MemberStiffness { .. }))
+                .filter(|l| {
+                    !matches!(
+                        l,
+                        LocalKind::MemberStiffness { .. } | LocalKind::MemberLength { .. }
+                    )
+                })
                 .map(|&l| Term::Local(l))
                 .filter(|t| h.parameters(*t).is_none())
                 .collect();
@@ -862,15 +1011,49 @@ pub fn diagnose(
                 .filter(|s| matches!(s.term, Term::Local(LocalKind::MemberGroupStiffness { .. })))
                 .collect();
             by_group.sort_by(|a, b| b.predicted_gain.total_cmp(&a.predicted_gain));
-            let members: Vec<Term> = by_group
+            // And the members along a continuous cable whose own terms
+            // passed: a member cut long on a cable's path shifts that
+            // cable's prestress as its drum's offset does, and only a fit
+            // of both tells which the log favours.
+            let structure = &model.structure;
+            let along_cables: Vec<usize> = local_screen
+                .iter()
+                .filter(|s| s.passed())
+                .filter_map(|s| match s.term {
+                    Term::Local(
+                        LocalKind::DrumOffset { cable } | LocalKind::CableStiffness { cable },
+                    ) => structure.continuous_cables.get(cable),
+                    _ => None,
+                })
+                .flat_map(|c| {
+                    structure
+                        .members
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, m)| m.nodes.iter().any(|n| c.path.contains(n)))
+                        .map(|(i, _)| i)
+                })
+                .collect();
+            let mut opened: Vec<usize> = by_group
                 .iter()
                 .take(settings.member_groups_opened)
                 .filter_map(|s| match s.term {
                     Term::Local(LocalKind::MemberGroupStiffness { group }) => groups.get(group),
                     _ => None,
                 })
-                .flat_map(|g| g.members.iter())
-                .map(|&member| Term::Local(LocalKind::MemberStiffness { member }))
+                .flat_map(|g| g.members.iter().copied())
+                .chain(along_cables)
+                .collect();
+            opened.sort_unstable();
+            opened.dedup();
+            let members: Vec<Term> = opened
+                .iter()
+                .flat_map(|&member| {
+                    [
+                        Term::Local(LocalKind::MemberStiffness { member }),
+                        Term::Local(LocalKind::MemberLength { member }),
+                    ]
+                })
                 .filter(|t| h.parameters(*t).is_none())
                 .collect();
             local_screen.extend(
@@ -894,7 +1077,17 @@ pub fn diagnose(
                 held.overall.count,
                 local_tier,
                 settings,
-            );
+            )
+            .map(|b| {
+                alike_resolved(
+                    b,
+                    &local_ranking,
+                    base_bic,
+                    held.overall.count,
+                    local_tier,
+                    settings,
+                )
+            });
             // The one that leaves the model clean wins; else the larger
             // held-out gain beyond its own penalty.
             let margin = |c: &Candidate, tier: usize| {
@@ -966,7 +1159,10 @@ pub fn diagnose(
 
 /// Fits every candidate of `found` together on the fit cycles, from their
 /// values in `h`; on success, sets their values, standard errors,
-/// condition numbers and flags to the joint fit's and returns the joint
+/// condition numbers and parameter flags to the joint fit's (the
+/// candidate's own flags, [`ParameterFlag::CarriedByOneSensor`] and
+/// [`ParameterFlag::Rival`], stay)
+/// and returns the joint
 /// hypothesis and its comparison. `None` (the search's values kept) when
 /// only one was found, or the joint fit could not be run or did not
 /// lower the fit cycles' `χ²`.
@@ -1016,7 +1212,20 @@ fn joint_refit(
         c.values = fit.values[at..at + k].to_vec();
         c.std_errors = fit.std_errors[at..at + k].to_vec();
         c.condition = fit.condition;
+        // Where its own fit's evidence came from is no parameter's, and
+        // the joint fit does not separate it: kept.
+        let carried: Vec<ParameterFlag> = c
+            .flags
+            .drain(..)
+            .filter(|f| {
+                matches!(
+                    f,
+                    ParameterFlag::CarriedByOneSensor { .. } | ParameterFlag::Rival { .. }
+                )
+            })
+            .collect();
         c.flags = parameter_flags(c.term, b, &c.values, &c.std_errors, settings);
+        c.flags.extend(carried);
         at += k;
     }
     Some((joint_h, joint))

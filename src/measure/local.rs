@@ -35,6 +35,13 @@ pub enum LocalKind {
         /// Member index.
         member: usize,
     },
+    /// Rest length of one member (index in the structure) off by a fixed
+    /// length (a strut cut long, a cable end fitted short), as
+    /// [`crate::model::faults`]' member error.
+    MemberLength {
+        /// Member index.
+        member: usize,
+    },
     /// Axial stiffness of one member group ([`member_groups`]) scaled.
     MemberGroupStiffness {
         /// Group index in [`member_groups`].
@@ -42,6 +49,20 @@ pub enum LocalKind {
     },
     /// One motor slips.
     MotorSlip {
+        /// Continuous cable (motor) index.
+        cable: usize,
+    },
+    /// One continuous cable's axial stiffness EA scaled (a rope from
+    /// another batch, or one that has crept: the whole cable, all its
+    /// segments, as no member candidate describes).
+    CableStiffness {
+        /// Continuous cable (motor) index.
+        cable: usize,
+    },
+    /// One continuous cable's material off by a fixed length at its
+    /// motor (a drum zeroed off, a cable cut long): its first segment's
+    /// rest length shifted, as [`crate::model::faults`]' drum zero error.
+    DrumOffset {
         /// Continuous cable (motor) index.
         cable: usize,
     },
@@ -75,6 +96,28 @@ const SLIP_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
     neutral: 0.0,
     plausible: (-0.05, 0.05),
     admissible: (-1.0, 0.999),
+}];
+const DRUM_OFFSET_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
+    name: "offset_m",
+    unit: "m",
+    neutral: 0.0,
+    // A drum zeroed a few turns of its sensor off: the 15 mm of issue 22's
+    // single truths lies inside.
+    plausible: (-0.02, 0.02),
+    // Within a tenth of a metre the first segment keeps a positive rest
+    // length at every fold of the bridge.
+    admissible: (-0.1, 0.1),
+}];
+const LENGTH_PARAMETERS: [ParameterSpec; 1] = [ParameterSpec {
+    name: "rest_length_error_m",
+    unit: "m",
+    neutral: 0.0,
+    // A member cut or fitted a few millimetres off: the 5 mm long strut of
+    // issue 22's single truths lies at the edge.
+    plausible: (-0.005, 0.005),
+    // A centimetre-scale error leaves every member of the bridge (0.2 m
+    // and longer) with a positive rest length.
+    admissible: (-0.05, 0.05),
 }];
 const GAIN_PARAMETERS: [ParameterSpec; 2] = [
     ParameterSpec {
@@ -115,9 +158,11 @@ impl LocalKind {
     /// The candidate's parameters.
     pub fn parameters(self) -> &'static [ParameterSpec] {
         match self {
-            LocalKind::MemberStiffness { .. } | LocalKind::MemberGroupStiffness { .. } => {
-                &SCALE_PARAMETERS
-            }
+            LocalKind::MemberStiffness { .. }
+            | LocalKind::MemberGroupStiffness { .. }
+            | LocalKind::CableStiffness { .. } => &SCALE_PARAMETERS,
+            LocalKind::DrumOffset { .. } => &DRUM_OFFSET_PARAMETERS,
+            LocalKind::MemberLength { .. } => &LENGTH_PARAMETERS,
             LocalKind::MotorSlip { .. } => &SLIP_PARAMETERS,
             LocalKind::LoadCellGain { .. } => &GAIN_PARAMETERS,
             LocalKind::PositionDrift { .. } => &DRIFT_PARAMETERS,
@@ -136,15 +181,25 @@ impl LocalKind {
     /// `member_stiffness(A_s3)` or `load_cell_gain(load_A_cc0)`.
     pub fn label(self, structure: &Structure, sensors: &[Sensor]) -> String {
         let sensor = |s: usize| sensors.get(s).map(|s| s.id.as_str()).unwrap_or("?");
+        let member_id = |m: usize| {
+            structure
+                .members
+                .get(m)
+                .map(|m| m.id.as_str())
+                .unwrap_or("?")
+        };
+        let cable_id = |c: usize| {
+            structure
+                .continuous_cables
+                .get(c)
+                .map(|c| c.id.as_str())
+                .unwrap_or("?")
+        };
         match self {
-            LocalKind::MemberStiffness { member } => format!(
-                "member_stiffness({})",
-                structure
-                    .members
-                    .get(member)
-                    .map(|m| m.id.as_str())
-                    .unwrap_or("?")
-            ),
+            LocalKind::MemberStiffness { member } => {
+                format!("member_stiffness({})", member_id(member))
+            }
+            LocalKind::MemberLength { member } => format!("member_length({})", member_id(member)),
             LocalKind::MemberGroupStiffness { group } => format!(
                 "member_group_stiffness({})",
                 member_groups(structure)
@@ -152,14 +207,11 @@ impl LocalKind {
                     .map(|g| g.name.clone())
                     .unwrap_or_default()
             ),
-            LocalKind::MotorSlip { cable } => format!(
-                "motor_slip({})",
-                structure
-                    .continuous_cables
-                    .get(cable)
-                    .map(|c| c.id.as_str())
-                    .unwrap_or("?")
-            ),
+            LocalKind::MotorSlip { cable } => format!("motor_slip({})", cable_id(cable)),
+            LocalKind::CableStiffness { cable } => {
+                format!("cable_stiffness({})", cable_id(cable))
+            }
+            LocalKind::DrumOffset { cable } => format!("drum_offset({})", cable_id(cable)),
             LocalKind::LoadCellGain { sensor: s } => format!("load_cell_gain({})", sensor(s)),
             LocalKind::PositionDrift { sensor: s } => format!("position_drift({})", sensor(s)),
         }
@@ -194,15 +246,26 @@ pub fn member_groups(structure: &Structure) -> Vec<MemberGroup> {
     groups
 }
 
-/// Every local candidate for a log with `sensors` on `structure`: members,
-/// member groups, motors, load cells (segment tensions and member forces)
-/// and position sensors.
+/// Every local candidate for a log with `sensors` on `structure`: members
+/// (stiffness, rest length), member groups, motors (slip, the cable's stiffness, its drum's offset),
+/// load cells (segment tensions and member forces) and position sensors.
 pub fn local_candidates(structure: &Structure, sensors: &[Sensor]) -> Vec<LocalKind> {
     let mut out: Vec<LocalKind> = (0..member_groups(structure).len())
         .map(|group| LocalKind::MemberGroupStiffness { group })
         .collect();
-    out.extend((0..structure.members.len()).map(|member| LocalKind::MemberStiffness { member }));
-    out.extend((0..structure.continuous_cables.len()).map(|cable| LocalKind::MotorSlip { cable }));
+    for member in 0..structure.members.len() {
+        out.extend([
+            LocalKind::MemberStiffness { member },
+            LocalKind::MemberLength { member },
+        ]);
+    }
+    for cable in 0..structure.continuous_cables.len() {
+        out.extend([
+            LocalKind::MotorSlip { cable },
+            LocalKind::CableStiffness { cable },
+            LocalKind::DrumOffset { cable },
+        ]);
+    }
     for (s, sensor) in sensors.iter().enumerate() {
         match sensor.target {
             SensorTarget::SegmentTension { .. } | SensorTarget::MemberForce { .. } => {
@@ -309,6 +372,31 @@ fn edited_structure(structure: &Structure, locals: &[(LocalKind, Vec<f64>)]) -> 
     let mut s = structure.clone();
     let groups = member_groups(structure);
     for (kind, values) in locals {
+        match *kind {
+            LocalKind::CableStiffness { cable } => {
+                if let Some(c) = s.continuous_cables.get_mut(cable) {
+                    c.ea_n *= values[0];
+                }
+                continue;
+            }
+            LocalKind::MemberLength { member } => {
+                if let Some(m) = s.members.get_mut(member) {
+                    m.rest_length_m += values[0];
+                }
+                continue;
+            }
+            LocalKind::DrumOffset { cable } => {
+                if let Some(first) = s
+                    .continuous_cables
+                    .get_mut(cable)
+                    .and_then(|c| c.segment_rest_lengths_m.first_mut())
+                {
+                    *first += values[0];
+                }
+                continue;
+            }
+            _ => {}
+        }
         let members: Vec<usize> = match *kind {
             LocalKind::MemberStiffness { member } => vec![member],
             LocalKind::MemberGroupStiffness { group } => groups
@@ -380,7 +468,11 @@ pub fn compare_hypothesis(
     let structure_terms = h.locals.iter().any(|(k, _)| {
         matches!(
             k,
-            LocalKind::MemberStiffness { .. } | LocalKind::MemberGroupStiffness { .. }
+            LocalKind::MemberStiffness { .. }
+                | LocalKind::MemberLength { .. }
+                | LocalKind::MemberGroupStiffness { .. }
+                | LocalKind::CableStiffness { .. }
+                | LocalKind::DrumOffset { .. }
         )
     });
     let edited = EffectModel {
