@@ -15,8 +15,9 @@
 //! (`control::BridgeMismatch`).
 //!
 //! From the repository root:
-//! `cargo run --release --example perfect_knowledge -- D.toml SEED N [POLICY]`
-//! (POLICY default `policies/qp.toml`) prints one CSV row per scenario: for each controller its status,
+//! `cargo run --release --example perfect_knowledge -- D.toml SEED N [POLICY [CONTROLLERS]]`
+//! (POLICY default `policies/qp.toml`; CONTROLLERS a comma-separated
+//! subset of the four, default all) prints one CSV row per scenario: for each controller its status,
 //! whether it succeeded (connected, no truth limit broken), truth
 //! violations, commands, final true gap (m) and wall time (s), then the
 //! μ and fold the scenario drew. The truths, sensors and noise are the ones `tdeploy
@@ -37,8 +38,15 @@ const CONTROLLERS: [&str; 4] = ["nominal", "truth_mu", "truth_structure", "truth
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    if !(3..=4).contains(&args.len()) {
-        return Err("usage: DISTRIBUTION.toml SEED SCENARIOS [POLICY.toml]".into());
+    if !(3..=5).contains(&args.len()) {
+        return Err("usage: DISTRIBUTION.toml SEED SCENARIOS [POLICY.toml [CONTROLLERS]]".into());
+    }
+    let chosen: Vec<&str> = match args.get(4) {
+        Some(list) => list.split(',').collect(),
+        None => CONTROLLERS.to_vec(),
+    };
+    if let Some(unknown) = chosen.iter().find(|c| !CONTROLLERS.contains(c)) {
+        return Err(format!("unknown controller {unknown:?}; one of {CONTROLLERS:?}").into());
     }
     let distribution = read_distribution(std::path::Path::new(&args[0]))?;
     let seed: u64 = args[1].parse()?;
@@ -53,7 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         RelaxSettings::default(),
     )?;
     let base = DeploymentProblem::default();
-    let header: Vec<String> = CONTROLLERS
+    let header: Vec<String> = chosen
         .iter()
         .flat_map(|c| {
             [
@@ -90,6 +98,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for (k, model) in [&nominal, &truth_mu, &truth_structure, &truth_model]
                 .into_iter()
                 .enumerate()
+                .filter(|(k, _)| chosen.contains(&CONTROLLERS[*k]))
             {
                 let started = std::time::Instant::now();
                 let r = s.with_setup(&bridge, &nominal, &base, &policy, |setup| {
