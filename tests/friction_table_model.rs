@@ -6,16 +6,14 @@ use tensegrity_deploy::measure::diagnose::fit_candidate;
 use tensegrity_deploy::measure::lab::{run_lab, standard_cycles, DAILY_SWING_K};
 use tensegrity_deploy::measure::settings::DiagnoseSettings;
 use tensegrity_deploy::model::effects::JointFrictionEffect;
-use tensegrity_deploy::model::{AngleConvention, EffectKind, Effects, RelaxSettings};
+use tensegrity_deploy::model::{AngleConvention, EffectKind, Effects};
 use tensegrity_deploy::sim::{standard_sensors, EffectModel};
 
 fn model(effects: Effects) -> EffectModel {
-    EffectModel {
-        structure: reference_bridge(&BridgeParameters::default()).unwrap(),
+    EffectModel::for_measurement(
+        reference_bridge(&BridgeParameters::default()).unwrap(),
         effects,
-        settings: RelaxSettings::default(),
-        increment_m: 0.01,
-    }
+    )
 }
 
 /// The seed rig's table (117°, 146°, 170°: μ 0.14, 0.10, 0.05) at `level`.

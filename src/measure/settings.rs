@@ -162,7 +162,7 @@ impl DiagnoseSettings {
     pub const MAX_IDENTIFIED_STD_ERROR_RANGE: NumberRange = NumberRange::positive_up_to(100.0);
     /// Range of [`Self::one_sensor_share`]: at or below one half, one
     /// sensor could carry most of the evidence of two different causes.
-    pub const ONE_SENSOR_SHARE_RANGE: NumberRange = NumberRange::closed(0.5, 1.0);
+    pub const ONE_SENSOR_SHARE_RANGE: NumberRange = NumberRange::closed(0.5, 1.0).excluding_min();
 
     /// Each field with its declared range, in declaration order.
     pub fn ranges(&self) -> [Ranged; 12] {
@@ -579,6 +579,7 @@ mod tests {
                 "max_identified_std_error",
                 with(|s| s.max_identified_std_error = 0.0),
             ),
+            ("one_sensor_share", with(|s| s.one_sensor_share = 0.5)),
             (
                 "fit.search_widening",
                 with(|s| s.fit.search_widening = -0.1),
