@@ -38,10 +38,12 @@
 //! is left to explain); then, of the accepted candidates of either tier,
 //! the one that leaves the model clean is taken, else the one with the
 //! larger held-out gain beyond its penalty. Member groups,
-//! motors and sensors first, then the single members (stiffness and rest
-//! length) of the
+//! motors (slip, the cable's stiffness, its drum's offset) and sensors
+//! first, then the single members (stiffness and rest length) of the
 //! [`member_groups_opened`](DiagnoseSettings::member_groups_opened) (2)
-//! groups whose screen predicted most. At most
+//! groups whose screen predicted most and of the continuous cables whose
+//! own terms passed (a member cut long shifts its cable's prestress as the
+//! drum's offset does). At most
 //! [`max_local_fits`](DiagnoseSettings::max_local_fits) (4) local
 //! candidates, those predicted to gain most, are fitted.
 //!
@@ -53,7 +55,7 @@
 //! [`penalty_per_ln_candidates`](DiagnoseSettings::penalty_per_ln_candidates)
 //! (2). The largest of `M` useless candidates' gains exceeds `k·ln n` about
 //! `M` times as often as one does; the `2·ln M` takes that factor back (a
-//! χ² tail falls as `e^(−x/2)`), so trying 200 local candidates raises no
+//! χ² tail falls as `e^(−x/2)`), so trying 330 local candidates raises no
 //! more false alarms than trying one. Below, `k·ln n + 2·ln M` stands for
 //! the penalty with the default weights.
 //!
@@ -97,8 +99,13 @@
 //!   range and its neutral value, a backlash of 0, does not count: the
 //!   data may well say the effect lacks that part), inside its plausible range (by more than
 //!   [`outside_plausible_std_errors`](DiagnoseSettings::outside_plausible_std_errors)
-//!   (2) standard errors) and identified ([`ParameterFlag`]); the flags
-//!   are reported in words;
+//!   (2) standard errors) and identified, no sensor carries
+//!   [`one_sensor_share`](DiagnoseSettings::one_sensor_share) (98 %) of
+//!   its held-out gain unless it is a term of that sensor's readings, and
+//!   no other local fit explains the held-out cycles as well to within its
+//!   penalty (the log cannot tell them apart: of such rivals the one least
+//!   outside its plausible ranges is named, the others listed;
+//!   [`ParameterFlag`]); the flags are reported in words;
 //! - **structured residual**: otherwise, with where it is.
 //!
 //! Search ranges are the plausible range widened by
@@ -128,7 +135,7 @@ use super::local::{
 use super::outliers::{drop_outliers, find_outliers, without_outliers, Outlier};
 pub use super::settings::DiagnoseSettings;
 use super::settings::DiagnoseSettingsError;
-use crate::sim::{EffectModel, PlantError};
+use crate::sim::{EffectModel, PlantError, SensorTarget};
 
 /// Why a diagnosis could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -501,9 +508,12 @@ fn implausibility(c: &Candidate) -> f64 {
 }
 
 /// Whether `other` explains the held-out cycles as well as `best` to
-/// within `best`'s penalty (its held-out χ² on `n` readings no more than
-/// the penalty of `best`'s parameters in a tier of `tier` above
-/// `best`'s): the information criterion cannot tell them apart.
+/// within `best`'s penalty (its held-out χ² gain short of `best`'s by no
+/// more than the penalty of `best`'s parameters on `n` readings in a tier
+/// of `tier`): the information criterion cannot tell them apart. Rivals
+/// are looked for among the local tier's fits only: a library effect
+/// competes with the local tier as a whole (the diagnosis's rule), not
+/// as an alternative name for a local cause.
 fn is_rival(
     best: &Candidate,
     other: &Candidate,
@@ -511,9 +521,9 @@ fn is_rival(
     tier: usize,
     settings: &DiagnoseSettings,
 ) -> bool {
-    let chi2_held = |c: &Candidate| c.held_out_rms * c.held_out_rms * n as f64;
+    // Both gains are from the same held-out χ² of the model as it is.
     other.converged
-        && chi2_held(other) - chi2_held(best) <= penalty(best.values.len(), n, tier, settings)
+        && best.held_out_gain - other.held_out_gain <= penalty(best.values.len(), n, tier, settings)
 }
 
 /// The sensor that gives most of the χ² gain from `before` to `after`
@@ -740,7 +750,23 @@ impl Base<'_> {
         let k = specs.len();
         let own = penalty(k, fitted.overall.count, tier, s);
         let mut flags = parameter_flags(term, &bounds, &fit.values, &fit.std_errors, s);
-        let reading_term = matches!(term, Term::Local(l) if l.on_readings());
+        // A term of the readings of one sensor explains that sensor by
+        // design; so does the common load-cell bias where one cell reads.
+        let load_cells = self
+            .log
+            .sensors
+            .iter()
+            .filter(|s| {
+                matches!(
+                    s.target,
+                    SensorTarget::SegmentTension { .. } | SensorTarget::MemberForce { .. }
+                )
+            })
+            .count();
+        let reading_term = match term {
+            Term::Local(l) => l.on_readings(),
+            Term::Global(k) => k == EffectKind::LoadCellBias && load_cells <= 1,
+        };
         if let Some((sensor, share)) = largest_sensor_share(&base_held, &held) {
             if !reading_term && share >= s.one_sensor_share {
                 flags.push(ParameterFlag::CarriedByOneSensor {
@@ -1077,19 +1103,11 @@ pub fn diagnose(
                 held.overall.count,
                 local_tier,
                 settings,
-            )
-            .map(|b| {
-                alike_resolved(
-                    b,
-                    &local_ranking,
-                    base_bic,
-                    held.overall.count,
-                    local_tier,
-                    settings,
-                )
-            });
+            );
             // The one that leaves the model clean wins; else the larger
-            // held-out gain beyond its own penalty.
+            // held-out gain beyond its own penalty. The tiers compete on
+            // the local tier's best fit; which of the local causes the
+            // log cannot tell apart is named is decided after.
             let margin = |c: &Candidate, tier: usize| {
                 c.held_out_gain - penalty(c.values.len(), held.overall.count, tier, settings)
             };
@@ -1101,7 +1119,14 @@ pub fn diagnose(
                     Some(g)
                 }
                 (g, None) => g,
-                (_, l) => l,
+                (_, Some(l)) => Some(alike_resolved(
+                    l,
+                    &local_ranking,
+                    base_bic,
+                    held.overall.count,
+                    local_tier,
+                    settings,
+                )),
             };
             screened.extend(local_screen);
             ranking.extend(local_ranking);
@@ -1249,6 +1274,78 @@ pub fn effects_found(base: Effects, verdict: &Verdict) -> Effects {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn fitted(term: Term, name: &str, values: Vec<f64>, gain: f64) -> Candidate {
+        Candidate {
+            term,
+            name: name.into(),
+            std_errors: vec![0.01; values.len()],
+            values,
+            condition: 1.0,
+            held_out_rms: 1.0,
+            held_out_gain: gain,
+            bic: 0.0,
+            penalty: 0.0,
+            explained: 0.5,
+            converged: true,
+            leaves_clean: true,
+            flags: Vec::new(),
+        }
+    }
+
+    /// Of local causes the log cannot tell apart (held-out gains within
+    /// the best's penalty), the one inside its plausible range is named and
+    /// the others are its rivals; one the criterion separates is none.
+    #[test]
+    fn causes_the_log_cannot_tell_apart_name_the_plausible_one_and_its_rivals() {
+        let settings = DiagnoseSettings::default();
+        let (n, tier) = (700, 330);
+        let resolution = penalty(1, n, tier, &settings);
+        let cable = fitted(
+            Term::Local(LocalKind::CableStiffness { cable: 2 }),
+            "cable_stiffness(A_cc2)",
+            vec![1.26],
+            100.0,
+        );
+        let gain = fitted(
+            Term::Local(LocalKind::LoadCellGain { sensor: 2 }),
+            "load_cell_gain(load_A_cc2)",
+            vec![1.048, -4.0],
+            100.0 - 0.5 * resolution,
+        );
+        let far = fitted(
+            Term::Local(LocalKind::MemberLength { member: 7 }),
+            "member_length(A_s7)",
+            vec![0.001],
+            100.0 - 2.0 * resolution,
+        );
+        assert!(implausibility(&cable) > 0.0);
+        assert_eq!(implausibility(&gain), 0.0);
+        assert_eq!(implausibility(&far), 0.0);
+        assert!(is_rival(&cable, &gain, n, tier, &settings));
+        assert!(!is_rival(&cable, &far, n, tier, &settings));
+        let ranking = vec![cable.clone(), gain.clone(), far.clone()];
+        let chosen = alike_resolved(cable.clone(), &ranking, f64::INFINITY, n, tier, &settings);
+        assert_eq!(chosen.term, gain.term);
+        assert_eq!(
+            chosen.flags,
+            vec![ParameterFlag::Rival {
+                name: "cable_stiffness(A_cc2)".into(),
+                held_out_rms: 1.0
+            }]
+        );
+        assert!(!chosen.trusted());
+        // Alone, the best keeps its name and its trust.
+        let alone = alike_resolved(
+            cable.clone(),
+            &[cable.clone(), far],
+            f64::INFINITY,
+            n,
+            tier,
+            &settings,
+        );
+        assert_eq!(alone, cable);
+    }
 
     /// The screen takes the model's own residuals for a candidate at its
     /// neutral value (`predicted_gain`'s `r0`) instead of replaying the

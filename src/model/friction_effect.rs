@@ -8,7 +8,8 @@
 //! the table's level, the mean of its μ, and the table's *shape* (each
 //! μ over that mean) is held: a fit scales the whole table and keeps how
 //! μ falls with the angle, which a single log cannot resolve angle by
-//! angle. Files give and get the table as absolute μ.
+//! angle. Files give and get the table as absolute μ (the table given,
+//! bit for bit, while its level is unchanged).
 
 use serde::{Deserialize, Serialize};
 
@@ -24,20 +25,24 @@ pub struct JointFrictionEffect {
     pub mu: f64,
     /// Angle in the capstan exponent. Default: the wrap angle.
     pub convention: AngleConvention,
-    /// How μ varies over the interior angle, relative to `mu`; `None`:
+    /// How μ varies over the interior angle, scaled with `mu`; `None`:
     /// the same μ at every angle.
     pub angle_shape: Option<AngleShape>,
 }
 
-/// μ over the interior angle relative to its level: μ(θ) = `mu` ·
-/// `relative_mu`(θ), interpolated linearly and held beyond the first and
-/// last angles (as [`FrictionCoefficient::Table`]).
+/// μ over the interior angle as given, and the level it was given at: at
+/// level `mu` the table is `mu_as_given · mu / given_level` (exactly the
+/// table given while the level is unchanged), interpolated linearly and
+/// held beyond the first and last angles (as
+/// [`FrictionCoefficient::Table`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AngleShape {
     /// Interior angles θ, degrees, strictly increasing within [0, 180].
     pub interior_angle_deg: Vec<f64>,
-    /// μ at each angle over the level `mu`, ≥ 0, mean 1.
-    pub relative_mu: Vec<f64>,
+    /// μ at each angle as given, ≥ 0.
+    pub mu_as_given: Vec<f64>,
+    /// The mean of `mu_as_given`: the level the table was given at.
+    pub given_level: f64,
 }
 
 impl JointFrictionEffect {
@@ -59,18 +64,16 @@ impl JointFrictionEffect {
     ) -> Result<Self, String> {
         check_table(&interior_angle_deg, &mu)?;
         let level = mu.iter().sum::<f64>() / mu.len() as f64;
-        // All-zero μ: frictionless at every angle, any shape will do.
-        let relative_mu = if level > 0.0 {
-            mu.iter().map(|m| m / level).collect()
-        } else {
-            vec![1.0; mu.len()]
-        };
+        if !level.is_finite() {
+            return Err("`mu_over_angle.mu`: their mean is not a finite number".into());
+        }
         Ok(JointFrictionEffect {
             mu: level,
             convention,
             angle_shape: Some(AngleShape {
                 interior_angle_deg,
-                relative_mu,
+                mu_as_given: mu,
+                given_level: level,
             }),
         })
     }
@@ -80,10 +83,17 @@ impl JointFrictionEffect {
         JointFrictionEffect { mu, ..self.clone() }
     }
 
-    /// μ at each tabulated angle (empty without a table).
+    /// μ at each tabulated angle at the effect's level (empty without a
+    /// table). A table given as all zeros has no shape: at another level
+    /// it is that level at every angle.
     pub fn tabulated_mu(&self) -> Vec<f64> {
         self.angle_shape.as_ref().map_or(Vec::new(), |s| {
-            s.relative_mu.iter().map(|r| self.mu * r).collect()
+            if s.given_level > 0.0 {
+                let scale = self.mu / s.given_level;
+                s.mu_as_given.iter().map(|m| m * scale).collect()
+            } else {
+                vec![self.mu; s.mu_as_given.len()]
+            }
         })
     }
 
@@ -247,10 +257,12 @@ mod tests {
         let text = toml::to_string(&e).unwrap();
         assert!(text.contains("mu_over_angle"), "{text}");
         let back: JointFrictionEffect = toml::from_str(&text).unwrap();
-        assert_eq!(back.convention, e.convention);
-        for (a, b) in back.tabulated_mu().iter().zip(e.tabulated_mu()) {
-            assert!((a - b).abs() < 1e-15);
-        }
+        // Bit for bit: the table given is the table written.
+        assert_eq!(back, e);
+        assert_eq!(back.tabulated_mu(), vec![0.14, 0.10, 0.05]);
+        let json: JointFrictionEffect =
+            serde_json::from_str(&serde_json::to_string(&e).unwrap()).unwrap();
+        assert_eq!(json, e);
         let one: JointFrictionEffect = toml::from_str("mu = 0.2").unwrap();
         assert_eq!(
             one,
@@ -288,6 +300,10 @@ mod tests {
         refuse(
             "mu_over_angle = { interior_angle_deg = [], mu = [] }",
             "empty",
+        );
+        refuse(
+            "mu_over_angle = { interior_angle_deg = [90, 100], mu = [1e308, 1e308] }",
+            "mean is not a finite number",
         );
         refuse("mu = 0.1\nangle = 3", "unknown field");
     }
