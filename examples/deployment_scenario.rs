@@ -78,7 +78,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // As `tdeploy evaluate` sets a scenario up.
         s.with_setup(&bridge, &model, &base_problem, &policy, |setup| {
             if cycles > 1 {
-                match run_cycles(setup, cycles, &mut CaseMemory::default(), &mut PrintCycles) {
+                match run_cycles(
+                    setup,
+                    cycles,
+                    &mut CaseMemory::default(),
+                    None,
+                    &mut PrintCycles,
+                ) {
                     Err(e) => println!("error: {e}"),
                     Ok(end) => {
                         if let Some(why) = end.stopped {

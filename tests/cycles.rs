@@ -64,7 +64,7 @@ fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
         temperature_c: None,
         seed: 1,
     };
-    let end = run_cycles(&setup, n, &mut CaseMemory::default(), &mut ()).unwrap();
+    let end = run_cycles(&setup, n, &mut CaseMemory::default(), None, &mut ()).unwrap();
     assert_eq!(end.stopped, None);
     end.results
 }
@@ -319,7 +319,7 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
             &model,
             &problem,
             &policies[r.policy],
-            |run| run_cycles(run, 2, &mut CaseMemory::default(), &mut ()).unwrap(),
+            |run| run_cycles(run, 2, &mut CaseMemory::default(), None, &mut ()).unwrap(),
         );
         assert_eq!(end.stopped, None);
         let last = end.results.last().unwrap();
@@ -358,7 +358,7 @@ fn scenario_cycles(
         &DeploymentProblem::default(),
         policy,
         |setup| {
-            let end = run_cycles(setup, 5, &mut CaseMemory::default(), observer).unwrap();
+            let end = run_cycles(setup, 5, &mut CaseMemory::default(), None, observer).unwrap();
             assert_eq!(end.stopped, None);
             end.results
         },
@@ -488,4 +488,50 @@ fn cycles_with_a_calibrated_model_deploys_the_same_default_truth() {
         calibrated.to_bits(),
         "{nominal} vs {calibrated}"
     );
+}
+
+/// Issue 24, item 2 (the measurement the learning curve needs): each
+/// cycle's readings against the model it was planned on. The frictionless
+/// model misses the default truth's friction and backlash in every cycle;
+/// the truth's own model, replayed from the design, explains them to the
+/// noise (about 1), the check that the column measures the model and
+/// not the replay.
+#[test]
+fn each_cycle_reports_its_readings_against_the_model_it_was_planned_on() {
+    let (structure, model, sensors) = bridge();
+    let truth = default_truth(structure.clone());
+    let policy = read_policy(&repo_path("policies/qp.toml")).unwrap();
+    let problem = DeploymentProblem::default();
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy: &policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: 1,
+    };
+    let rms = |planning: &EffectModel| -> Vec<f64> {
+        run_cycles(
+            &setup,
+            2,
+            &mut CaseMemory::default(),
+            Some(planning),
+            &mut (),
+        )
+        .unwrap()
+        .results
+        .iter()
+        .map(|r| r.planning_model_rms.unwrap())
+        .collect()
+    };
+    let frictionless = rms(&EffectModel::for_measurement(
+        structure.clone(),
+        Default::default(),
+    ));
+    let exact = rms(&truth);
+    for (f, e) in frictionless.iter().zip(&exact) {
+        assert!(*f > 1.5, "frictionless {frictionless:?}");
+        assert!(*e < 1.3, "the truth's own model {exact:?}");
+    }
 }

@@ -40,7 +40,10 @@ use tensegrity_deploy::report::cycles_figure::cycles_svg;
 use tensegrity_deploy::sim::standard_sensors;
 use tensegrity_deploy::studies::cycles::{run_cycles, CycleObserver, CycleResult};
 
-use super::inputs::{deployment_temperature, planning_model, problem_or_default, truth_or_default};
+use super::inputs::{
+    deployment_temperature, planning_effect_model, planning_model, problem_or_default,
+    truth_or_default,
+};
 use super::words::mm;
 use super::{value, with_threads, Outcome};
 
@@ -133,13 +136,16 @@ impl CycleObserver for MemoryWriter<'_> {
             }
         }
         say!(
-            "cycle {}: {} after {} commands ({} corrective), gap after the first approach {} mm, final {} mm",
+            "cycle {}: {} after {} commands ({} corrective), gap after the first approach {} mm, final {} mm; readings against the model planned on {}",
             result.cycle,
             result.status,
             result.commands,
             result.corrective_commands.map_or("–".into(), |c| c.to_string()),
             mm(result.approach_gap_m),
-            mm(result.final_gap_m)
+            mm(result.final_gap_m),
+            result
+                .planning_model_rms
+                .map_or("– (not replayed)".into(), |r| format!("{r:.2} σ RMS"))
         );
     }
 }
@@ -151,6 +157,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         None => parse_policy(MEMORY_POLICY, Path::new("policies/memory.toml (built in)"))?,
     };
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
+    // The same model as the measurement tools replay it: each cycle's
+    // readings are compared with it (the model's error per cycle).
+    let replayed = planning_effect_model(o.model.as_deref())?;
     // The default truth stands on the bridge the model file names, before
     // its effects: those are the controller's belief, not the bridge's.
     let (_, truth, truth_words) = truth_or_default(o.truth.as_deref(), o.model.as_deref())?;
@@ -203,7 +212,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         failure: None,
     };
     let end = with_threads(o.threads, || {
-        run_cycles(&setup, o.cycles, &mut memory, &mut writer)
+        run_cycles(&setup, o.cycles, &mut memory, Some(&replayed), &mut writer)
     })??;
     if let Some(e) = writer.failure {
         return Err(e.into());

@@ -53,6 +53,22 @@ pub fn planning_model_and_bridge(
     })
 }
 
+/// The controller's model as the measurement tools replay it: the model
+/// file's bridge with its effects, or the reference bridge with none (the
+/// frictionless default of [`planning_model`]).
+pub fn planning_effect_model(path: Option<&Path>) -> Result<EffectModel> {
+    Ok(match path {
+        Some(p) => {
+            let file = read_model(p)?;
+            EffectModel::for_measurement(file.load_structure()?, file.effects)
+        }
+        None => EffectModel::for_measurement(
+            reference_bridge(&BridgeParameters::default())?,
+            Effects::default(),
+        ),
+    })
+}
+
 /// The controller's model file as given, or the frictionless reference
 /// bridge, with how a summary names it.
 pub fn controller_model_file(path: Option<&Path>) -> Result<(ModelFile, String)> {

@@ -15,7 +15,10 @@
 //!   (commands of the learnt approach: an `approach_commands` below it is
 //!   a feedforward that ended early, a learnt command the model found
 //!   beyond a limit), `ilc_predicted_gap_m` (largest end gap the ILC
-//!   update predicted for the whole learnt approach), `adaptation_error` (why
+//!   update predicted for the whole learnt approach), `planning_model_rms`
+//!   (RMS of the cycle's readings against the model the cycle was planned
+//!   on, replayed through the cycle, in noise SDs: about 1 where the model
+//!   explains the cycle), `adaptation_error` (why
 //!   the memory gave no guidance although it held cases, in words). Empty:
 //!   no value (no such command, no case learnt from, no error).
 //!   `approach_commands` and `approach_gap_m` are empty in a cycle that
@@ -66,6 +69,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
         "learnt_from_case",
         "learnt_commands",
         "ilc_predicted_gap_m",
+        "planning_model_rms",
         "adaptation_error",
     ]);
     for r in results {
@@ -82,6 +86,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
             field(r.learnt_from_case),
             field(r.learnt_commands),
             field(r.ilc_predicted_gap_m),
+            field(r.planning_model_rms),
             field(r.adaptation_error.as_ref()),
         ]);
     }

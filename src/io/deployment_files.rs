@@ -49,11 +49,11 @@ use super::model_file::ModelFile;
 use super::problem_file::problem_to_toml;
 use super::{write_atomically, write_json, CsvTable, FileError};
 use crate::control::Deployment;
-use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::Structure;
 use crate::plan::limits::StartBrokenLimit;
 use crate::plan::{Breach, DeploymentProblem, PlanStatus, Policy, RunVerdict};
 use crate::sim::{EffectModel, Sensor};
+use crate::studies::deployment_log::deployment_log;
 
 /// The `format` of `summary.json`; a folder holding it is one `tdeploy
 /// deploy` wrote and may write again.
@@ -248,7 +248,7 @@ pub fn write_deployment(dir: &Path, set: &DeploymentSet) -> Result<(), FileError
     )?;
     write_log(
         &dir.join("log"),
-        &deployment_log(d, set.truth, set.sensors.to_vec()),
+        &deployment_log(d, &set.truth.structure.name, set.sensors.to_vec()),
         &set.truth.structure,
     )?;
     write_atomically(
@@ -340,23 +340,4 @@ fn timing_table(d: &Deployment) -> CsvTable {
         table.row([r.index.to_string(), r.planning_time_s.to_string()]);
     }
     table
-}
-
-/// The deployment as a measurement log: step 0 the designed state (not
-/// measured), step 1 the fold to the start, then the commands.
-fn deployment_log(d: &Deployment, truth: &EffectModel, sensors: Vec<Sensor>) -> MeasurementLog {
-    let mut commands = vec![d.start.start_payout_m.clone()];
-    commands.extend(d.commands());
-    let mut readings = vec![vec![None; sensors.len()]];
-    readings.extend(d.readings.iter().cloned());
-    MeasurementLog {
-        structure: truth.structure.name.clone(),
-        sensors,
-        cycles: vec![Cycle {
-            label: 1,
-            step_labels: (1..=commands.len() as u64).collect(),
-            commands,
-            readings,
-        }],
-    }
 }

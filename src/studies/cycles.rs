@@ -17,13 +17,15 @@
 
 use serde::{Serialize, Serializer};
 
+use super::deployment_log::deployment_log;
 use super::statistics::scenario_seed;
 use crate::control::{deploy_guided, ClosedLoopSetup, DeployError, Deployment, Guidance};
 use crate::learn::{
     adapt, AdaptError, Case, CaseConditions, CaseMemory, EndStateCache, FeatureScales,
 };
+use crate::measure::compare::compare;
 use crate::plan::{folded_start, PlanContext, PlanError};
-use crate::sim::{Plant, PlantError};
+use crate::sim::{EffectModel, Plant, PlantError};
 
 /// One cycle's figures: a row of the learning curve.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -59,6 +61,13 @@ pub struct CycleResult {
     /// Largest end gap the ILC update predicted, m (for the whole learnt
     /// approach, see `learnt_commands`).
     pub ilc_predicted_gap_m: Option<f64>,
+    /// RMS of the cycle's readings against the model the cycle was
+    /// planned on, replayed through the cycle (from the design, the fold
+    /// to the start, then the commands sent), in noise SDs: about 1 where
+    /// the model explains the cycle, the learning curve of the model's
+    /// error. Every reading is held out: nothing was fitted to it. `None`
+    /// where no planning model was given or its replay failed.
+    pub planning_model_rms: Option<f64>,
     /// Why the memory gave no guidance although it held cases
     /// (serialised as its message).
     #[serde(serialize_with = "error_message")]
@@ -121,11 +130,14 @@ fn error_message<S: Serializer>(
 /// Runs `cycles` cycles of `setup` (its truth's hidden effects fixed for
 /// every cycle; its seed that of the sensor noise, see the module
 /// documentation), learning into `memory` (cases are appended to it).
+/// With `planning`, the model `setup.model` was built from, each cycle's
+/// readings are compared with it ([`CycleResult::planning_model_rms`]).
 /// Errors only when the first deployment cannot start.
 pub fn run_cycles(
     setup: &ClosedLoopSetup,
     cycles: usize,
     memory: &mut CaseMemory,
+    planning: Option<&EffectModel>,
     observer: &mut dyn CycleObserver,
 ) -> Result<CyclesEnd, DeployError> {
     let (model, problem, policy) = (setup.model, setup.problem, setup.policy);
@@ -197,6 +209,7 @@ pub fn run_cycles(
             learnt_from_case: adaptation.as_ref().map(|a| a.case_index),
             learnt_commands: adaptation.as_ref().map(|a| a.guidance.feedforward_m.len()),
             ilc_predicted_gap_m: adaptation.as_ref().map(|a| a.ilc.predicted_end_gap_m),
+            planning_model_rms: planning.and_then(|m| planning_model_rms(m, &d, setup)),
             adaptation_error,
             planning_time_s: adaptation_time_s
                 + d.records.iter().map(|r| r.planning_time_s).sum::<f64>(),
@@ -221,6 +234,18 @@ pub fn run_cycles(
         results,
         stopped: None,
     })
+}
+
+/// RMS `z` of deployment `d`'s readings against `planning` replayed
+/// through it; `None` where the replay fails or no reading compares.
+fn planning_model_rms(
+    planning: &EffectModel,
+    d: &Deployment,
+    setup: &ClosedLoopSetup,
+) -> Option<f64> {
+    let log = deployment_log(d, &planning.structure.name, setup.sensors.to_vec());
+    let c = compare(planning, &log).ok()?;
+    (c.overall.count > 0).then_some(c.overall.rms)
 }
 
 /// Folds the truth back: pays out what `commands_m` reeled in (their sum,
@@ -292,6 +317,7 @@ mod tests {
             learnt_from_case: None,
             learnt_commands: None,
             ilc_predicted_gap_m: None,
+            planning_model_rms: None,
             adaptation_error: Some(error),
             planning_time_s: 0.0,
         };

@@ -998,8 +998,13 @@ pub fn evaluate(
                         };
                         // A run that could not start, or stopped early, shows
                         // in its cycles' results.
-                        let _ =
-                            run_cycles(run, setup.cycles, &mut CaseMemory::default(), &mut each);
+                        let _ = run_cycles(
+                            run,
+                            setup.cycles,
+                            &mut CaseMemory::default(),
+                            None,
+                            &mut each,
+                        );
                         RunResult::of_cycles(scenario.index, p, each.results, setup.cycles)
                     }
                 });

@@ -3,6 +3,7 @@
 //! read the other layers and are read only by the CLI. Pure: no files.
 
 pub mod cycles;
+pub mod deployment_log;
 pub mod evaluation;
 pub mod friction_effect;
 pub mod friction_vs_measurement;
