@@ -52,6 +52,16 @@ fn cycles(policy: &str, n: usize) -> Vec<CycleResult> {
 }
 
 fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
+    cycles_compared(policy, n, truth, None)
+}
+
+/// [`cycles_on`], each cycle's readings compared with `planning`.
+fn cycles_compared(
+    policy: &str,
+    n: usize,
+    truth: EffectModel,
+    planning: Option<&EffectModel>,
+) -> Vec<CycleResult> {
     let (_, model, sensors) = bridge();
     let policy = read_policy(&repo_path(policy)).unwrap();
     let problem = DeploymentProblem::default();
@@ -64,7 +74,7 @@ fn cycles_on(policy: &str, n: usize, truth: EffectModel) -> Vec<CycleResult> {
         temperature_c: None,
         seed: 1,
     };
-    let end = run_cycles(&setup, n, &mut CaseMemory::default(), None, &mut ()).unwrap();
+    let end = run_cycles(&setup, n, &mut CaseMemory::default(), planning, &mut ()).unwrap();
     assert_eq!(end.stopped, None);
     end.results
 }
@@ -498,32 +508,13 @@ fn cycles_with_a_calibrated_model_deploys_the_same_default_truth() {
 /// not the replay.
 #[test]
 fn each_cycle_reports_its_readings_against_the_model_it_was_planned_on() {
-    let (structure, model, sensors) = bridge();
+    let structure = reference_structure();
     let truth = default_truth(structure.clone());
-    let policy = read_policy(&repo_path("policies/qp.toml")).unwrap();
-    let problem = DeploymentProblem::default();
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy: &policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: None,
-        seed: 1,
-    };
     let rms = |planning: &EffectModel| -> Vec<f64> {
-        run_cycles(
-            &setup,
-            2,
-            &mut CaseMemory::default(),
-            Some(planning),
-            &mut (),
-        )
-        .unwrap()
-        .results
-        .iter()
-        .map(|r| r.planning_model_rms.unwrap())
-        .collect()
+        cycles_compared("policies/qp.toml", 2, truth.clone(), Some(planning))
+            .iter()
+            .map(|r| r.planning_model_rms.unwrap())
+            .collect()
     };
     let frictionless = rms(&EffectModel::for_measurement(
         structure.clone(),
