@@ -136,7 +136,7 @@ impl CycleObserver for MemoryWriter<'_> {
             }
         }
         say!(
-            "cycle {}: {} after {} commands ({} corrective), gap after the first approach {} mm, final {} mm; readings against the model planned on {}",
+            "cycle {}: {} after {} commands ({} corrective), gap after the first approach {} mm, final {} mm; readings against the controller's model {}",
             result.cycle,
             result.status,
             result.commands,
@@ -145,7 +145,7 @@ impl CycleObserver for MemoryWriter<'_> {
             mm(result.final_gap_m),
             result
                 .planning_model_rms
-                .map_or("– (not replayed)".into(), |r| format!("{r:.2} σ RMS"))
+                .map_or("– (its replay failed)".into(), |r| format!("{r:.2} σ RMS"))
         );
     }
 }
@@ -157,9 +157,11 @@ pub fn run(o: &Options) -> Result<Outcome> {
         None => parse_policy(MEMORY_POLICY, Path::new("policies/memory.toml (built in)"))?,
     };
     let model = planning_model(o.model.as_deref(), JointFriction::frictionless())?;
-    // The same model as the measurement tools replay it: each cycle's
-    // readings are compared with it (the model's error per cycle).
-    let replayed = planning_effect_model(o.model.as_deref())?;
+    // The controller's model as the measurement tools replay it: each
+    // cycle's readings are compared with it (the model's error per
+    // cycle), stepped as the planner steps its model.
+    let mut replayed = planning_effect_model(o.model.as_deref())?;
+    replayed.increment_m = policy.increment_m;
     // The default truth stands on the bridge the model file names, before
     // its effects: those are the controller's belief, not the bridge's.
     let (_, truth, truth_words) = truth_or_default(o.truth.as_deref(), o.model.as_deref())?;

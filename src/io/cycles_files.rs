@@ -16,9 +16,10 @@
 //!   a feedforward that ended early, a learnt command the model found
 //!   beyond a limit), `ilc_predicted_gap_m` (largest end gap the ILC
 //!   update predicted for the whole learnt approach), `planning_model_rms`
-//!   (RMS of the cycle's readings against the model the cycle was planned
-//!   on, replayed through the cycle, in noise SDs: about 1 where the model
-//!   explains the cycle), `adaptation_error` (why
+//!   (RMS of the cycle's readings against the controller's model file,
+//!   replayed open-loop from the design through the cycle's fold and
+//!   commands, in noise SDs: near 1 where the model explains the cycle;
+//!   empty where the replay failed), `adaptation_error` (why
 //!   the memory gave no guidance although it held cases, in words). Empty:
 //!   no value (no such command, no case learnt from, no error).
 //!   `approach_commands` and `approach_gap_m` are empty in a cycle that

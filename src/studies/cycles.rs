@@ -61,12 +61,17 @@ pub struct CycleResult {
     /// Largest end gap the ILC update predicted, m (for the whole learnt
     /// approach, see `learnt_commands`).
     pub ilc_predicted_gap_m: Option<f64>,
-    /// RMS of the cycle's readings against the model the cycle was
-    /// planned on, replayed through the cycle (from the design, the fold
-    /// to the start, then the commands sent), in noise SDs: about 1 where
-    /// the model explains the cycle, the learning curve of the model's
-    /// error. Every reading is held out: nothing was fitted to it. `None`
-    /// where no planning model was given or its replay failed.
+    /// RMS of the cycle's readings against the controller's model (its
+    /// model file: the structure and every effect, the motor's and the
+    /// sensors' included, of which the planner's forward model uses the
+    /// structural ones and friction), replayed open-loop through the cycle
+    /// from the design (the fold to the start, then the commands sent),
+    /// in noise SDs: the learning curve of the model's error. Every
+    /// reading is held out: nothing was fitted to it. From the second
+    /// cycle on, the truth starts where the last fold-back left it and the
+    /// replay from the design, so even the truth's own model reads a
+    /// little above 1 where friction made the paths differ. `None` where
+    /// no model was given or its replay failed.
     pub planning_model_rms: Option<f64>,
     /// Why the memory gave no guidance although it held cases
     /// (serialised as its message).
@@ -130,8 +135,10 @@ fn error_message<S: Serializer>(
 /// Runs `cycles` cycles of `setup` (its truth's hidden effects fixed for
 /// every cycle; its seed that of the sensor noise, see the module
 /// documentation), learning into `memory` (cases are appended to it).
-/// With `planning`, the model `setup.model` was built from, each cycle's
-/// readings are compared with it ([`CycleResult::planning_model_rms`]).
+/// With `planning`, the controller's model as the measurement tools replay
+/// it (the model file `setup.model` was built from; not checked), each
+/// cycle's readings are compared with it
+/// ([`CycleResult::planning_model_rms`]).
 /// Errors only when the first deployment cannot start.
 pub fn run_cycles(
     setup: &ClosedLoopSetup,
