@@ -110,6 +110,18 @@ pub fn run(o: &Options) -> Result<Outcome> {
     {
         say!("{name}.{}", fitted_parameter(p, *v, *se));
     }
+    // A μ table's `mu` is its level: say what was written.
+    if let Some(table) = new
+        .effects
+        .joint_friction
+        .as_ref()
+        .filter(|f| o.add == EffectKind::JointFriction && f.angle_shape.is_some())
+    {
+        say!(
+            "  (mu is the level of the model's μ table, the mean of its values; written scaled, keeping its shape: mu = {:?})",
+            table.tabulated_mu()
+        );
+    }
     say!(
         "held-out RMS residual: {:.2} σ before, {:.2} σ after ({} readings)",
         c.held_out_rms_before,
