@@ -527,15 +527,14 @@ fn is_rival(
 }
 
 /// The sensor that gives most of the χ² gain from `before` to `after`
-/// (comparisons of the same readings) and its share of the gain summed
+/// (comparisons of the same readings of a log of `sensors` sensors) and
+/// its share of the gain summed
 /// over the sensors that gain; `None` when none does.
-fn largest_sensor_share(before: &Comparison, after: &Comparison) -> Option<(usize, f64)> {
-    let sensors = before
-        .residuals
-        .iter()
-        .chain(&after.residuals)
-        .map(|r| r.sensor + 1)
-        .max()?;
+fn largest_sensor_share(
+    before: &Comparison,
+    after: &Comparison,
+    sensors: usize,
+) -> Option<(usize, f64)> {
     let mut gain = vec![0.0; sensors];
     for r in &before.residuals {
         gain[r.sensor] += r.z * r.z;
@@ -767,7 +766,9 @@ impl Base<'_> {
             Term::Local(l) => l.on_readings(),
             Term::Global(k) => k == EffectKind::LoadCellBias && load_cells <= 1,
         };
-        if let Some((sensor, share)) = largest_sensor_share(&base_held, &held) {
+        if let Some((sensor, share)) =
+            largest_sensor_share(&base_held, &held, self.log.sensors.len())
+        {
             if !reading_term && share >= s.one_sensor_share {
                 flags.push(ParameterFlag::CarriedByOneSensor {
                     sensor: self.log.sensors[sensor].id.clone(),

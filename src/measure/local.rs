@@ -169,6 +169,12 @@ impl LocalKind {
         }
     }
 
+    /// Whether it edits the structure (a member's or a cable's stiffness
+    /// or length): the replay runs on an edited copy.
+    pub fn on_structure(self) -> bool {
+        !self.on_readings() && !matches!(self, LocalKind::MotorSlip { .. })
+    }
+
     /// Whether it acts on the readings only (no replay needed).
     pub fn on_readings(self) -> bool {
         matches!(
@@ -371,42 +377,8 @@ impl Hypothesis {
 fn edited_structure(structure: &Structure, locals: &[(LocalKind, Vec<f64>)]) -> Structure {
     let mut s = structure.clone();
     let groups = member_groups(structure);
-    for (kind, values) in locals {
-        match *kind {
-            LocalKind::CableStiffness { cable } => {
-                if let Some(c) = s.continuous_cables.get_mut(cable) {
-                    c.ea_n *= values[0];
-                }
-                continue;
-            }
-            LocalKind::MemberLength { member } => {
-                if let Some(m) = s.members.get_mut(member) {
-                    m.rest_length_m += values[0];
-                }
-                continue;
-            }
-            LocalKind::DrumOffset { cable } => {
-                if let Some(first) = s
-                    .continuous_cables
-                    .get_mut(cable)
-                    .and_then(|c| c.segment_rest_lengths_m.first_mut())
-                {
-                    *first += values[0];
-                }
-                continue;
-            }
-            _ => {}
-        }
-        let members: Vec<usize> = match *kind {
-            LocalKind::MemberStiffness { member } => vec![member],
-            LocalKind::MemberGroupStiffness { group } => groups
-                .get(group)
-                .map(|g| g.members.clone())
-                .unwrap_or_default(),
-            _ => continue,
-        };
-        let scale = values[0];
-        for m in members {
+    let scale_members = |s: &mut Structure, members: &[usize], scale: f64| {
+        for &m in members {
             if let Some(member) = s.members.get_mut(m) {
                 member.kind = match member.kind {
                     MemberKind::Strut { ea_n, ei_nm2 } => MemberKind::Strut {
@@ -419,6 +391,39 @@ fn edited_structure(structure: &Structure, locals: &[(LocalKind, Vec<f64>)]) -> 
                     },
                 };
             }
+        }
+    };
+    for (kind, values) in locals {
+        let v = values[0];
+        match *kind {
+            LocalKind::MemberStiffness { member } => scale_members(&mut s, &[member], v),
+            LocalKind::MemberGroupStiffness { group } => {
+                if let Some(g) = groups.get(group) {
+                    scale_members(&mut s, &g.members, v);
+                }
+            }
+            LocalKind::MemberLength { member } => {
+                if let Some(m) = s.members.get_mut(member) {
+                    m.rest_length_m += v;
+                }
+            }
+            LocalKind::CableStiffness { cable } => {
+                if let Some(c) = s.continuous_cables.get_mut(cable) {
+                    c.ea_n *= v;
+                }
+            }
+            LocalKind::DrumOffset { cable } => {
+                if let Some(first) = s
+                    .continuous_cables
+                    .get_mut(cable)
+                    .and_then(|c| c.segment_rest_lengths_m.first_mut())
+                {
+                    *first += v;
+                }
+            }
+            LocalKind::MotorSlip { .. }
+            | LocalKind::LoadCellGain { .. }
+            | LocalKind::PositionDrift { .. } => {}
         }
     }
     s
@@ -465,16 +470,7 @@ pub fn compare_hypothesis(
     h: &Hypothesis,
     log: &MeasurementLog,
 ) -> Result<Comparison, PlantError> {
-    let structure_terms = h.locals.iter().any(|(k, _)| {
-        matches!(
-            k,
-            LocalKind::MemberStiffness { .. }
-                | LocalKind::MemberLength { .. }
-                | LocalKind::MemberGroupStiffness { .. }
-                | LocalKind::CableStiffness { .. }
-                | LocalKind::DrumOffset { .. }
-        )
-    });
+    let structure_terms = h.locals.iter().any(|(k, _)| k.on_structure());
     let edited = EffectModel {
         structure: if structure_terms {
             edited_structure(&model.structure, &h.locals)
