@@ -37,7 +37,9 @@ fn case(k: usize) -> Case {
             commands: 9,
             corrective_commands: Some(1),
             final_gap_m: Some(0.008),
+            approach_commands: None,
         },
+        learning: None,
     }
 }
 

@@ -49,7 +49,7 @@ use tensegrity_deploy::io::policy_file::parse_policy;
 use tensegrity_deploy::io::problem_file::parse_problem;
 use tensegrity_deploy::io::structure_file::{parse_structure, structure_to_json};
 use tensegrity_deploy::io::FileError;
-use tensegrity_deploy::learn::{Case, CaseConditions, CaseOutcome};
+use tensegrity_deploy::learn::{Case, CaseConditions, CaseLearning, CaseOutcome};
 
 /// Inputs per target in the smoke run.
 const SMOKE_CASES: u32 = 48;
@@ -383,7 +383,9 @@ fn memory_files() {
                 commands: 1,
                 corrective_commands: Some(0),
                 final_gap_m: Some(0.008),
+                approach_commands: None,
             },
+            learning: None,
         };
         append_case(&path, &case).unwrap();
     }
@@ -607,7 +609,16 @@ fn consistent_memory_lines() -> Vec<serde_json::Value> {
                     commands: 2,
                     corrective_commands: Some(1),
                     final_gap_m: Some(0.008),
+                    approach_commands: Some(2),
                 },
+                // The second case learnt from the first: its record's
+                // fields are mutated too.
+                learning: (k == 1).then(|| CaseLearning {
+                    from_case: 0,
+                    predicted_gaps_m: vec![Some(0.002), None, Some(0.001), Some(0.0), Some(0.003)],
+                    learnt_commands: 2,
+                    approach_completed: true,
+                }),
             };
             serde_json::to_value(case).unwrap()
         })
@@ -628,7 +639,7 @@ fn memory_contents() {
         .run(
             &(0..cases.len(), prop::collection::vec(content_edit(), 1..=2)),
             |(which, edits)| {
-                let mut text = String::from("tensegrity-deploy/memory/1\n");
+                let mut text = String::from("tensegrity-deploy/memory/2\n");
                 for (k, case) in cases.iter().enumerate() {
                     let mut case = case.clone();
                     if k == which {
@@ -651,6 +662,12 @@ fn memory_contents() {
                             .outcome
                             .final_gap_m
                             .is_none_or(|g| (0.0..=10.0).contains(&g)));
+                        if let Some(l) = &case.learning {
+                            prop_assert_eq!(l.predicted_gaps_m.len(), 5);
+                        }
+                    }
+                    for (k, case) in memory.cases.iter().enumerate() {
+                        prop_assert!(case.learning.as_ref().is_none_or(|l| l.from_case < k));
                     }
                 }
                 check_outcome(result, start.elapsed(), &[&path])?;

@@ -305,6 +305,7 @@ pub fn deploy_guided(
         };
     Ok(Deployment {
         approach_commands: controller.approach_commands(),
+        learnt_approach_completed: controller.learnt_approach_completed(),
         final_payout_scale: controller.part_payout_scale(),
         final_load_cell_bias_n: controller.load_cell_bias_n(),
         status,

@@ -117,8 +117,15 @@ pub struct Controller<'a> {
     last_readings: Vec<Option<f64>>,
     commands_observed: usize,
     pending: Option<Pending>,
-    /// Feedforward drum commands not yet sent (see [`Guidance`]).
-    feedforward: VecDeque<Vec<f64>>,
+    /// Feedforward drum commands not yet sent (see [`Guidance`]), each
+    /// with how many times it was halved from the learnt command.
+    feedforward: VecDeque<(Vec<f64>, usize)>,
+    /// Halvings allowed per learnt command
+    /// ([`Guidance::feedforward_splits`]).
+    feedforward_splits: usize,
+    /// Whether feedforward commands were given up (the planner took over
+    /// before the learnt approach's end).
+    feedforward_cut: bool,
     /// Whether the guidance had a feedforward at all.
     guided_approach: bool,
     /// Feedforward commands decided so far.
@@ -256,7 +263,13 @@ impl<'a> Controller<'a> {
             last_readings: start_readings.to_vec(),
             commands_observed: 0,
             pending: None,
-            feedforward: guidance.feedforward_m.iter().cloned().collect(),
+            feedforward: guidance
+                .feedforward_m
+                .iter()
+                .map(|u| (u.clone(), 0))
+                .collect(),
+            feedforward_splits: guidance.feedforward_splits,
+            feedforward_cut: false,
             guided_approach: !guidance.feedforward_m.is_empty(),
             feedforward_sent: 0,
             first_connecting: None,
@@ -316,14 +329,23 @@ impl<'a> Controller<'a> {
     }
 
     /// Commands of the first approach: with a feedforward, the
-    /// feedforward commands decided; otherwise the number of the first
-    /// command the controller predicted would connect (`None`: none yet).
+    /// feedforward commands decided (a halved learnt command's parts
+    /// counted one by one); otherwise the number of the first command the
+    /// controller predicted would connect (`None`: none yet).
     pub fn approach_commands(&self) -> Option<usize> {
         if self.guided_approach {
             Some(self.feedforward_sent)
         } else {
             self.first_connecting
         }
+    }
+
+    /// With a feedforward, whether every learnt command was sent (some
+    /// in parts); `false` where the planner took over before the learnt
+    /// approach's end. `None` without a feedforward.
+    pub fn learnt_approach_completed(&self) -> Option<bool> {
+        self.guided_approach
+            .then_some(!self.feedforward_cut && self.feedforward.is_empty())
     }
 
     /// The controller's model state, consumed.
@@ -342,11 +364,11 @@ impl<'a> Controller<'a> {
         let clock = Instant::now();
         // The next feedforward command as cable motion, tried on the
         // model; `None` once the feedforward is sent or given up.
-        let fed = self.next_feedforward();
+        let fed = self.next_feedforward_in_parts();
         if fed.is_none() {
             // Beyond a limit on the model (or all sent): the planner
             // takes over.
-            self.feedforward.clear();
+            self.give_up_feedforward();
         }
         let connected = self.context.connected(&self.state);
         let fed = match fed {
@@ -439,17 +461,43 @@ impl<'a> Controller<'a> {
             return false;
         };
         if p.feedforward {
-            self.feedforward.clear();
+            self.give_up_feedforward();
         } else {
             self.planner.on_command_rejected(&p.command);
         }
         true
     }
 
+    /// Drops the feedforward commands not sent (the planner takes over).
+    fn give_up_feedforward(&mut self) {
+        self.feedforward_cut |= !self.feedforward.is_empty();
+        self.feedforward.clear();
+    }
+
+    /// [`Self::next_feedforward`]; where the model refuses the next
+    /// command, it is halved (both halves queued, the first tried) while
+    /// it has been halved fewer than `feedforward_splits` times, so that
+    /// the learnt total goes on in parts the model takes.
+    fn next_feedforward_in_parts(&mut self) -> Option<(Vec<f64>, Vec<f64>, Trial)> {
+        loop {
+            if let Some(fed) = self.next_feedforward() {
+                return Some(fed);
+            }
+            let (front, halvings) = self.feedforward.front()?.clone();
+            if halvings >= self.feedforward_splits {
+                return None;
+            }
+            let half: Vec<f64> = front.iter().map(|u| 0.5 * u).collect();
+            self.feedforward.pop_front();
+            self.feedforward.push_front((half.clone(), halvings + 1));
+            self.feedforward.push_front((half, halvings + 1));
+        }
+    }
+
     /// The next feedforward command (drum, cable motion `sent·(1 + ŝ)`,
     /// its trial on the model) if the model takes it within every limit.
     fn next_feedforward(&self) -> Option<(Vec<f64>, Vec<f64>, Trial)> {
-        let sent = self.feedforward.front()?;
+        let (sent, _) = self.feedforward.front()?;
         let scale = self.payout_scale();
         let cable: Vec<f64> = sent
             .iter()

@@ -130,10 +130,15 @@ pub struct Deployment {
     /// Commands after that one: the corrective commands.
     pub corrective_commands: Option<usize>,
     /// Commands of the first approach: with a feedforward
-    /// ([`super::Guidance::feedforward_m`]), the feedforward commands sent;
-    /// otherwise the commands up to the first the controller predicted
-    /// would connect (`None`: it never predicted so).
+    /// ([`super::Guidance::feedforward_m`]), the feedforward commands sent
+    /// (a halved learnt command's parts counted one by one); otherwise the
+    /// commands up to the first the controller predicted would connect
+    /// (`None`: it never predicted so).
     pub approach_commands: Option<usize>,
+    /// With a feedforward, whether every learnt command was sent (some in
+    /// parts, see [`super::Guidance::feedforward_splits`]); `None`
+    /// without one.
+    pub learnt_approach_completed: Option<bool>,
     /// The payout scale of each independent part as estimated at the end
     /// (index = part id; empty without an estimator), 1.
     pub final_payout_scale: Vec<f64>,

@@ -10,7 +10,8 @@ pub struct Guidance {
     /// approach. Each is tried on the controller's model before it is sent
     /// (as cable motion `sent·(1 + ŝ)`); the first the model finds beyond
     /// a limit or a motor's stroke ends the feedforward, and the planner
-    /// takes over. The connection test waits until the feedforward is sent
+    /// takes over (after `feedforward_splits` halvings of that command).
+    /// The connection test waits until the feedforward is sent
     /// unless the next feedforward command is predicted not to reduce the
     /// largest gap.
     pub feedforward_m: Vec<Vec<f64>>,
@@ -20,4 +21,10 @@ pub struct Guidance {
     /// Standard deviation of that prior, 1 (used with `payout_scale_prior`);
     /// `None`: the policy's own prior standard deviation.
     pub payout_scale_prior_sd: Option<f64>,
+    /// How many times a feedforward command the model refuses is halved
+    /// (the halves sent one after the other, each checked) before the
+    /// planner takes over; see `MemorySettings::feedforward_splits`.
+    /// Absent in a file: 0.
+    #[serde(default)]
+    pub feedforward_splits: usize,
 }

@@ -12,10 +12,13 @@
 //!   it), `final_gap_m`, `final_true_gap_m` (largest measured and true gap
 //!   at the end), `truth_limit_violations`, `learnt_from_case` (index in
 //!   the memory of the case the cycle learnt from), `learnt_commands`
-//!   (commands of the learnt approach: an `approach_commands` below it is
-//!   a feedforward that ended early, a learnt command the model found
-//!   beyond a limit), `ilc_predicted_gap_m` (largest end gap the ILC
-//!   update predicted for the whole learnt approach), `planning_model_rms`
+//!   (commands the ILC update learnt; the model may take one in halves,
+//!   and a feedforward that ended early, a learnt command the model found
+//!   beyond a limit even halved, leaves the rest to the planner),
+//!   `ilc_predicted_gap_m` (largest end gap the ILC update predicted for
+//!   the whole learnt approach), `ilc_error_m` (the ILC update's largest
+//!   |predicted − measured| gap over the pairs at the end of its learnt
+//!   approach, m; empty where the approach was cut short), `planning_model_rms`
 //!   (RMS of the cycle's readings against the controller's model file,
 //!   replayed open-loop from the design through the cycle's fold and
 //!   commands, in noise SDs: near 1 where the model explains the cycle;
@@ -70,6 +73,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
         "learnt_from_case",
         "learnt_commands",
         "ilc_predicted_gap_m",
+        "ilc_error_m",
         "planning_model_rms",
         "adaptation_error",
     ]);
@@ -87,6 +91,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
             field(r.learnt_from_case),
             field(r.learnt_commands),
             field(r.ilc_predicted_gap_m),
+            field(r.ilc_error_m),
             field(r.planning_model_rms),
             field(r.adaptation_error.as_ref()),
         ]);

@@ -3,7 +3,7 @@
 //! session's events ([`super::session_files`]) are journals.
 //!
 //! ```text
-//! tensegrity-deploy/memory/1
+//! tensegrity-deploy/memory/2
 //! fnv1a:3f0c2b5e9a1d4c77 {"conditions":{…},"commands_m":[…],…}
 //! fnv1a:…
 //! ```
@@ -40,6 +40,11 @@ const CHECKSUM_PREFIX: &str = "fnv1a:";
 pub struct JournalKind<'a> {
     /// The first line.
     pub format: &'a str,
+    /// Earlier first lines whose records read as this version's (fields
+    /// added since are optional): such a file loads, and the first append
+    /// rewrites it whole, atomically, under [`Self::format`] (its records
+    /// byte for byte), so that no file mixes versions under an old header.
+    pub older_formats: &'a [&'a str],
     /// What one record is, as error messages name it ("case", "event").
     pub record: &'a str,
     /// The command that repairs a torn tail, for the message (e.g.
@@ -66,6 +71,18 @@ fn parse_record<T: DeserializeOwned>(content: &str) -> Option<T> {
         .flatten()
 }
 
+impl JournalKind<'_> {
+    /// Whether `first_line` (without its `\n`) is this journal's header, of
+    /// this version or an older one it reads.
+    fn reads_header(&self, first_line: &[u8]) -> bool {
+        first_line == self.format.as_bytes()
+            || self
+                .older_formats
+                .iter()
+                .any(|f| first_line == f.as_bytes())
+    }
+}
+
 /// What ends a journal's bytes after its last `\n`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Tail {
@@ -80,7 +97,7 @@ pub enum Tail {
 }
 
 /// Where the journal's complete lines end, and what follows them.
-fn tail_of<T: DeserializeOwned>(bytes: &[u8], format: &str) -> (usize, Tail) {
+fn tail_of<T: DeserializeOwned>(bytes: &[u8], kind: &JournalKind) -> (usize, Tail) {
     match bytes.last() {
         None | Some(b'\n') => (bytes.len(), Tail::Whole),
         Some(_) => {
@@ -88,7 +105,7 @@ fn tail_of<T: DeserializeOwned>(bytes: &[u8], format: &str) -> (usize, Tail) {
             let last = &bytes[keep..];
             // The header alone, or a whole record, lacking only its `\n`.
             let whole = if keep == 0 {
-                last == format.as_bytes()
+                kind.reads_header(last)
             } else {
                 std::str::from_utf8(last)
                     .ok()
@@ -112,7 +129,7 @@ pub fn parse_journal_tolerant<T: DeserializeOwned>(
     path: &Path,
     kind: JournalKind,
 ) -> Result<(Vec<(usize, T)>, Tail), FileError> {
-    let (keep, tail) = tail_of::<T>(bytes, kind.format);
+    let (keep, tail) = tail_of::<T>(bytes, &kind);
     let mut text = std::str::from_utf8(&bytes[..keep])
         .map_err(|e| FileError::field(path, 1, kind.record, format!("not text (UTF-8): {e}")))?
         .to_string();
@@ -131,7 +148,7 @@ pub fn parse_journal<T: DeserializeOwned>(
 ) -> Result<Vec<(usize, T)>, FileError> {
     let lines: Vec<&str> = text.split_inclusive('\n').collect();
     match lines.first() {
-        Some(l) if l.trim_end_matches('\n') == kind.format => {}
+        Some(l) if kind.reads_header(l.trim_end_matches('\n').as_bytes()) => {}
         _ => {
             return Err(FileError::field(
                 path,
@@ -218,7 +235,7 @@ pub fn append_records<T: Serialize>(
         }
         Some(bytes) => {
             let first = bytes.split(|&b| b == b'\n').next().unwrap_or(&[]);
-            if first != kind.format.as_bytes() {
+            if !kind.reads_header(first) {
                 return Err(FileError::field(
                     path,
                     1,
@@ -243,6 +260,15 @@ pub fn append_records<T: Serialize>(
             }
             if lines.is_empty() {
                 return Ok(());
+            }
+            if first != kind.format.as_bytes() {
+                // An older version: rewritten whole under this version's
+                // header, its records as they were, then the new ones.
+                let mut upgraded = format!("{}\n", kind.format).into_bytes();
+                upgraded.extend_from_slice(&bytes[first.len() + 1..]);
+                upgraded.extend_from_slice(lines.as_bytes());
+                write_atomically(path, &upgraded)?;
+                return sync_parent_folder(path);
             }
             let mut file = std::fs::OpenOptions::new()
                 .append(true)

@@ -2,7 +2,7 @@
 //! appended atomically (a journal, [`super::journal`]).
 //!
 //! ```text
-//! tensegrity-deploy/memory/1
+//! tensegrity-deploy/memory/2
 //! fnv1a:3f0c2b5e9a1d4c77 {"conditions":{…},"commands_m":[…],…}
 //! fnv1a:…
 //! ```
@@ -29,13 +29,20 @@ use super::journal::{self, JournalKind};
 use super::{read_text, FileError};
 use crate::learn::{Case, CaseMemory};
 
-/// The first line of a memory file.
-pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/1";
+/// The first line of a memory file. Version 2 added each case's
+/// optional learning record ([`crate::learn::CaseLearning`]).
+pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/2";
+
+/// Earlier memory formats still read: a version-1 case is a version-2
+/// case without a learning record (a cycle that ran without guidance, as
+/// far as the trust region knows: its next update starts fresh).
+const OLDER_MEMORY_FORMATS: &[&str] = &["tensegrity-deploy/memory/1"];
 
 /// The memory as a journal ([`super::journal`]).
 fn kind(repair: &str) -> JournalKind<'_> {
     JournalKind {
         format: MEMORY_FORMAT,
+        older_formats: OLDER_MEMORY_FORMATS,
         record: "case",
         repair,
     }
@@ -67,15 +74,17 @@ pub fn read_memory_or_empty(
     }
     let memory = read_memory(path)?;
     for (k, case) in memory.cases.iter().enumerate() {
-        case.validate(motors, pairs).map_err(|e| {
-            // Line 1 is the format; case k is on line k + 2.
-            FileError::field(
-                path,
-                k + 2,
-                &format!("case.{}", e.field),
-                format!("{}: the case is not used", e.reason),
-            )
-        })?;
+        case.validate(motors, pairs)
+            .and_then(|()| case.validate_learnt_from(k))
+            .map_err(|e| {
+                // Line 1 is the format; case k is on line k + 2.
+                FileError::field(
+                    path,
+                    k + 2,
+                    &format!("case.{}", e.field),
+                    format!("{}: the case is not used", e.reason),
+                )
+            })?;
     }
     Ok(memory)
 }
@@ -144,7 +153,9 @@ mod tests {
                 commands: 2,
                 corrective_commands: None,
                 final_gap_m: Some(0.0081),
+                approach_commands: None,
             },
+            learning: None,
         }
     }
 
@@ -162,6 +173,61 @@ mod tests {
         let path = stored(dir.path(), 3);
         let memory = read_memory(&path).unwrap();
         assert_eq!(memory.cases, (0..3).map(case).collect::<Vec<_>>());
+    }
+
+    /// A learnt case's record (version 2) round-trips; a case without one
+    /// is written without the field, as version 1 wrote it.
+    #[test]
+    fn a_learnt_cases_record_round_trips_and_a_plain_case_is_written_as_before() {
+        use crate::learn::CaseLearning;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("memory.tdm");
+        let mut learnt = case(1);
+        learnt.outcome.approach_commands = Some(2);
+        learnt.learning = Some(CaseLearning {
+            from_case: 0,
+            predicted_gaps_m: vec![Some(0.002), None, Some(0.001), Some(0.0), Some(0.003)],
+            learnt_commands: 2,
+            approach_completed: true,
+        });
+        append_case(&path, &case(0)).unwrap();
+        append_case(&path, &learnt).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], MEMORY_FORMAT);
+        assert!(!lines[1].contains("learning") && !lines[1].contains("approach_commands"));
+        assert!(lines[2].contains("\"learning\""));
+        assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), learnt]);
+    }
+
+    /// A version-1 file (cases without learning records) loads; the first
+    /// append rewrites it under the version-2 header, its cases byte for
+    /// byte, so that no file holds version-2 cases under a version-1
+    /// header (an older reader refuses the file by its header, not by a
+    /// field it does not know).
+    #[test]
+    fn a_version_1_memory_loads_and_its_first_append_upgrades_it_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = stored(dir.path(), 2);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let v1 = text.replacen(MEMORY_FORMAT, "tensegrity-deploy/memory/1", 1);
+        assert_ne!(v1, text);
+        std::fs::write(&path, &v1).unwrap();
+        assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), case(1)]);
+        append_case(&path, &case(2)).unwrap();
+        let upgraded = std::fs::read_to_string(&path).unwrap();
+        assert!(upgraded.starts_with(&format!("{MEMORY_FORMAT}\n")));
+        let (_, v1_cases) = v1.split_once('\n').unwrap();
+        assert!(upgraded.contains(v1_cases));
+        assert_eq!(
+            read_memory(&path).unwrap().cases,
+            (0..3).map(case).collect::<Vec<_>>()
+        );
+        // A header of no known version is refused, naming the one it
+        // must be.
+        std::fs::write(&path, v1.replacen("memory/1", "memory/9", 1)).unwrap();
+        let e = read_memory(&path).unwrap_err().to_string();
+        assert!(e.contains("line 1") && e.contains(MEMORY_FORMAT), "{e}");
     }
 
     /// One changed byte inside a case: refused at its line, the file left
@@ -264,7 +330,9 @@ mod tests {
                 commands: 2,
                 corrective_commands: Some(1),
                 final_gap_m: Some(0.02),
+                approach_commands: None,
             },
+            learning: None,
         }
     }
 

@@ -139,6 +139,7 @@ fn inputs_fingerprint(dir: &Path, meta: &SessionMeta) -> Result<String, FileErro
 fn events_kind(repair: &str) -> JournalKind<'_> {
     JournalKind {
         format: EVENTS_FORMAT,
+        older_formats: &[],
         record: "event",
         repair,
     }

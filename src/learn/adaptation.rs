@@ -200,6 +200,7 @@ pub fn adapt(
         payout_scale_prior: (!case.conditions.payout_scale.is_empty())
             .then(|| case.conditions.payout_scale.clone()),
         payout_scale_prior_sd: Some(settings.payout_scale_prior_sd),
+        feedforward_splits: settings.feedforward_splits,
     };
     Ok(Some(Adaptation {
         case_index,

@@ -72,6 +72,32 @@ pub struct CaseOutcome {
     pub corrective_commands: Option<usize>,
     /// Largest measured gap at the end, m.
     pub final_gap_m: Option<f64>,
+    /// Commands of the first approach (the learnt commands sent, with a
+    /// feedforward; else up to the first the controller predicted would
+    /// connect). Absent in version-1 files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub approach_commands: Option<usize>,
+}
+
+/// What the memory gave a cycle and what it predicted, so that the
+/// prediction can be checked against what the cycle measured
+/// ([`Case::learnt_approach_error_m`]). Absent on a cycle that ran without
+/// guidance (and on every case of a version-1 memory file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseLearning {
+    /// Index in the memory of the case the cycle learnt from.
+    pub from_case: usize,
+    /// Gap of each midspan pair the ILC update predicted at the end of its
+    /// whole learnt approach, m (`None`: that pair's gap was not read in
+    /// the case learnt from).
+    pub predicted_gaps_m: Vec<Option<f64>>,
+    /// Commands the ILC update learnt (the feedforward).
+    pub learnt_commands: usize,
+    /// Whether every learnt command was sent (some in parts, see
+    /// [`crate::control::Guidance::feedforward_splits`]); `false`: the
+    /// planner took over before the learnt approach's end.
+    pub approach_completed: bool,
 }
 
 /// One cycle.
@@ -94,6 +120,9 @@ pub struct Case {
     pub prediction_error_m: Vec<Option<f64>>,
     /// How it ended.
     pub outcome: CaseOutcome,
+    /// What the memory gave it (`None`: it ran without guidance).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub learning: Option<CaseLearning>,
 }
 
 impl Case {
@@ -206,7 +235,56 @@ impl Case {
         if let Some(g) = o.final_gap_m {
             check_value("outcome.final_gap_m".into(), g, GAP_RANGE_M)?;
         }
+        if let Some(k) = o.approach_commands {
+            if k > commands {
+                return Err(FieldError::new(
+                    "outcome.approach_commands",
+                    format!("{k}, more than the {commands} commands sent"),
+                ));
+            }
+        }
+        if let Some(l) = &self.learning {
+            count("learning.predicted_gaps_m", l.predicted_gaps_m.len(), pairs)?;
+            for (k, x) in l.predicted_gaps_m.iter().enumerate() {
+                if let Some(x) = *x {
+                    check_value(format!("learning.predicted_gaps_m[{k}]"), x, GAP_RANGE_M)?;
+                }
+            }
+        }
         Ok(())
+    }
+
+    /// The ILC update's error at the end of its learnt approach: the
+    /// largest |predicted − measured| gap over the pairs, m. `None` unless
+    /// the cycle sent the whole learnt approach (otherwise the commands it
+    /// predicted for were not the ones sent) and read a pair's gap.
+    pub fn learnt_approach_error_m(&self) -> Option<f64> {
+        let l = self.learning.as_ref()?;
+        if !l.approach_completed {
+            return None;
+        }
+        let k = self.outcome.approach_commands?.checked_sub(1)?;
+        let measured = self.measured_gaps_m.get(k)?;
+        l.predicted_gaps_m
+            .iter()
+            .zip(measured)
+            .filter_map(|(p, m)| Some((p.as_ref()? - m.as_ref()?).abs()))
+            .reduce(f64::max)
+    }
+
+    /// Checks that the case it learnt from is an earlier one: `index` is
+    /// this case's index in the memory.
+    pub fn validate_learnt_from(&self, index: usize) -> Result<(), FieldError> {
+        match &self.learning {
+            Some(l) if l.from_case >= index => Err(FieldError::new(
+                "learning.from_case",
+                format!(
+                    "{}, not an earlier case (this is case {index})",
+                    l.from_case
+                ),
+            )),
+            _ => Ok(()),
+        }
     }
 
     /// The case of a closed-loop deployment `d` of `structure` read by
@@ -253,7 +331,9 @@ impl Case {
                 commands: d.records.len(),
                 corrective_commands: d.corrective_commands,
                 final_gap_m: d.final_measured_gap_m(),
+                approach_commands: d.approach_commands,
             },
+            learning: None,
         }
     }
 }

@@ -366,6 +366,9 @@ pub struct IlcUpdate {
     pub commands_m: Vec<Vec<f64>>,
     /// Largest end gap the linearisation predicts for them, m.
     pub predicted_end_gap_m: f64,
+    /// The end gap of each midspan pair it predicts, m (`None`: the pair
+    /// was not read at the last cycle's end).
+    pub predicted_end_gaps_m: Vec<Option<f64>>,
     /// Largest end gap measured in the last cycle, m.
     pub last_end_gap_m: f64,
 }
@@ -374,7 +377,7 @@ pub struct IlcUpdate {
 pub fn learn_commands(data: &IlcData, regularisation: f64) -> IlcUpdate {
     let f = formulate(data, regularisation);
     let m = data.motors();
-    let largest_gap = |delta: &DVector<f64>| -> f64 {
+    let end_gaps = |delta: &DVector<f64>| -> Vec<Option<f64>> {
         // Summed from the commands (not read from the totals), so the
         // prediction holds for the commands that are sent.
         let mut total = DVector::zeros(m);
@@ -385,17 +388,18 @@ pub fn learn_commands(data: &IlcData, regularisation: f64) -> IlcUpdate {
         data.end_gaps_m
             .iter()
             .enumerate()
-            .filter_map(|(p, g)| {
+            .map(|(p, g)| {
                 let g = (*g)?;
                 let moved: f64 = (0..3)
                     .map(|a| (g[a] + change[3 * p + a]).powi(2))
                     .sum::<f64>();
                 Some(moved.sqrt())
             })
-            .fold(0.0, f64::max)
+            .collect()
     };
+    let largest = |gaps: &[Option<f64>]| gaps.iter().flatten().copied().fold(0.0, f64::max);
     let zero = DVector::zeros(data.variables());
-    let last_end_gap_m = largest_gap(&zero);
+    let last_end_gap_m = largest(&end_gaps(&zero));
     // The objective is in m² and tiny (a 1 cm gap is 1e-4): the default
     // gap tolerance would leave the solution tens of micrometres off, as in
     // the planner's step, whose tight settings serve here too.
@@ -416,10 +420,12 @@ pub fn learn_commands(data: &IlcData, regularisation: f64) -> IlcUpdate {
                 .collect()
         })
         .collect();
+    let predicted_end_gaps_m = end_gaps(&delta);
     IlcUpdate {
         status,
         commands_m,
-        predicted_end_gap_m: largest_gap(&delta),
+        predicted_end_gap_m: largest(&predicted_end_gaps_m),
+        predicted_end_gaps_m,
         last_end_gap_m,
     }
 }

@@ -141,7 +141,9 @@ mod tests {
                 commands: 1,
                 corrective_commands: Some(0),
                 final_gap_m: Some(0.01),
+                approach_commands: None,
             },
+            learning: None,
         }
     }
 

@@ -21,7 +21,7 @@ use super::deployment_log::deployment_log;
 use super::statistics::scenario_seed;
 use crate::control::{deploy_guided, ClosedLoopSetup, DeployError, Deployment, Guidance};
 use crate::learn::{
-    adapt, AdaptError, Case, CaseConditions, CaseMemory, EndStateCache, FeatureScales,
+    adapt, AdaptError, Case, CaseConditions, CaseLearning, CaseMemory, EndStateCache, FeatureScales,
 };
 use crate::measure::compare::compare;
 use crate::plan::{folded_start, PlanContext, PlanError};
@@ -61,6 +61,11 @@ pub struct CycleResult {
     /// Largest end gap the ILC update predicted, m (for the whole learnt
     /// approach, see `learnt_commands`).
     pub ilc_predicted_gap_m: Option<f64>,
+    /// The ILC update's error at the end of its learnt approach: the
+    /// largest |predicted − measured| gap over the midspan pairs, m
+    /// ([`Case::learnt_approach_error_m`]; empty where the approach was cut
+    /// short).
+    pub ilc_error_m: Option<f64>,
     /// RMS of the cycle's readings against the controller's model (its
     /// model file: the structure and every effect, the motor's and the
     /// sensors' included, of which the planner's forward model uses the
@@ -199,7 +204,13 @@ pub fn run_cycles(
             ..*setup
         };
         let d = deploy_guided(&run, &guidance, Some(&mut plant), &mut ())?;
-        let case = Case::of_deployment(&d, structure, setup.sensors, setup.temperature_c);
+        let mut case = Case::of_deployment(&d, structure, setup.sensors, setup.temperature_c);
+        case.learning = adaptation.as_ref().map(|a| CaseLearning {
+            from_case: a.case_index,
+            predicted_gaps_m: a.ilc.predicted_end_gaps_m.clone(),
+            learnt_commands: a.ilc.commands_m.len(),
+            approach_completed: d.learnt_approach_completed.unwrap_or(false),
+        });
         let result = CycleResult {
             cycle,
             status: d
@@ -214,8 +225,9 @@ pub fn run_cycles(
             final_true_gap_m: d.final_true_gap_m(),
             truth_limit_violations: d.truth_limit_violations,
             learnt_from_case: adaptation.as_ref().map(|a| a.case_index),
-            learnt_commands: adaptation.as_ref().map(|a| a.guidance.feedforward_m.len()),
+            learnt_commands: adaptation.as_ref().map(|a| a.ilc.commands_m.len()),
             ilc_predicted_gap_m: adaptation.as_ref().map(|a| a.ilc.predicted_end_gap_m),
+            ilc_error_m: case.learnt_approach_error_m(),
             planning_model_rms: planning.and_then(|m| planning_model_rms(m, &d, setup)),
             adaptation_error,
             planning_time_s: adaptation_time_s
@@ -324,6 +336,7 @@ mod tests {
             learnt_from_case: None,
             learnt_commands: None,
             ilc_predicted_gap_m: None,
+            ilc_error_m: None,
             planning_model_rms: None,
             adaptation_error: Some(error),
             planning_time_s: 0.0,
