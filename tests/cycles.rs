@@ -188,6 +188,46 @@ fn a_learnt_command_the_model_refuses_whole_is_sent_in_parts_not_cut() {
     assert_eq!(cut[1].ilc_error_m, None);
 }
 
+/// A cycle that does not connect says why on its line, as `deploy`'s
+/// verdict does: before, `cycles` printed only the status label. On the
+/// held-out truth `experiments/truths/light-friction-stiff-cables.toml`
+/// the memoryless controller connects in the first cycle and, from the
+/// fold-back, stops in the second with an unmeasured axial cable's
+/// minimum binding.
+#[test]
+fn a_cycle_that_does_not_connect_says_what_binds() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tdeploy(
+        &[
+            "cycles",
+            "--truth",
+            repo_path("experiments/truths/light-friction-stiff-cables.toml")
+                .to_str()
+                .unwrap(),
+            "--policy",
+            repo_path("policies/qp.toml").to_str().unwrap(),
+            "--cycles",
+            "2",
+            "-o",
+            dir.path().join("c").to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let text = common::cli::stdout(&out);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("cycle 2: "))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(
+        line.starts_with("cycle 2: not_reachable (not connected: not reachable safely: ")
+            && line.contains(" binds"),
+        "{line}"
+    );
+    let first = text.lines().find(|l| l.starts_with("cycle 1: ")).unwrap();
+    assert!(first.starts_with("cycle 1: connected after "), "{first}");
+}
+
 /// The memoryless policy on the same truth and noise does not learn: its
 /// gap stays within noise of its first cycle's, and every later cycle of
 /// the memory policy ends nearer the connection than the memoryless one.

@@ -615,6 +615,7 @@ fn consistent_memory_lines() -> Vec<serde_json::Value> {
                 // fields are mutated too.
                 learning: (k == 1).then(|| CaseLearning {
                     from_case: 0,
+                    from_gap_m: 0.02,
                     predicted_gaps_m: vec![Some(0.002), None, Some(0.001), Some(0.0), Some(0.003)],
                     learnt_commands: 2,
                     approach_completed: true,

@@ -135,8 +135,15 @@ impl CycleObserver for MemoryWriter<'_> {
                 self.failure = Some(e);
             }
         }
+        // A cycle that did not connect says why (what binds, or which
+        // limits the truth broke).
+        let why = if result.status == "connected" {
+            String::new()
+        } else {
+            format!(" ({})", result.verdict)
+        };
         say!(
-            "cycle {}: {} after {} commands ({} corrective), gap after the first approach {} mm, final {} mm; readings against the controller's model {}",
+            "cycle {}: {}{why} after {} commands ({} corrective), gap after the first approach {} mm, final {} mm; readings against the controller's model {}",
             result.cycle,
             result.status,
             result.commands,

@@ -186,6 +186,7 @@ mod tests {
         learnt.outcome.approach_commands = Some(2);
         learnt.learning = Some(CaseLearning {
             from_case: 0,
+            from_gap_m: 0.02,
             predicted_gaps_m: vec![Some(0.002), None, Some(0.001), Some(0.0), Some(0.003)],
             learnt_commands: 2,
             approach_completed: true,

@@ -88,6 +88,11 @@ pub struct CaseOutcome {
 pub struct CaseLearning {
     /// Index in the memory of the case the cycle learnt from.
     pub from_case: usize,
+    /// That case's largest end gap as the update read it (the largest of
+    /// its final gap vectors' lengths), m: the error it set out to
+    /// remove, against which the update's prediction and the gap reached
+    /// can be compared.
+    pub from_gap_m: f64,
     /// Gap of each midspan pair the ILC update predicted at the end of its
     /// whole learnt approach, m (`None`: that pair's gap was not read in
     /// the case learnt from).
@@ -244,6 +249,7 @@ impl Case {
             }
         }
         if let Some(l) = &self.learning {
+            check_value("learning.from_gap_m".into(), l.from_gap_m, GAP_RANGE_M)?;
             count("learning.predicted_gaps_m", l.predicted_gaps_m.len(), pairs)?;
             for (k, x) in l.predicted_gaps_m.iter().enumerate() {
                 if let Some(x) = *x {

@@ -35,6 +35,10 @@ pub struct CycleResult {
     /// The deployment's verdict label ([`crate::plan::RunVerdict::label`]:
     /// `connected`, `limits_broken`, …): what the truth did.
     pub status: String,
+    /// The verdict in plain words ([`crate::plan::RunVerdict::describe`]:
+    /// what the truth did, and for a stop what binds).
+    #[serde(skip)]
+    pub verdict: String,
     /// Commands sent.
     pub commands: usize,
     /// Commands after the first that brought the largest measured gap
@@ -207,16 +211,16 @@ pub fn run_cycles(
         let mut case = Case::of_deployment(&d, structure, setup.sensors, setup.temperature_c);
         case.learning = adaptation.as_ref().map(|a| CaseLearning {
             from_case: a.case_index,
+            from_gap_m: a.ilc.last_end_gap_m,
             predicted_gaps_m: a.ilc.predicted_end_gaps_m.clone(),
             learnt_commands: a.ilc.commands_m.len(),
             approach_completed: d.learnt_approach_completed.unwrap_or(false),
         });
+        let verdict = d.verdict(setup.problem.connection_tolerance_m);
         let result = CycleResult {
             cycle,
-            status: d
-                .verdict(setup.problem.connection_tolerance_m)
-                .label()
-                .to_string(),
+            status: verdict.label().to_string(),
+            verdict: verdict.describe(),
             commands: d.records.len(),
             corrective_commands: d.corrective_commands,
             approach_commands: d.approach_commands,
@@ -326,6 +330,7 @@ mod tests {
         let result = CycleResult {
             cycle: 1,
             status: "connected".into(),
+            verdict: String::new(),
             commands: 8,
             corrective_commands: None,
             approach_commands: None,
