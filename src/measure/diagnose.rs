@@ -118,6 +118,8 @@
 //! deserialise: a standard error or a screening gain that could not be
 //! estimated is NaN, which JSON writes as `null`.
 
+use std::sync::Arc;
+
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -718,6 +720,16 @@ impl Base<'_> {
     }
 
     fn fit(&self, term: Term, tier: usize) -> Result<Candidate, PlantError> {
+        self.fit_with_replay(term, tier).map(|(c, _)| c)
+    }
+
+    /// [`Self::fit`], with the replay of the log at the fitted values:
+    /// the next round's model if the candidate is taken.
+    fn fit_with_replay(
+        &self,
+        term: Term,
+        tier: usize,
+    ) -> Result<(Candidate, std::sync::Arc<Comparison>), PlantError> {
         let specs = term.parameters();
         let cycles = self.log.cycles.len();
         let s = self.settings;
@@ -734,8 +746,8 @@ impl Base<'_> {
         };
         let eval = |x: &[f64]| replay(x).ok().map(|c| fit_z(&c, cycles, s));
         let start = fit_start(specs, &bounds, s);
-        // The start runs, or its error is the answer.
-        replay(&start)?;
+        // Where the start does not run, the fit keeps it, and its replay
+        // below gives the error.
         let fit = levenberg_marquardt(&eval, &start, &bounds, &s.fit).unwrap_or(Fit {
             std_errors: vec![f64::NAN; start.len()],
             values: start,
@@ -776,7 +788,7 @@ impl Base<'_> {
                 });
             }
         }
-        Ok(Candidate {
+        let candidate = Candidate {
             term,
             name: term.label(&self.model.structure, &self.log.sensors),
             flags,
@@ -792,7 +804,8 @@ impl Base<'_> {
             explained: explained_share(base_held.overall.rms, held.overall.rms),
             converged: fit.converged,
             leaves_clean: is_clean(&all, self.log, s),
-        })
+        };
+        Ok((candidate, all))
     }
 }
 
@@ -995,10 +1008,19 @@ pub fn diagnose(
             .par_iter()
             .map(|&t| base.screen(t, global_tier))
             .collect();
+        // Each fit's replay at its optimum is kept: the taken one is the
+        // next round's model, replayed once instead of twice.
+        let mut replays: Vec<(Term, Vec<f64>, Arc<Comparison>)> = Vec::new();
         let mut ranking: Vec<Candidate> = screened
             .par_iter()
             .filter(|s| s.passed())
-            .filter_map(|s| base.fit(s.term, global_tier).ok())
+            .filter_map(|s| base.fit_with_replay(s.term, global_tier).ok())
+            .collect::<Vec<_>>()
+            .into_iter()
+            .map(|(c, all)| {
+                replays.push((c.term, c.values.clone(), all));
+                c
+            })
             .collect();
         ranking.sort_by(|a, b| a.held_out_rms.total_cmp(&b.held_out_rms));
         let mut best = accepted(
@@ -1094,7 +1116,13 @@ pub fn diagnose(
             let mut local_ranking: Vec<Candidate> = passed
                 .par_iter()
                 .take(settings.max_local_fits)
-                .filter_map(|s| base.fit(s.term, local_tier).ok())
+                .filter_map(|s| base.fit_with_replay(s.term, local_tier).ok())
+                .collect::<Vec<_>>()
+                .into_iter()
+                .map(|(c, all)| {
+                    replays.push((c.term, c.values.clone(), all));
+                    c
+                })
                 .collect();
             local_ranking.sort_by(|a, b| a.held_out_rms.total_cmp(&b.held_out_rms));
             let best_local = accepted(
@@ -1144,7 +1172,16 @@ pub fn diagnose(
         });
         let Some(b) = best else { break };
         h = h.with(b.term, &b.values);
-        current = compare_hypothesis(model, &h, log)?;
+        // The fit's replay at these values is the model's with them (the
+        // same replay); a term on the readings is re-read from scratch.
+        let fitted_replay = replays
+            .iter()
+            .find(|(t, v, _)| *t == b.term && *v == b.values);
+        current = match fitted_replay {
+            Some((Term::Global(_), _, c)) => (**c).clone(),
+            Some((Term::Local(l), _, c)) if !l.on_readings() => (**c).clone(),
+            _ => compare_hypothesis(model, &h, log)?,
+        };
         found.push(b);
     }
     if !found.is_empty() {

@@ -6,6 +6,8 @@
 //! Every choice that tunes them is a field of [`FitSettings`].
 
 use nalgebra::{DMatrix, DVector};
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use rayon::prelude::*;
 
 use super::settings::FitSettings;
@@ -114,9 +116,21 @@ pub fn jacobian(
     b: &SearchBox,
     settings: &FitSettings,
 ) -> Option<DMatrix<f64>> {
-    // The columns are independent replays: run side by side (the screens
-    // of the last candidates of a round are otherwise one thread's work).
-    let columns: Vec<Option<(f64, Vec<f64>)>> = (0..x.len())
+    assemble_jacobian(r, difference_columns(eval, x, b, settings), b)
+}
+
+/// The replays of a forward-difference Jacobian at `x`: per parameter,
+/// its step (scaled units times the scale: the parameter's own units) and
+/// the residuals there. The columns are independent replays, run side by
+/// side (the screens of the last candidates of a round are otherwise one
+/// thread's work).
+fn difference_columns(
+    eval: &Residuals,
+    x: &[f64],
+    b: &SearchBox,
+    settings: &FitSettings,
+) -> Vec<Option<(f64, Vec<f64>)>> {
+    (0..x.len())
         .into_par_iter()
         .map(|i| {
             let h = settings.difference_step * b.scale[i];
@@ -125,8 +139,17 @@ pub fn jacobian(
             let step = xp[i] - x[i];
             eval(&xp).map(|rp| (step, rp))
         })
-        .collect();
-    let mut jac = DMatrix::<f64>::zeros(r.len(), x.len());
+        .collect()
+}
+
+/// The Jacobian from [`difference_columns`] about residuals `r`; `None`
+/// if a replay failed or changed which readings exist.
+fn assemble_jacobian(
+    r: &[f64],
+    columns: Vec<Option<(f64, Vec<f64>)>>,
+    b: &SearchBox,
+) -> Option<DMatrix<f64>> {
+    let mut jac = DMatrix::<f64>::zeros(r.len(), columns.len());
     for (i, column) in columns.into_iter().enumerate() {
         let (step, rp) = column?;
         if rp.len() != r.len() {
@@ -178,6 +201,34 @@ pub fn predicted_gain(
     }
     let predicted = &r + &jac * &step;
     Some(r.norm_squared() - predicted.norm_squared())
+}
+
+/// The replay at `x`, and beside it, where a core is idle, the replays of
+/// the forward-difference Jacobian there ([`difference_columns`]), which
+/// the fit needs next if it keeps `x`: its chain of replays, one after
+/// the other, is halved (a one-parameter fit with friction took half the
+/// walkthrough's diagnosis). Only an idle core does them: the Jacobian's
+/// half of the join is skipped if it starts after the replay at `x` ended
+/// (no other thread stole it), so where every core is busy with other
+/// fits nothing is replayed that may be thrown away. The values are the
+/// ones the Jacobian would have at `x` anyway, so a fit is the same, bit
+/// for bit, at any thread count.
+#[allow(clippy::type_complexity)]
+fn replay_with_jacobian_ahead(
+    eval: &Residuals,
+    x: &[f64],
+    b: &SearchBox,
+    settings: &FitSettings,
+) -> (Option<Vec<f64>>, Option<Vec<Option<(f64, Vec<f64>)>>>) {
+    let replayed = AtomicBool::new(false);
+    rayon::join(
+        || {
+            let r = eval(x);
+            replayed.store(true, Ordering::Release);
+            r
+        },
+        || (!replayed.load(Ordering::Acquire)).then(|| difference_columns(eval, x, b, settings)),
+    )
 }
 
 /// A least-squares fit.
@@ -273,13 +324,22 @@ pub fn levenberg_marquardt(
     let k = x0.len();
     let mut x = x0.to_vec();
     b.clamp(&mut x);
-    let mut r = eval(&x)?;
+    let (r, columns) = replay_with_jacobian_ahead(eval, &x, b, settings);
+    let mut r = r?;
     let mut cost: f64 = r.iter().map(|v| v * v).sum();
     let mut lambda = settings.initial_damping;
     let mut converged = false;
     let mut jtj = DMatrix::<f64>::zeros(k, k);
+    // The Jacobian at the point just accepted, replayed beside that
+    // point's own replay where a core was idle.
+    let mut ahead: Option<Option<DMatrix<f64>>> =
+        columns.map(|columns| assemble_jacobian(&r, columns, b));
     for _ in 0..settings.max_iterations {
-        let Some(jac) = jacobian(eval, &x, &r, b, settings) else {
+        let jac = match ahead.take() {
+            Some(j) => j,
+            None => jacobian(eval, &x, &r, b, settings),
+        };
+        let Some(jac) = jac else {
             break;
         };
         jtj = jac.transpose() * &jac;
@@ -297,10 +357,12 @@ pub fn levenberg_marquardt(
             if trial == x {
                 break;
             }
-            if let Some(rt) = eval(&trial) {
+            let (rt, columns) = replay_with_jacobian_ahead(eval, &trial, b, settings);
+            if let Some(rt) = rt {
                 let c: f64 = rt.iter().map(|v| v * v).sum();
                 if rt.len() == r.len() && c < cost {
                     let gain = cost - c;
+                    ahead = columns.map(|columns| assemble_jacobian(&rt, columns, b));
                     x = trial;
                     r = rt;
                     cost = c;
@@ -406,6 +468,56 @@ mod tests {
         let left: f64 = eval(&fit.values).unwrap().iter().map(|v| v * v).sum();
         let gain = predicted_gain(&eval, &[0.0, 0.0], y.clone(), &b, &settings).unwrap();
         assert!((gain - (r0 - left)).abs() < 1e-5 * r0);
+    }
+
+    /// Issue 24 (diagnose speed): the replays of the Jacobian at a point
+    /// run beside the point's own where a core idles. A nonlinear fit
+    /// (an exponential decay: LM rejects some steps and accepts others)
+    /// is the same bit for bit in a pool of one thread, where the
+    /// speculative half is never stolen and never runs, and in pools of
+    /// two and four, where it is (each replay takes two milliseconds, so an
+    /// idle thread steals it): there the fit replays more points (the
+    /// Jacobian at its last point, at least, is never used), which shows
+    /// the speculative path ran.
+    #[test]
+    fn a_fit_with_its_jacobian_replayed_ahead_is_the_same_at_any_thread_count() {
+        use std::sync::atomic::AtomicUsize;
+        let t: Vec<f64> = (0..30).map(|i| i as f64 / 10.0).collect();
+        let y: Vec<f64> = t.iter().map(|t| 0.7 * (-0.9 * t).exp()).collect();
+        let replays = AtomicUsize::new(0);
+        let eval = |x: &[f64]| -> Option<Vec<f64>> {
+            replays.fetch_add(1, Ordering::Relaxed);
+            std::thread::sleep(std::time::Duration::from_millis(2));
+            Some(
+                t.iter()
+                    .zip(&y)
+                    .map(|(t, y)| 50.0 * (y - x[0] * (-x[1] * t).exp()))
+                    .collect(),
+            )
+        };
+        let settings = FitSettings::default();
+        let b = SearchBox::of(&LINE, &settings);
+        let fit_in = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let fit = pool.install(|| levenberg_marquardt(&eval, &[0.1, 0.1], &b, &settings));
+            (fit.unwrap(), replays.swap(0, Ordering::Relaxed))
+        };
+        let (one, one_replays) = fit_in(1);
+        assert!(one.converged);
+        assert!((one.values[0] - 0.7).abs() < 1e-3 && (one.values[1] - 0.9).abs() < 1e-3);
+        for threads in [2, 4] {
+            let (many, many_replays) = fit_in(threads);
+            assert_eq!(many.values, one.values);
+            assert_eq!(many.std_errors, one.std_errors);
+            assert_eq!(many.condition, one.condition);
+            assert!(
+                many_replays > one_replays,
+                "{many_replays} vs {one_replays}"
+            );
+        }
     }
 
     /// Issue 24 (diagnose speed): where the optimum lies beyond the box,
