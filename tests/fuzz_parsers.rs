@@ -663,8 +663,18 @@ fn memory_contents() {
                             .outcome
                             .final_gap_m
                             .is_none_or(|g| (0.0..=10.0).contains(&g)));
+                        prop_assert!(case
+                            .outcome
+                            .approach_commands
+                            .is_none_or(|k| k <= case.commands_m.len()));
                         if let Some(l) = &case.learning {
                             prop_assert_eq!(l.predicted_gaps_m.len(), 5);
+                            prop_assert!((0.0..=10.0).contains(&l.from_gap_m));
+                            prop_assert!(l
+                                .predicted_gaps_m
+                                .iter()
+                                .flatten()
+                                .all(|g| (0.0..=10.0).contains(g)));
                         }
                     }
                     for (k, case) in memory.cases.iter().enumerate() {

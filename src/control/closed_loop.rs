@@ -304,7 +304,9 @@ pub fn deploy_guided(
                 .map(|r| r.index)
         };
     Ok(Deployment {
-        approach_commands: controller.approach_commands(),
+        // A command counts into the approach when it is decided; one the
+        // truth could not take was never recorded.
+        approach_commands: controller.approach_commands().map(|k| k.min(records.len())),
         learnt_approach_completed: controller.learnt_approach_completed(),
         final_payout_scale: controller.part_payout_scale(),
         final_load_cell_bias_n: controller.load_cell_bias_n(),

@@ -98,6 +98,10 @@ pub struct Observation {
     pub predicted_gaps_m: Vec<f64>,
 }
 
+/// Most halvings of one learnt command ([`Guidance::feedforward_splits`]):
+/// a sixteenth of a command is below any step a drum makes usefully.
+pub const MAX_FEEDFORWARD_SPLITS: usize = 4;
+
 /// The controller's own decision, kept until the next observation.
 struct Pending {
     command: Box<PlannedCommand>,
@@ -268,7 +272,10 @@ impl<'a> Controller<'a> {
                 .iter()
                 .map(|u| (u.clone(), 0))
                 .collect(),
-            feedforward_splits: guidance.feedforward_splits,
+            // A session's guidance file is checked on reading; the bound
+            // holds for guidance built by hand too (each halving is one
+            // more model trial per decision).
+            feedforward_splits: guidance.feedforward_splits.min(MAX_FEEDFORWARD_SPLITS),
             feedforward_cut: false,
             guided_approach: !guidance.feedforward_m.is_empty(),
             feedforward_sent: 0,
@@ -461,6 +468,9 @@ impl<'a> Controller<'a> {
             return false;
         };
         if p.feedforward {
+            // The rejected command was taken off the queue when it was
+            // decided: the learnt approach is cut even if it was the last.
+            self.feedforward_cut = true;
             self.give_up_feedforward();
         } else {
             self.planner.on_command_rejected(&p.command);
@@ -627,5 +637,47 @@ impl<'a> Controller<'a> {
             applied_m: planned_m,
             predicted_gaps_m,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::rngs::StdRng;
+    use rand::SeedableRng;
+
+    use super::*;
+    use crate::control::fixtures::{frictionless_model, short_fold};
+    use crate::sim::{default_truth, standard_sensors, Plant};
+
+    /// Review of the feedforward halves: a learnt command is taken off the
+    /// queue when it is decided, so an operator's rejection of the last
+    /// one left the queue empty and the approach reported as completed.
+    /// Rejected, the learnt approach is cut; sent, it is completed.
+    #[test]
+    fn rejecting_the_last_learnt_command_cuts_the_learnt_approach() {
+        let model = frictionless_model();
+        let problem = short_fold();
+        let policy = Policy::default();
+        let sensors = standard_sensors(model.structure());
+        let truth = default_truth(model.structure().clone());
+        let plant = Plant::new(&truth, Some(&[0.10; 10]), None).unwrap();
+        let first = plant.measure(&sensors, &mut StdRng::seed_from_u64(1));
+        let guidance = Guidance {
+            feedforward_m: vec![vec![-0.02; 10]],
+            feedforward_splits: 2,
+            ..Guidance::default()
+        };
+        let controller =
+            || Controller::guided(&model, &problem, &policy, &sensors, &first, &guidance).unwrap();
+        let mut c = controller();
+        assert!(matches!(c.decide(), ControllerDecision::Send(_)));
+        assert!(c.reject());
+        assert_eq!(c.learnt_approach_completed(), Some(false));
+        let mut c = controller();
+        let ControllerDecision::Send(p) = c.decide() else {
+            panic!("no command");
+        };
+        assert_eq!(p.sent_m, guidance.feedforward_m[0]);
+        assert_eq!(c.learnt_approach_completed(), Some(true));
     }
 }

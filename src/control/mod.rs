@@ -39,7 +39,8 @@ pub use closed_loop::{
     DeployError,
 };
 pub use controller::{
-    Controller, ControllerDecision, Observation, Proposal, OWN_COMMAND_TOLERANCE_M,
+    Controller, ControllerDecision, Observation, Proposal, MAX_FEEDFORWARD_SPLITS,
+    OWN_COMMAND_TOLERANCE_M,
 };
 pub use deployment::{
     DeployObserver, DeployRecord, DeployStart, Deployment, CORRECTIVE_PHASE_GAP_M,

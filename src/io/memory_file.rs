@@ -34,8 +34,8 @@ use crate::learn::{Case, CaseMemory};
 pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/2";
 
 /// Earlier memory formats still read: a version-1 case is a version-2
-/// case without a learning record (a cycle that ran without guidance, as
-/// far as the trust region knows: its next update starts fresh).
+/// case without a learning record or an approach count (read as a cycle
+/// that ran without guidance).
 const OLDER_MEMORY_FORMATS: &[&str] = &["tensegrity-deploy/memory/1"];
 
 /// The memory as a journal ([`super::journal`]).

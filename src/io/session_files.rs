@@ -62,7 +62,7 @@ use super::{
 };
 use crate::control::{
     Guidance, Interlocks, Session, SessionEvent, SessionPhase, StepReadings,
-    OWN_COMMAND_TOLERANCE_M,
+    MAX_FEEDFORWARD_SPLITS, OWN_COMMAND_TOLERANCE_M,
 };
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::{DeploymentState, Structure};
@@ -369,6 +369,16 @@ pub fn read_guidance(dir: &Path, motors: usize) -> Result<Guidance, FileError> {
             message: format!("needs {motors} finite payout changes, m"),
         });
     }
+    if g.feedforward_splits > MAX_FEEDFORWARD_SPLITS {
+        return Err(FileError::Invalid {
+            path,
+            entry: "feedforward_splits".into(),
+            message: format!(
+                "{} halvings; at most {MAX_FEEDFORWARD_SPLITS}",
+                g.feedforward_splits
+            ),
+        });
+    }
     let prior_ok = g
         .payout_scale_prior
         .iter()
@@ -662,5 +672,25 @@ mod tests {
         assert!(e.contains("node or segment counts"), "{e}");
         std::fs::remove_file(dir.path().join("folded_start.json")).unwrap();
         assert_eq!(read_folded_start(dir.path(), &s, &start).unwrap(), None);
+    }
+
+    /// A session's `guidance.json` written before the feedforward halves
+    /// reads as no halving; a hand-edited count beyond the controller's
+    /// bound is refused naming the field (each halving is one more model
+    /// trial per decision).
+    #[test]
+    fn a_guidance_file_reads_its_halvings_within_their_bound() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("guidance.json");
+        let old = r#"{"feedforward_m":[[-0.05,-0.05]],"payout_scale_prior":null,"payout_scale_prior_sd":null}"#;
+        std::fs::write(&path, old).unwrap();
+        assert_eq!(read_guidance(dir.path(), 2).unwrap().feedforward_splits, 0);
+        let many = old.replace("}", r#","feedforward_splits":1000}"#);
+        std::fs::write(&path, many).unwrap();
+        let e = read_guidance(dir.path(), 2).unwrap_err().to_string();
+        assert!(
+            e.contains("guidance.json") && e.contains("feedforward_splits"),
+            "{e}"
+        );
     }
 }

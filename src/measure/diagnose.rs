@@ -633,10 +633,12 @@ struct RecentReplays {
 }
 
 impl RecentReplays {
-    /// Replays kept: a Levenberg–Marquardt iteration runs a Jacobian (one
-    /// replay per parameter) and up to its damping tries after its last
-    /// accepted point.
-    const KEPT: usize = 16;
+    /// Replays kept: a Levenberg–Marquardt iteration runs up to its damping
+    /// tries after its last accepted point, each beside the Jacobian's
+    /// replays about it where a core idles (`measure::fit`): for the
+    /// library's largest term (3 parameters) and 8 tries, 32 replays, so
+    /// the fit's optimum is still kept when the fit ends.
+    const KEPT: usize = 40;
 
     fn get_or_run(
         &self,
@@ -734,10 +736,9 @@ impl Base<'_> {
         let cycles = self.log.cycles.len();
         let s = self.settings;
         let bounds = SearchBox::of(specs, &s.fit);
-        // The start is replayed to check it runs, then again as the fit's
-        // first point, and the optimum was the fit's last point: each a
-        // replay of the whole log (a quarter of a second with friction), so
-        // the latest ones are kept.
+        // The optimum was one of the fit's last points, replayed again
+        // below: each a replay of the whole log (a quarter of a second
+        // with friction), so the latest ones are kept.
         let recent = RecentReplays::default();
         let replay = |x: &[f64]| {
             recent.get_or_run(x, || {
