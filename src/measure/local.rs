@@ -23,7 +23,7 @@ use serde::Serialize;
 use super::compare::{residuals_of, schedule_of, Comparison};
 use super::log::MeasurementLog;
 use crate::model::effects::ParameterSpec;
-use crate::model::{EffectKind, Effects, MemberKind, Structure};
+use crate::model::{EffectKind, Effects, Structure};
 use crate::sim::{EffectModel, PlantError, Sensor, SensorTarget};
 
 /// A candidate local to one member, member group, motor or sensor.
@@ -380,16 +380,7 @@ fn edited_structure(structure: &Structure, locals: &[(LocalKind, Vec<f64>)]) -> 
     let scale_members = |s: &mut Structure, members: &[usize], scale: f64| {
         for &m in members {
             if let Some(member) = s.members.get_mut(m) {
-                member.kind = match member.kind {
-                    MemberKind::Strut { ea_n, ei_nm2 } => MemberKind::Strut {
-                        ea_n: ea_n * scale,
-                        ei_nm2,
-                    },
-                    MemberKind::Cable { ea_n } => MemberKind::Cable { ea_n: ea_n * scale },
-                    MemberKind::Spring { stiffness_n_per_m } => MemberKind::Spring {
-                        stiffness_n_per_m: stiffness_n_per_m * scale,
-                    },
-                };
+                member.kind = member.kind.with_stiffness_scaled(scale, scale, scale);
             }
         }
     };

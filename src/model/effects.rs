@@ -35,7 +35,7 @@ use super::flexible_supports::with_flexible_supports;
 use super::friction::JointFriction;
 pub use super::friction_effect::{AngleShape, JointFrictionEffect};
 pub use super::parameter_spec::ParameterSpec;
-use super::structure::{MemberKind, Structure, StructureError};
+use super::structure::{Structure, StructureError};
 
 /// The effects of the library, in a fixed order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -442,18 +442,9 @@ impl Effects {
         let mut s = structure.clone();
         if let Some(e) = self.stiffness_error {
             for m in &mut s.members {
-                m.kind = match m.kind {
-                    MemberKind::Strut { ea_n, ei_nm2 } => MemberKind::Strut {
-                        ea_n: ea_n * e.strut_scale,
-                        ei_nm2,
-                    },
-                    MemberKind::Cable { ea_n } => MemberKind::Cable {
-                        ea_n: ea_n * e.cable_scale,
-                    },
-                    MemberKind::Spring { stiffness_n_per_m } => MemberKind::Spring {
-                        stiffness_n_per_m: stiffness_n_per_m * e.spring_scale,
-                    },
-                };
+                m.kind = m
+                    .kind
+                    .with_stiffness_scaled(e.strut_scale, e.cable_scale, e.spring_scale);
             }
             for c in &mut s.continuous_cables {
                 c.ea_n *= e.cable_scale;
@@ -586,6 +577,7 @@ impl MotorModel {
 mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::structure::MemberKind;
 
     #[test]
     fn every_effect_round_trips_through_its_parameter_vector() {

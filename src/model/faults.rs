@@ -57,7 +57,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::parameter_spec::ParameterSpec;
-use super::structure::{MemberKind, Structure, StructureError};
+use super::structure::{Structure, StructureError};
 
 /// One half of a bridge (see the module notes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -487,7 +487,9 @@ impl Faults {
             let inside = |node: usize| halves[node] == Some(f.half);
             for m in &mut s.members {
                 if inside(m.nodes[0]) && inside(m.nodes[1]) {
-                    m.kind = scaled(m.kind, f.strut_scale, f.cable_scale, f.spring_scale);
+                    m.kind =
+                        m.kind
+                            .with_stiffness_scaled(f.strut_scale, f.cable_scale, f.spring_scale);
                 }
             }
             for c in &mut s.continuous_cables {
@@ -505,7 +507,7 @@ impl Faults {
             let m = &mut s.members[f.member];
             m.rest_length_m += f.rest_length_error_m;
             let k = f.stiffness_scale;
-            m.kind = scaled(m.kind, k, k, k);
+            m.kind = m.kind.with_stiffness_scaled(k, k, k);
         }
         if let Some(f) = self.drum_zero_error {
             s.continuous_cables[f.cable].segment_rest_lengths_m[0] += f.offset_m;
@@ -521,25 +523,11 @@ impl Faults {
     }
 }
 
-/// `kind` with its stiffness scaled by the factor for its kind.
-fn scaled(kind: MemberKind, strut: f64, cable: f64, spring: f64) -> MemberKind {
-    match kind {
-        MemberKind::Strut { ea_n, ei_nm2 } => MemberKind::Strut {
-            ea_n: ea_n * strut,
-            ei_nm2,
-        },
-        MemberKind::Cable { ea_n } => MemberKind::Cable { ea_n: ea_n * cable },
-        MemberKind::Spring { stiffness_n_per_m } => MemberKind::Spring {
-            stiffness_n_per_m: stiffness_n_per_m * spring,
-        },
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
-    use crate::model::structure::{ContinuousCable, Member, Node};
+    use crate::model::structure::{ContinuousCable, Member, MemberKind, Node};
     use crate::model::{ForwardModel, JointFriction, RelaxSettings, Workspace};
     use nalgebra::Vector3;
 

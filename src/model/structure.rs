@@ -58,6 +58,22 @@ pub enum MemberKind {
 }
 
 impl MemberKind {
+    /// This kind with its axial stiffness (E·A, or k for a spring) scaled
+    /// by the factor for its kind (1); a strut's bending stiffness, which
+    /// no stiffness error of the library describes, is kept.
+    pub fn with_stiffness_scaled(self, strut: f64, cable: f64, spring: f64) -> MemberKind {
+        match self {
+            MemberKind::Strut { ea_n, ei_nm2 } => MemberKind::Strut {
+                ea_n: ea_n * strut,
+                ei_nm2,
+            },
+            MemberKind::Cable { ea_n } => MemberKind::Cable { ea_n: ea_n * cable },
+            MemberKind::Spring { stiffness_n_per_m } => MemberKind::Spring {
+                stiffness_n_per_m: stiffness_n_per_m * spring,
+            },
+        }
+    }
+
     /// Short lowercase name used in files and reports.
     pub fn name(&self) -> &'static str {
         match self {
