@@ -40,6 +40,7 @@ fn case(k: usize) -> Case {
             approach_commands: None,
         },
         learning: None,
+        model: None,
     }
 }
 

@@ -646,3 +646,162 @@ fn each_cycle_reports_its_readings_against_the_model_it_was_planned_on() {
         assert!(*e < 1.3, "the truth's own model {exact:?}");
     }
 }
+
+/// `policies/memory.toml` learning its model between cycles.
+fn model_learning_policy() -> Policy {
+    let mut policy = read_policy(&repo_path("policies/memory.toml")).unwrap();
+    let memory = policy.memory.as_mut().unwrap();
+    memory.model_learning_enable = true;
+    policy
+}
+
+/// `n` cycles of [`model_learning_policy`] on `truth`, the controller's
+/// model file the frictionless reference bridge: the results and the
+/// cases stored.
+fn learning_cycles(n: usize, truth: EffectModel) -> (Vec<CycleResult>, Vec<Case>) {
+    let (structure, model, sensors) = bridge();
+    let policy = model_learning_policy();
+    let problem = DeploymentProblem::default();
+    let nominal = EffectModel::for_measurement(structure, Default::default());
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy: &policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: 1,
+    };
+    let mut memory = CaseMemory::default();
+    let end = run_cycles(&setup, n, &mut memory, Some(&nominal), &mut ()).unwrap();
+    assert_eq!(end.stopped, None);
+    (end.results, memory.cases)
+}
+
+/// Issue 24, items 1 and 2: the controller learns its model between
+/// cycles. On the default truth (μ = 0.2, 3 mm backlash, fixed) the
+/// frictionless model reads cycle 1 at about 2 σ; the self-diagnosis
+/// after cycles 1 and 2 finds the friction and the backlash, and cycle
+/// 3's readings, which no fit saw, are explained to the issue's 1.2 σ.
+/// The learnt values are the truth's within 10 % of μ and 0.5 mm of
+/// backlash (their standard errors are about 0.006 and 0.2 mm: three of
+/// them, and the bias a 2-cycle log leaves). Each case stores the model
+/// the next cycle carries, and an update is accepted only where it
+/// lowered the held-out residual.
+#[test]
+fn the_model_learnt_between_cycles_explains_the_next_cycle_to_its_noise() {
+    let (r, cases) = learning_cycles(3, default_truth(reference_structure()));
+    let rms: Vec<f64> = r.iter().map(|c| c.planning_model_rms.unwrap()).collect();
+    assert!(rms[0] > 1.5, "{rms:?}");
+    assert!(rms[2] <= 1.2, "{rms:?}");
+    for (c, case) in r.iter().zip(&cases) {
+        let u = c.model_update.as_ref().unwrap();
+        let stored = case.model.as_ref().unwrap();
+        assert_eq!(u.accepted, stored.accepted);
+        assert_eq!(
+            u.accepted,
+            u.fitted_rms < u.planned_rms,
+            "cycle {}",
+            c.cycle
+        );
+        stored.validate().unwrap();
+    }
+    let learnt = &cases[1].model.as_ref().unwrap().effects;
+    let value = |name: &str, k: usize| {
+        learnt
+            .iter()
+            .find(|e| e.effect == name)
+            .unwrap_or_else(|| panic!("{name} not learnt: {learnt:?}"))
+            .values[k]
+    };
+    assert!(
+        (value("joint_friction", 0) - 0.2).abs() < 0.02,
+        "{learnt:?}"
+    );
+    assert!((value("motor", 1) - 0.003).abs() < 0.0005, "{learnt:?}");
+}
+
+/// A truth with nothing hidden (the controller's own model, read with
+/// noise): the self-diagnosis finds nothing, the model is never replaced
+/// and the planner plans on the model file every cycle, as the policy
+/// without model learning does (the same commands).
+#[test]
+fn a_truth_the_model_already_explains_leaves_the_learnt_model_empty() {
+    let structure = reference_structure();
+    let truth = EffectModel::for_measurement(structure, Default::default());
+    let (r, cases) = learning_cycles(2, truth.clone());
+    for c in &r {
+        let u = c.model_update.as_ref().unwrap();
+        assert_eq!(u.outcome(), "nothing_learnt", "cycle {}: {u:?}", c.cycle);
+        assert_eq!(u.carried, "none");
+    }
+    let plain = cycles_on("policies/memory.toml", 2, truth);
+    for ((case, c), p) in cases.iter().zip(&r).zip(&plain) {
+        assert!(case.model.as_ref().unwrap().effects.is_empty());
+        assert_eq!(c.commands, p.commands);
+        assert_eq!(c.final_true_gap_m, p.final_true_gap_m);
+    }
+}
+
+/// Keeps each cycle's deployment.
+#[derive(Default)]
+struct Deployments(Vec<Deployment>);
+
+impl CycleObserver for Deployments {
+    fn on_cycle(&mut self, _: &CycleResult, d: &Deployment, _: &Case) {
+        self.0.push(d.clone());
+    }
+}
+
+/// The self-diagnosis's log of consecutive cycles (`cycles_log`) takes a
+/// model along the path the truth took, fold-backs included: the truth's
+/// own model replays cycles 2 and 3 of the default truth, as one log
+/// from cycle 2's fold, to its noise (cycle 3's RMS z within the noise
+/// limit of its readings), as it replays cycle 3's log alone from the
+/// design (to 1e-6 σ: a 40 cm fold-back wipes the friction history
+/// out, so the shorter log loses nothing here).
+#[test]
+fn a_log_of_consecutive_cycles_replays_the_truth_along_its_path() {
+    use tensegrity_deploy::measure::compare::{compare, noise_rms_limit};
+    use tensegrity_deploy::measure::settings::NoiseSettings;
+    use tensegrity_deploy::studies::deployment_log::{cycles_log, deployment_log};
+    let (structure, model, sensors) = bridge();
+    let truth = default_truth(structure);
+    let policy = read_policy(&repo_path("policies/qp.toml")).unwrap();
+    let problem = DeploymentProblem::default();
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy: &policy,
+        truth: &truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed: 1,
+    };
+    let mut kept = Deployments::default();
+    run_cycles(&setup, 3, &mut CaseMemory::default(), None, &mut kept).unwrap();
+    let d = &kept.0;
+    let name = &truth.structure.name;
+    let two = compare(&truth, &cycles_log(&[&d[1], &d[2]], name, sensors.clone())).unwrap();
+    let alone = compare(&truth, &deployment_log(&d[2], name, sensors.clone())).unwrap();
+    let rms_of_cycle = |c: &tensegrity_deploy::measure::compare::Comparison, cycle: usize| {
+        let z: Vec<f64> = c
+            .residuals
+            .iter()
+            .filter(|r| r.cycle == cycle)
+            .map(|r| r.z)
+            .collect();
+        (
+            (z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64).sqrt(),
+            z.len(),
+        )
+    };
+    let (along, n) = rms_of_cycle(&two, 1);
+    let (from_design, _) = rms_of_cycle(&alone, 0);
+    let limit = noise_rms_limit(n, &NoiseSettings::default());
+    assert!(along <= limit, "{along} > {limit}");
+    assert!(
+        (from_design - along).abs() < 1e-6,
+        "{from_design} vs {along}"
+    );
+}

@@ -43,13 +43,17 @@ use tensegrity_deploy::io::evaluation_files::{
 use tensegrity_deploy::io::experiment_file::parse_experiment;
 use tensegrity_deploy::io::friction_table::parse_friction_table;
 use tensegrity_deploy::io::log::read_log;
-use tensegrity_deploy::io::memory_file::{append_case, parse_memory, read_memory_or_empty};
+use tensegrity_deploy::io::memory_file::{
+    append_case, parse_memory, read_memory_or_empty, MEMORY_FORMAT,
+};
 use tensegrity_deploy::io::model_file::parse_model;
 use tensegrity_deploy::io::policy_file::parse_policy;
 use tensegrity_deploy::io::problem_file::parse_problem;
 use tensegrity_deploy::io::structure_file::{parse_structure, structure_to_json};
 use tensegrity_deploy::io::FileError;
-use tensegrity_deploy::learn::{Case, CaseConditions, CaseLearning, CaseOutcome};
+use tensegrity_deploy::learn::{
+    Case, CaseConditions, CaseLearning, CaseModel, CaseOutcome, LearntEffect,
+};
 
 /// Inputs per target in the smoke run.
 const SMOKE_CASES: u32 = 48;
@@ -386,6 +390,7 @@ fn memory_files() {
                 approach_commands: None,
             },
             learning: None,
+            model: None,
         };
         append_case(&path, &case).unwrap();
     }
@@ -620,6 +625,26 @@ fn consistent_memory_lines() -> Vec<serde_json::Value> {
                     learnt_commands: 2,
                     approach_completed: true,
                 }),
+                // Each case carries a learnt model: its fields are
+                // mutated too.
+                model: Some(CaseModel {
+                    effects: vec![
+                        LearntEffect {
+                            effect: "joint_friction".into(),
+                            values: vec![0.19],
+                            std_errors: vec![Some(0.006)],
+                        },
+                        LearntEffect {
+                            effect: "motor".into(),
+                            values: vec![0.001, 0.003],
+                            std_errors: vec![None, Some(2e-4)],
+                        },
+                    ],
+                    accepted: k == 0,
+                    planned_rms: 1.9,
+                    fitted_rms: 1.1,
+                    held_out_readings: 300,
+                }),
             };
             serde_json::to_value(case).unwrap()
         })
@@ -640,7 +665,7 @@ fn memory_contents() {
         .run(
             &(0..cases.len(), prop::collection::vec(content_edit(), 1..=2)),
             |(which, edits)| {
-                let mut text = String::from("tensegrity-deploy/memory/2\n");
+                let mut text = format!("{MEMORY_FORMAT}\n");
                 for (k, case) in cases.iter().enumerate() {
                     let mut case = case.clone();
                     if k == which {
@@ -679,6 +704,21 @@ fn memory_contents() {
                     }
                     for (k, case) in memory.cases.iter().enumerate() {
                         prop_assert!(case.learning.as_ref().is_none_or(|l| l.from_case < k));
+                        // A learnt model the next cycle would plan on:
+                        // effects of the library, each value inside its
+                        // admissible range.
+                        if let Some(m) = &case.model {
+                            for e in &m.effects {
+                                let kind = e.kind();
+                                prop_assert!(kind.is_some(), "{}", e.effect);
+                                let specs = kind.unwrap().parameters();
+                                prop_assert_eq!(e.values.len(), specs.len());
+                                for (x, p) in e.values.iter().zip(specs) {
+                                    prop_assert!(*x >= p.admissible.0 && *x <= p.admissible.1);
+                                }
+                            }
+                            prop_assert!(m.planned_rms.is_finite() && m.fitted_rms.is_finite());
+                        }
                     }
                 }
                 check_outcome(result, start.elapsed(), &[&path])?;

@@ -154,6 +154,25 @@ impl CycleObserver for MemoryWriter<'_> {
                 .planning_model_rms
                 .map_or("– (its replay failed)".into(), |r| format!("{r:.2} σ RMS"))
         );
+        if let Some(u) = &result.model_update {
+            let what = match u.outcome() {
+                "accepted" => format!(
+                    "held-out {:.2} σ on the model planned on → {:.2} σ fitted: the next cycle plans on {}",
+                    u.planned_rms, u.fitted_rms, u.carried
+                ),
+                "not_better" => format!(
+                    "held-out {:.2} σ on the model planned on, {:.2} σ fitted: not better, the next cycle keeps {}",
+                    u.planned_rms, u.fitted_rms, u.carried
+                ),
+                "nothing_learnt" => format!(
+                    "held-out {:.2} σ on the model planned on; nothing learnt, the next cycle keeps {}",
+                    u.planned_rms, u.carried
+                ),
+                _ => format!("the next cycle keeps {}", u.carried),
+            };
+            let note = u.note.as_ref().map_or(String::new(), |n| format!(" ({n})"));
+            say!("  model: {}{note} ({:.1} s); {what}", u.verdict, u.time_s);
+        }
     }
 }
 

@@ -22,7 +22,19 @@
 //!   (RMS of the cycle's readings against the controller's model file,
 //!   replayed open-loop from the design through the cycle's fold and
 //!   commands, in noise SDs: near 1 where the model explains the cycle;
-//!   empty where the replay failed), `adaptation_error` (why
+//!   empty where the replay failed; with a policy that learns its model,
+//!   against the model the cycle was planned on: the readings of the
+//!   cycle were held out of everything it learnt), then the self-diagnosis
+//!   after the cycle (`[memory] model_learning_enable`; empty without):
+//!   `model_update` (`accepted`: the next cycle plans on the model fitted
+//!   on this cycle's log; `not_better`: the fit did not predict the
+//!   held-out readings better, the model before is carried on;
+//!   `nothing_learnt`: nothing trusted was found beyond that model;
+//!   `not_run`: the self-diagnosis failed), `model_planned_rms` and `model_fitted_rms`
+//!   (held-out RMS residual of the self-diagnosis's log against the model
+//!   the cycle was planned on and against the fitted one, noise SDs),
+//!   `learnt_model` (the effects the next cycle carries beyond the model
+//!   file, with their standard errors, in words), `adaptation_error` (why
 //!   the memory gave no guidance although it held cases, in words). Empty:
 //!   no value (no such command, no case learnt from, no error).
 //!   `approach_commands` and `approach_gap_m` are empty in a cycle that
@@ -31,9 +43,10 @@
 //!   to connect; when the halves were found connected only on measurement
 //!   (the correction from the readings, not a prediction, closed the last
 //!   millimetres) no command was that one.
-//! - `timing.csv`: `cycle,planning_time_s`, wall-clock planning time of
-//!   each cycle (adaptation and every command): the one file that changes
-//!   from run to run.
+//! - `timing.csv`: `cycle,planning_time_s,self_diagnosis_time_s`,
+//!   wall-clock planning time of each cycle (adaptation and every command)
+//!   and of the self-diagnosis after it (empty without): the one file that
+//!   changes from run to run.
 //!
 //! The cases themselves go to the memory file ([`super::memory_file`]),
 //! the learning curve `cycles.svg` is drawn by `report::cycles_figure`.
@@ -46,9 +59,13 @@ use crate::studies::cycles::CycleResult;
 /// Writes `cycles.csv` and `timing.csv` of `results` into `dir`.
 pub fn write_cycles(dir: &Path, results: &[CycleResult]) -> Result<(), FileError> {
     cycles_table(results).write(&dir.join("cycles.csv"))?;
-    let mut timing = CsvTable::new(&["cycle", "planning_time_s"]);
+    let mut timing = CsvTable::new(&["cycle", "planning_time_s", "self_diagnosis_time_s"]);
     for r in results {
-        timing.row([r.cycle.to_string(), r.planning_time_s.to_string()]);
+        timing.row([
+            r.cycle.to_string(),
+            r.planning_time_s.to_string(),
+            field(r.model_update.as_ref().map(|u| u.time_s)),
+        ]);
     }
     timing.write(&dir.join("timing.csv"))
 }
@@ -56,6 +73,11 @@ pub fn write_cycles(dir: &Path, results: &[CycleResult]) -> Result<(), FileError
 /// A CSV field: the value or empty.
 fn field<T: ToString>(v: Option<T>) -> String {
     v.map_or(String::new(), |v| v.to_string())
+}
+
+/// `x` where it is a number (a self-diagnosis that did not run has none).
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }
 
 /// `cycles.csv`.
@@ -75,6 +97,10 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
         "ilc_predicted_gap_m",
         "ilc_error_m",
         "planning_model_rms",
+        "model_update",
+        "model_planned_rms",
+        "model_fitted_rms",
+        "learnt_model",
         "adaptation_error",
     ]);
     for r in results {
@@ -93,6 +119,10 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
             field(r.ilc_predicted_gap_m),
             field(r.ilc_error_m),
             field(r.planning_model_rms),
+            field(r.model_update.as_ref().map(|u| u.outcome())),
+            field(r.model_update.as_ref().and_then(|u| finite(u.planned_rms))),
+            field(r.model_update.as_ref().and_then(|u| finite(u.fitted_rms))),
+            field(r.model_update.as_ref().map(|u| u.carried.clone())),
             field(r.adaptation_error.as_ref()),
         ]);
     }

@@ -3,7 +3,7 @@
 //! session's events ([`super::session_files`]) are journals.
 //!
 //! ```text
-//! tensegrity-deploy/memory/2
+//! tensegrity-deploy/memory/3
 //! fnv1a:3f0c2b5e9a1d4c77 {"conditions":{…},"commands_m":[…],…}
 //! fnv1a:…
 //! ```

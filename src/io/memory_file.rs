@@ -2,7 +2,7 @@
 //! appended atomically (a journal, [`super::journal`]).
 //!
 //! ```text
-//! tensegrity-deploy/memory/2
+//! tensegrity-deploy/memory/3
 //! fnv1a:3f0c2b5e9a1d4c77 {"conditions":{…},"commands_m":[…],…}
 //! fnv1a:…
 //! ```
@@ -30,13 +30,15 @@ use super::{read_text, FileError};
 use crate::learn::{Case, CaseMemory};
 
 /// The first line of a memory file. Version 2 added each case's
-/// optional learning record ([`crate::learn::CaseLearning`]).
-pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/2";
+/// optional learning record ([`crate::learn::CaseLearning`]), version 3
+/// the model learnt after the case ([`crate::learn::CaseModel`]).
+pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/3";
 
 /// Earlier memory formats still read: a version-1 case is a version-2
 /// case without a learning record or an approach count (read as a cycle
-/// that ran without guidance).
-const OLDER_MEMORY_FORMATS: &[&str] = &["tensegrity-deploy/memory/1"];
+/// that ran without guidance); a version-2 case is a version-3 case
+/// without a learnt model (its cycle learnt none).
+const OLDER_MEMORY_FORMATS: &[&str] = &["tensegrity-deploy/memory/1", "tensegrity-deploy/memory/2"];
 
 /// The memory as a journal ([`super::journal`]).
 fn kind(repair: &str) -> JournalKind<'_> {
@@ -156,6 +158,7 @@ mod tests {
                 approach_commands: None,
             },
             learning: None,
+            model: None,
         }
     }
 
@@ -201,34 +204,60 @@ mod tests {
         assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), learnt]);
     }
 
-    /// A version-1 file (cases without learning records) loads; the first
-    /// append rewrites it under the version-2 header, its cases byte for
-    /// byte, so that no file holds version-2 cases under a version-1
-    /// header (an older reader refuses the file by its header, not by a
-    /// field it does not know).
+    /// A version-1 file (cases without learning records) or version-2 file
+    /// (without learnt models) loads; the first append rewrites it under
+    /// the current header, its cases byte for byte, so that no file holds
+    /// current cases under an older header (an older reader refuses the
+    /// file by its header, not by a field it does not know).
     #[test]
-    fn a_version_1_memory_loads_and_its_first_append_upgrades_it_whole() {
+    fn an_older_memory_loads_and_its_first_append_upgrades_it_whole() {
+        for older in OLDER_MEMORY_FORMATS {
+            let dir = tempfile::tempdir().unwrap();
+            let path = stored(dir.path(), 2);
+            let text = std::fs::read_to_string(&path).unwrap();
+            let old = text.replacen(MEMORY_FORMAT, older, 1);
+            assert_ne!(old, text);
+            std::fs::write(&path, &old).unwrap();
+            assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), case(1)]);
+            append_case(&path, &case(2)).unwrap();
+            let upgraded = std::fs::read_to_string(&path).unwrap();
+            assert!(upgraded.starts_with(&format!("{MEMORY_FORMAT}\n")));
+            let (_, old_cases) = old.split_once('\n').unwrap();
+            assert!(upgraded.contains(old_cases));
+            assert_eq!(
+                read_memory(&path).unwrap().cases,
+                (0..3).map(case).collect::<Vec<_>>()
+            );
+            // A header of no known version is refused, naming the one it
+            // must be.
+            std::fs::write(&path, old.replacen(older, "tensegrity-deploy/memory/9", 1)).unwrap();
+            let e = read_memory(&path).unwrap_err().to_string();
+            assert!(e.contains("line 1") && e.contains(MEMORY_FORMAT), "{e}");
+        }
+    }
+
+    /// A case with the model learnt after it (format 3) reads back as
+    /// written (its checks: `learn::case`'s tests).
+    #[test]
+    fn a_case_with_its_learnt_model_reads_back_as_written() {
+        use crate::learn::{CaseModel, LearntEffect};
         let dir = tempfile::tempdir().unwrap();
-        let path = stored(dir.path(), 2);
-        let text = std::fs::read_to_string(&path).unwrap();
-        let v1 = text.replacen(MEMORY_FORMAT, "tensegrity-deploy/memory/1", 1);
-        assert_ne!(v1, text);
-        std::fs::write(&path, &v1).unwrap();
-        assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), case(1)]);
-        append_case(&path, &case(2)).unwrap();
-        let upgraded = std::fs::read_to_string(&path).unwrap();
-        assert!(upgraded.starts_with(&format!("{MEMORY_FORMAT}\n")));
-        let (_, v1_cases) = v1.split_once('\n').unwrap();
-        assert!(upgraded.contains(v1_cases));
-        assert_eq!(
-            read_memory(&path).unwrap().cases,
-            (0..3).map(case).collect::<Vec<_>>()
-        );
-        // A header of no known version is refused, naming the one it
-        // must be.
-        std::fs::write(&path, v1.replacen("memory/1", "memory/9", 1)).unwrap();
-        let e = read_memory(&path).unwrap_err().to_string();
-        assert!(e.contains("line 1") && e.contains(MEMORY_FORMAT), "{e}");
+        let path = dir.path().join("m.tdm");
+        let mut learnt = case(1);
+        learnt.model = Some(CaseModel {
+            effects: vec![LearntEffect {
+                effect: "joint_friction".into(),
+                values: vec![0.19],
+                std_errors: vec![Some(0.006)],
+            }],
+            accepted: true,
+            planned_rms: 1.9,
+            fitted_rms: 1.1,
+            held_out_readings: 420,
+        });
+        append_case(&path, &case(0)).unwrap();
+        append_case(&path, &learnt).unwrap();
+        assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), learnt]);
     }
 
     /// One changed byte inside a case: refused at its line, the file left
@@ -334,6 +363,7 @@ mod tests {
                 approach_commands: None,
             },
             learning: None,
+            model: None,
         }
     }
 

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::control::{measured_gap_vectors, Deployment};
-use crate::model::Structure;
+use crate::model::{EffectKind, Effects, Structure};
 use crate::numerics::{FieldError, NumberRange};
 use crate::plan::PlanStatus;
 use crate::sim::Sensor;
@@ -105,6 +105,134 @@ pub struct CaseLearning {
     pub approach_completed: bool,
 }
 
+/// One library effect of a learnt model, as fitted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LearntEffect {
+    /// The effect's name, as a model file names it (`joint_friction`,
+    /// `motor`, … : [`EffectKind::name`]).
+    pub effect: String,
+    /// Its parameters' values, in [`EffectKind::parameters`] order and
+    /// units.
+    pub values: Vec<f64>,
+    /// Their standard errors, same order (`None` where the log could not
+    /// pin one down).
+    pub std_errors: Vec<Option<f64>>,
+}
+
+impl LearntEffect {
+    /// The effect kind it names; `None` for a name no effect has.
+    pub fn kind(&self) -> Option<EffectKind> {
+        EffectKind::ALL
+            .into_iter()
+            .find(|k| k.name() == self.effect)
+    }
+}
+
+/// The model the controller learnt between cycles (the self-diagnosis of
+/// `[memory] model_learning_enable`): what the next cycle plans on beyond
+/// the controller's model file, and how well it and the model it replaces
+/// predicted the readings held out of its fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseModel {
+    /// The library effects the next cycle's model carries beyond the
+    /// model file's own (each replaces the file's effect of its kind):
+    /// those fitted on this cycle's log where `accepted`, else those
+    /// carried before it.
+    pub effects: Vec<LearntEffect>,
+    /// Whether the fit on this cycle's log replaced the model before it.
+    pub accepted: bool,
+    /// RMS residual, noise SDs, of the held-out readings of the
+    /// self-diagnosis's log against the model this cycle was planned on.
+    pub planned_rms: f64,
+    /// The same readings against the model fitted on the log.
+    pub fitted_rms: f64,
+    /// How many readings the two RMS are over.
+    pub held_out_readings: usize,
+}
+
+impl CaseModel {
+    /// Checks every effect against the library: a known name, one value
+    /// per parameter inside its admissible range, standard errors finite
+    /// and not negative, and the RMS finite and not negative. The error
+    /// names the field (`model.effects[1].values[0]`).
+    pub fn validate(&self) -> Result<(), FieldError> {
+        for (i, e) in self.effects.iter().enumerate() {
+            let field = |rest: &str| format!("model.effects[{i}].{rest}");
+            let Some(kind) = e.kind() else {
+                return Err(FieldError::new(
+                    field("effect"),
+                    format!("{:?} is no effect of the library", e.effect),
+                ));
+            };
+            if self.effects[..i].iter().any(|o| o.effect == e.effect) {
+                return Err(FieldError::new(
+                    field("effect"),
+                    format!("{} is listed twice", e.effect),
+                ));
+            }
+            let specs = kind.parameters();
+            for (name, len) in [
+                ("values", e.values.len()),
+                ("std_errors", e.std_errors.len()),
+            ] {
+                if len != specs.len() {
+                    return Err(FieldError::new(
+                        field(name),
+                        format!("{len} entries; {} has {}", e.effect, specs.len()),
+                    ));
+                }
+            }
+            for (k, (spec, &x)) in specs.iter().zip(&e.values).enumerate() {
+                let (lo, hi) = spec.admissible;
+                if !(x.is_finite() && x >= lo && x <= hi) {
+                    return Err(FieldError::new(
+                        field(&format!("values[{k}]")),
+                        format!(
+                            "{x} is outside {}'s admissible range [{lo}, {hi}]",
+                            spec.name
+                        ),
+                    ));
+                }
+            }
+            for (k, se) in e.std_errors.iter().enumerate() {
+                if let Some(se) = *se {
+                    if !(se.is_finite() && se >= 0.0) {
+                        return Err(FieldError::new(
+                            field(&format!("std_errors[{k}]")),
+                            format!("{se} is not a standard error (finite, not negative)"),
+                        ));
+                    }
+                }
+            }
+        }
+        for (name, x) in [
+            ("planned_rms", self.planned_rms),
+            ("fitted_rms", self.fitted_rms),
+        ] {
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(FieldError::new(
+                    format!("model.{name}"),
+                    format!("{x} is not an RMS (finite, not negative)"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// `base` (the controller's model file's effects) with the learnt
+    /// effects switched on at their values. Call on a validated model.
+    pub fn effects_on(&self, base: &Effects) -> Effects {
+        self.effects
+            .iter()
+            .filter_map(|e| Some((e.kind()?, &e.values)))
+            .fold(base.clone(), |acc, (kind, values)| {
+                acc.with_parameters(kind, values)
+            })
+    }
+}
+
 /// One cycle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -128,6 +256,10 @@ pub struct Case {
     /// What the memory gave it (`None`: it ran without guidance).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub learning: Option<CaseLearning>,
+    /// The model learnt after it (`None`: the policy does not learn its
+    /// model, or the case predates memory format 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<CaseModel>,
 }
 
 impl Case {
@@ -257,6 +389,9 @@ impl Case {
                 }
             }
         }
+        if let Some(m) = &self.model {
+            m.validate()?;
+        }
         Ok(())
     }
 
@@ -340,6 +475,89 @@ impl Case {
                 approach_commands: d.approach_commands,
             },
             learning: None,
+            model: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn learnt() -> CaseModel {
+        CaseModel {
+            effects: vec![
+                LearntEffect {
+                    effect: "joint_friction".into(),
+                    values: vec![0.19],
+                    std_errors: vec![Some(0.006)],
+                },
+                LearntEffect {
+                    effect: "motor".into(),
+                    values: vec![0.001, 0.003],
+                    std_errors: vec![None, Some(2e-4)],
+                },
+            ],
+            accepted: true,
+            planned_rms: 1.5,
+            fitted_rms: 1.0,
+            held_out_readings: 300,
+        }
+    }
+
+    /// A stored model is used as the next cycle's, so every number is
+    /// checked against the library before it is: each bad field is named.
+    #[test]
+    fn a_learnt_model_is_checked_against_the_library_naming_the_field() {
+        learnt().validate().unwrap();
+        let bad = |edit: &dyn Fn(&mut CaseModel), field: &str| {
+            let mut m = learnt();
+            edit(&mut m);
+            let e = m.validate().unwrap_err().to_string();
+            assert!(e.contains(field), "{e}");
+        };
+        bad(
+            &|m| m.effects[0].effect = "magic".into(),
+            "model.effects[0].effect",
+        );
+        bad(
+            &|m| m.effects[1].effect = "joint_friction".into(),
+            "model.effects[1].effect",
+        );
+        bad(
+            &|m| m.effects[1].values.pop().map_or((), drop),
+            "model.effects[1].values",
+        );
+        bad(
+            &|m| m.effects[0].std_errors.clear(),
+            "model.effects[0].std_errors",
+        );
+        bad(
+            &|m| m.effects[0].values[0] = -0.1,
+            "model.effects[0].values[0]",
+        );
+        bad(
+            &|m| m.effects[1].values[1] = f64::NAN,
+            "model.effects[1].values[1]",
+        );
+        bad(
+            &|m| m.effects[1].std_errors[1] = Some(-1.0),
+            "model.effects[1].std_errors[1]",
+        );
+        bad(&|m| m.fitted_rms = f64::INFINITY, "model.fitted_rms");
+    }
+
+    /// The learnt effects switch on over the model file's, each replacing
+    /// the file's effect of its kind, and leave the others as they were.
+    #[test]
+    fn a_learnt_model_replaces_the_model_files_effects_of_its_kinds() {
+        let file = Effects::default()
+            .with_parameters(EffectKind::JointFriction, &[0.1])
+            .with_parameters(EffectKind::JointMassError, &[1.1]);
+        let e = learnt().effects_on(&file);
+        assert_eq!(e.parameters(EffectKind::JointFriction), Some(vec![0.19]));
+        assert_eq!(e.parameters(EffectKind::Motor), Some(vec![0.001, 0.003]));
+        assert_eq!(e.parameters(EffectKind::JointMassError), Some(vec![1.1]));
+        assert_eq!(e.parameters(EffectKind::StiffnessError), None);
     }
 }

@@ -144,6 +144,7 @@ mod tests {
                 approach_commands: None,
             },
             learning: None,
+            model: None,
         }
     }
 

@@ -1038,7 +1038,7 @@ pub fn diagnose(
         let strong = best
             .as_ref()
             .is_some_and(|b| b.explained >= settings.explained_share);
-        if !strong && !is_clean(&current, log, settings) {
+        if settings.local_tier_enable && !strong && !is_clean(&current, log, settings) {
             local_tier = locals.len();
             let open: Vec<Term> = locals
                 .iter()
@@ -1221,27 +1221,19 @@ pub fn diagnose(
     })
 }
 
-/// Fits every candidate of `found` together on the fit cycles, from their
-/// values in `h`; on success, sets their values, standard errors,
-/// condition numbers and parameter flags to the joint fit's (the
-/// candidate's own flags, [`ParameterFlag::CarriedByOneSensor`] and
-/// [`ParameterFlag::Rival`], stay)
-/// and returns the joint
-/// hypothesis and its comparison. `None` (the search's values kept) when
-/// only one was found, or the joint fit could not be run or did not
-/// lower the fit cycles' `χ²`.
-fn joint_refit(
+/// Terms `terms` of `h` fitted together on the fit cycles of `log`, from
+/// `x0` (their values in order, concatenated): the fit, its hypothesis and
+/// comparison, and each term's search box. `None` where the fit could not
+/// be run or did not lower the fit cycles' `χ²`.
+fn fit_jointly(
     model: &EffectModel,
     h: &Hypothesis,
-    found: &mut [Candidate],
+    terms: &[Term],
+    x0: &[f64],
     log: &MeasurementLog,
     settings: &DiagnoseSettings,
-) -> Option<(Hypothesis, Comparison)> {
-    if found.len() < 2 {
-        return None;
-    }
+) -> Option<(Fit, Hypothesis, Comparison, Vec<SearchBox>)> {
     let cycles = log.cycles.len();
-    let terms: Vec<Term> = found.iter().map(|c| c.term).collect();
     let sizes: Vec<usize> = terms.iter().map(|t| t.parameters().len()).collect();
     let boxes: Vec<SearchBox> = terms
         .iter()
@@ -1262,17 +1254,44 @@ fn joint_refit(
             .ok()
             .map(|c| fit_z(&c, cycles, settings))
     };
-    let x0: Vec<f64> = found.iter().flat_map(|c| c.values.clone()).collect();
-    let before: f64 = eval(&x0)?.iter().map(|v| v * v).sum();
-    let fit = levenberg_marquardt(&eval, &x0, &bounds, &settings.fit)?;
+    let mut start = x0.to_vec();
+    bounds.clamp(&mut start);
+    let before: f64 = eval(&start)?.iter().map(|v| v * v).sum();
+    let fit = levenberg_marquardt(&eval, &start, &bounds, &settings.fit)?;
     let after: f64 = eval(&fit.values)?.iter().map(|v| v * v).sum();
     if after > before {
         return None;
     }
     let joint_h = with(&fit.values);
     let joint = compare_hypothesis(model, &joint_h, log).ok()?;
+    Some((fit, joint_h, joint, boxes))
+}
+
+/// Fits every candidate of `found` together on the fit cycles, from their
+/// values in `h`; on success, sets their values, standard errors,
+/// condition numbers and parameter flags to the joint fit's (the
+/// candidate's own flags, [`ParameterFlag::CarriedByOneSensor`] and
+/// [`ParameterFlag::Rival`], stay)
+/// and returns the joint
+/// hypothesis and its comparison. `None` (the search's values kept) when
+/// only one was found, or the joint fit could not be run or did not
+/// lower the fit cycles' `χ²`.
+fn joint_refit(
+    model: &EffectModel,
+    h: &Hypothesis,
+    found: &mut [Candidate],
+    log: &MeasurementLog,
+    settings: &DiagnoseSettings,
+) -> Option<(Hypothesis, Comparison)> {
+    if found.len() < 2 {
+        return None;
+    }
+    let terms: Vec<Term> = found.iter().map(|c| c.term).collect();
+    let x0: Vec<f64> = found.iter().flat_map(|c| c.values.clone()).collect();
+    let (fit, joint_h, joint, boxes) = fit_jointly(model, h, &terms, &x0, log, settings)?;
     let mut at = 0;
-    for (c, (k, b)) in found.iter_mut().zip(sizes.iter().zip(&boxes)) {
+    for (c, b) in found.iter_mut().zip(&boxes) {
+        let k = c.values.len();
         c.values = fit.values[at..at + k].to_vec();
         c.std_errors = fit.std_errors[at..at + k].to_vec();
         c.condition = fit.condition;
@@ -1293,6 +1312,71 @@ fn joint_refit(
         at += k;
     }
     Some((joint_h, joint))
+}
+
+/// The library effects `kinds` of `model` fitted again together on the fit
+/// cycles of `log`, from the values `model` has for them (a warm start:
+/// the effects a model learnt on earlier cycles, refitted as a new cycle
+/// comes in).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Refit {
+    /// `model`'s effects with the refitted values.
+    pub effects: Effects,
+    /// Standard errors of each kind's parameters, in `kinds` order (NaN
+    /// where the log cannot pin one down).
+    pub std_errors: Vec<Vec<f64>>,
+    /// Held-out RMS `z` with the refitted values.
+    pub held_out_rms: f64,
+    /// Whether the fit converged.
+    pub converged: bool,
+}
+
+/// Refits the library effects `kinds` of `model` together ([`Refit`]);
+/// `Ok(None)` where the fit could not be run or did not lower the fit
+/// cycles' `χ²` (the values `model` has are then the better ones).
+/// `settings` are taken as valid ([`DiagnoseSettings::validate`]).
+///
+/// # Panics
+/// If `model` lacks one of `kinds`: a programming error.
+pub fn refit_effects(
+    model: &EffectModel,
+    kinds: &[EffectKind],
+    log: &MeasurementLog,
+    settings: &DiagnoseSettings,
+) -> Result<Option<Refit>, DiagnoseError> {
+    log.check_comparable()?;
+    if kinds.is_empty() {
+        return Ok(None);
+    }
+    let h = Hypothesis::of(model.effects.clone());
+    let terms: Vec<Term> = kinds.iter().map(|&k| Term::Global(k)).collect();
+    let x0: Vec<f64> = kinds
+        .iter()
+        .flat_map(|&k| {
+            model
+                .effects
+                .parameters(k)
+                .unwrap_or_else(|| panic!("refit of {}, which the model lacks", k.name()))
+        })
+        .collect();
+    let Some((fit, joint_h, joint, _)) = fit_jointly(model, &h, &terms, &x0, log, settings) else {
+        return Ok(None);
+    };
+    let mut at = 0;
+    let std_errors = kinds
+        .iter()
+        .map(|k| {
+            let n = k.parameters().len();
+            at += n;
+            fit.std_errors[at - n..at].to_vec()
+        })
+        .collect();
+    Ok(Some(Refit {
+        effects: joint_h.effects,
+        std_errors,
+        held_out_rms: part(&joint, log.cycles.len(), true, settings).overall.rms,
+        converged: fit.converged,
+    }))
 }
 
 /// The model's effects after a diagnosis: `base` plus every library

@@ -74,6 +74,15 @@ pub struct DiagnoseSettings {
     /// best two groups hold it without screening every member of the
     /// bridge (each screen costs a replay). 0 screens no single member.
     pub member_groups_opened: usize,
+    /// Whether the local tier (one member, motor or sensor) is searched at
+    /// all. Default true: a local fault (a drum zeroed off, a member cut
+    /// long) is what a library effect cannot explain, and `diagnose` names
+    /// it. False searches the library effects only: the self-diagnosis
+    /// between cycles (`[memory] model_learning_enable`) carries library
+    /// effects into the next cycle's model and no local finding (a model
+    /// file's faults are not planned through yet), so its hundreds of
+    /// local screens would cost most of its time for nothing it uses.
+    pub local_tier_enable: bool,
     /// Local candidates fitted per round at most, those the screen
     /// predicts to gain most. Default 4: the screen is exact for the
     /// reading terms (linear) and close for the others, while each fit
@@ -241,6 +250,7 @@ impl Default for DiagnoseSettings {
             penalty_per_parameter: 1.0,
             penalty_per_ln_candidates: 2.0,
             member_groups_opened: 2,
+            local_tier_enable: true,
             max_local_fits: 4,
             explained_share: 0.5,
             explained_rms: 1.5,

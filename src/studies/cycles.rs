@@ -17,13 +17,16 @@
 
 use serde::{Serialize, Serializer};
 
-use super::deployment_log::deployment_log;
+use super::deployment_log::{cycles_log, deployment_log};
+use super::model_learning::{describe_learnt, learn_model};
 use super::statistics::scenario_seed;
 use crate::control::{deploy_guided, ClosedLoopSetup, DeployError, Deployment, Guidance};
 use crate::learn::{
-    adapt, AdaptError, Case, CaseConditions, CaseLearning, CaseMemory, EndStateCache, FeatureScales,
+    adapt, AdaptError, Case, CaseConditions, CaseLearning, CaseMemory, CaseModel, EndStateCache,
+    FeatureScales,
 };
 use crate::measure::compare::compare;
+use crate::model::ForwardModel;
 use crate::plan::{folded_start, PlanContext, PlanError};
 use crate::sim::{EffectModel, Plant, PlantError};
 
@@ -82,6 +85,10 @@ pub struct CycleResult {
     /// little above 1 where friction made the paths differ. `None` where
     /// no model was given or its replay failed.
     pub planning_model_rms: Option<f64>,
+    /// The self-diagnosis after the cycle (`[memory]
+    /// model_learning_enable`): what it learnt and whether the next cycle
+    /// plans on it; `None` where the policy does not learn its model.
+    pub model_update: Option<ModelUpdateResult>,
     /// Why the memory gave no guidance although it held cases
     /// (serialised as its message).
     #[serde(serialize_with = "error_message")]
@@ -90,6 +97,36 @@ pub struct CycleResult {
     /// command), s: the only value not a function of the inputs.
     #[serde(skip)]
     pub planning_time_s: f64,
+}
+
+/// What the self-diagnosis after a cycle did ([`learn_model`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelUpdateResult {
+    /// Whether the model fitted on the cycle's log replaced the one the
+    /// cycle was planned on (it predicted the held-out readings better).
+    pub accepted: bool,
+    /// Whether the self-diagnosis ran (else `verdict` says why not).
+    pub ran: bool,
+    /// Whether it fitted anything beyond the model the cycle was planned
+    /// on (false: nothing learnt).
+    pub changed: bool,
+    /// Held-out RMS residual of the self-diagnosis's log against the
+    /// model the cycle was planned on, noise SDs (NaN where it did not
+    /// run).
+    pub planned_rms: f64,
+    /// The same readings against the model fitted on the log.
+    pub fitted_rms: f64,
+    /// The effects the next cycle's model carries beyond the controller's
+    /// model file, in words ([`describe_learnt`]).
+    pub carried: String,
+    /// The diagnosis's verdict in words, or why it failed.
+    pub verdict: String,
+    /// Why something found was not learnt, in words.
+    pub note: Option<String>,
+    /// Wall-clock time of the self-diagnosis, s (not a function of the
+    /// inputs).
+    #[serde(skip)]
+    pub time_s: f64,
 }
 
 /// Receives each cycle as it ends (the CLI stores the case and moves its
@@ -146,8 +183,12 @@ fn error_message<S: Serializer>(
 /// documentation), learning into `memory` (cases are appended to it).
 /// With `planning`, the controller's model as the measurement tools replay
 /// it (the model file `setup.model` was built from; not checked), each
-/// cycle's readings are compared with it
-/// ([`CycleResult::planning_model_rms`]).
+/// cycle's readings are compared with the model it was planned on
+/// ([`CycleResult::planning_model_rms`]), and a policy with
+/// [`crate::plan::MemorySettings::model_learning_enable`] learns that
+/// model between cycles ([`learn_model`]), starting from the latest model
+/// stored in `memory`. Without `planning` no model is learnt (each
+/// cycle's [`CycleResult::model_update`] says so).
 /// Errors only when the first deployment cannot start.
 pub fn run_cycles(
     setup: &ClosedLoopSetup,
@@ -156,24 +197,45 @@ pub fn run_cycles(
     planning: Option<&EffectModel>,
     observer: &mut dyn CycleObserver,
 ) -> Result<CyclesEnd, DeployError> {
-    let (model, problem, policy) = (setup.model, setup.problem, setup.policy);
-    let structure = model.structure();
+    let (problem, policy) = (setup.problem, setup.policy);
+    let structure = setup.model.structure();
     let motors = problem
         .motor_limits(structure.continuous_cables.len())
         .map_err(PlanError::from)?;
-    let start = folded_start(model, problem, policy.increment_m)?;
-    let context = PlanContext::new(model, problem, policy, &start)?;
     let mut plant = Plant::new(
         setup.truth,
         Some(&motors.start_payout_m),
         setup.temperature_c,
     )
     .map_err(DeployError::TruthStart)?;
+    let learns_model = policy.memory.filter(|m| m.model_learning_enable);
+    // The model learnt so far: the latest a case of the memory stored.
+    let mut carried: Option<CaseModel> = match learns_model {
+        Some(_) => memory.cases.iter().rev().find_map(|c| c.model.clone()),
+        None => None,
+    };
     let scales = FeatureScales::default();
     let mut end_states = EndStateCache::default();
+    let mut recent: std::collections::VecDeque<Deployment> = Default::default();
     let mut results = Vec::new();
     for cycle in 1..=cycles {
         let clock = std::time::Instant::now();
+        // The model this cycle plans on: the model file's, or what was
+        // learnt beyond it.
+        let learnt = match (&carried, planning) {
+            (Some(c), Some(nominal)) if !c.effects.is_empty() => {
+                Some(learnt_models(nominal, c).map_err(DeployError::LearntModel)?)
+            }
+            _ => None,
+        };
+        if cycle > 1 && learnt.is_some() {
+            // The cached end state was relaxed on another model.
+            end_states = EndStateCache::default();
+        }
+        let model = learnt.as_ref().map_or(setup.model, |(f, _)| f);
+        let replayed = learnt.as_ref().map(|(_, e)| e).or(planning);
+        let start = folded_start(model, problem, policy.increment_m)?;
+        let context = PlanContext::new(model, problem, policy, &start)?;
         // The start gap is measured inside the deployment; retrieval
         // compares what is known before it.
         let conditions = CaseConditions {
@@ -204,6 +266,7 @@ pub fn run_cycles(
             .as_ref()
             .map_or_else(Guidance::default, |a| a.guidance.clone());
         let run = ClosedLoopSetup {
+            model,
             seed: scenario_seed(setup.seed, cycle),
             ..*setup
         };
@@ -215,6 +278,48 @@ pub fn run_cycles(
             predicted_gaps_m: a.ilc.predicted_end_gaps_m.clone(),
             learnt_commands: a.ilc.commands_m.len(),
             approach_completed: d.learnt_approach_completed.unwrap_or(false),
+        });
+        let planning_model_rms = replayed.and_then(|m| planning_model_rms(m, &d, setup));
+        if let Some(settings) = &learns_model {
+            recent.push_back(d.clone());
+            while recent.len() > settings.model_learning_window_cycles {
+                recent.pop_front();
+            }
+        }
+        let model_update = learns_model.map(|settings| {
+            let clock = std::time::Instant::now();
+            let Some(nominal) = planning else {
+                return ModelUpdateResult::failed(
+                    "no model to replay the log through (the model file was not given)".into(),
+                    &carried,
+                    0.0,
+                );
+            };
+            let window: Vec<&Deployment> = recent.iter().collect();
+            let log = cycles_log(&window, &nominal.structure.name, setup.sensors.to_vec());
+            match learn_model(nominal, carried.as_ref(), &log, &settings) {
+                Ok(update) => {
+                    let result = ModelUpdateResult {
+                        accepted: update.model.accepted,
+                        ran: true,
+                        changed: update.changed,
+                        planned_rms: update.model.planned_rms,
+                        fitted_rms: update.model.fitted_rms,
+                        carried: describe_learnt(&update.model.effects),
+                        verdict: update.verdict,
+                        note: update.note,
+                        time_s: clock.elapsed().as_secs_f64(),
+                    };
+                    case.model = Some(update.model.clone());
+                    carried = Some(update.model);
+                    result
+                }
+                Err(e) => ModelUpdateResult::failed(
+                    e.to_string(),
+                    &carried,
+                    clock.elapsed().as_secs_f64(),
+                ),
+            }
         });
         let verdict = d.verdict(setup.problem.connection_tolerance_m);
         let result = CycleResult {
@@ -232,7 +337,8 @@ pub fn run_cycles(
             learnt_commands: adaptation.as_ref().map(|a| a.ilc.commands_m.len()),
             ilc_predicted_gap_m: adaptation.as_ref().map(|a| a.ilc.predicted_end_gap_m),
             ilc_error_m: case.learnt_approach_error_m(),
-            planning_model_rms: planning.and_then(|m| planning_model_rms(m, &d, setup)),
+            planning_model_rms,
+            model_update,
             adaptation_error,
             planning_time_s: adaptation_time_s
                 + d.records.iter().map(|r| r.planning_time_s).sum::<f64>(),
@@ -257,6 +363,61 @@ pub fn run_cycles(
         results,
         stopped: None,
     })
+}
+
+impl ModelUpdateResult {
+    /// `accepted` (the next cycle plans on the model fitted on this
+    /// cycle's log), `not_better` (the fit did not predict the held-out
+    /// readings better: the model before is carried on), `nothing_learnt`
+    /// (nothing trusted beyond that model was found) or `not_run` (the
+    /// self-diagnosis could not run).
+    pub fn outcome(&self) -> &'static str {
+        match (self.ran, self.changed, self.accepted) {
+            (false, _, _) => "not_run",
+            (true, _, true) => "accepted",
+            (true, true, false) => "not_better",
+            (true, false, false) => "nothing_learnt",
+        }
+    }
+
+    /// A self-diagnosis that could not run: the model carried on
+    /// unchanged, `why` as its verdict.
+    fn failed(why: String, carried: &Option<CaseModel>, time_s: f64) -> ModelUpdateResult {
+        ModelUpdateResult {
+            accepted: false,
+            ran: false,
+            changed: false,
+            planned_rms: f64::NAN,
+            fitted_rms: f64::NAN,
+            carried: describe_learnt(carried.as_ref().map_or(&[][..], |c| &c.effects[..])),
+            verdict: format!("not run: {why}"),
+            note: None,
+            time_s,
+        }
+    }
+}
+
+/// The models a cycle runs on after `learnt`: the planner's (the
+/// structural effects learnt: stiffness, joint masses; friction only
+/// where the model file `nominal` has it, since planning through
+/// stick-slip is what fails, issue 22; flexible supports only as the
+/// model file has them, since they add support nodes the controller's
+/// bridge does not have) and the measurement tools' (every effect
+/// learnt).
+fn learnt_models(
+    nominal: &EffectModel,
+    learnt: &CaseModel,
+) -> Result<(ForwardModel, EffectModel), PlantError> {
+    let replayed = EffectModel {
+        effects: learnt.effects_on(&nominal.effects),
+        ..nominal.clone()
+    };
+    let mut planned = replayed.clone();
+    if nominal.effects.joint_friction.is_none() {
+        planned.effects.joint_friction = None;
+    }
+    planned.effects.support_flexibility = nominal.effects.support_flexibility;
+    Ok((planned.forward_model()?, replayed))
 }
 
 /// RMS `z` of deployment `d`'s readings against `planning` replayed
@@ -343,6 +504,7 @@ mod tests {
             ilc_predicted_gap_m: None,
             ilc_error_m: None,
             planning_model_rms: None,
+            model_update: None,
             adaptation_error: Some(error),
             planning_time_s: 0.0,
         };

@@ -8,6 +8,7 @@ pub mod evaluation;
 pub mod friction_effect;
 pub mod friction_vs_measurement;
 pub mod log_replay;
+pub mod model_learning;
 pub mod statistics;
 
 pub use friction_effect::{friction_effect, FrictionEffect, FrictionEffectSettings, StudyError};
