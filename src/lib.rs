@@ -20,6 +20,10 @@
 //!  control: send u/(1+ŝ) to the truth (sim::Plant) ─► measure ─►
 //!      payout scale ŝ (Kalman) · gap offsets · filtered force offsets
 //!                                 │
+//!  studies::cycles: deploy ─► fold back ─► case memory (ILC on commands)
+//!      └─► studies::model_learning: diagnose the last cycles' log ─►
+//!          the next cycle plans on what explains it (held out, trusted)
+//!                                 │
 //!  studies::evaluation: policies × seeded scenarios (shards, McNemar)
 //! ```
 //! The measurement tools ([`measure`]: compare, diagnose, calibrate) read
@@ -62,7 +66,8 @@
 //!   session (the controller one command at a time, driven by a rig or an
 //!   operator outside the process, with interlocks).
 //! - [`learn`]: the case memory of past deployment cycles.
-//! - [`studies`]: what the experiments and `evaluate` compute.
+//! - [`studies`]: what the experiments, `cycles` (with the model learnt
+//!   between cycles) and `evaluate` compute.
 //! - [`io`]: file formats and every writer of the commands' outputs: the
 //!   only code that touches files (the CLI calls it).
 //! - [`report`]: SVG drawings and figures.

@@ -135,6 +135,17 @@ pub fn run(o: &Options) -> Result<Outcome> {
             .map(|p| policy_or_default(Some(p)))
             .collect::<Result<_>>()?
     };
+    // A self-diagnosis per cycle (seconds to tens of seconds) over every
+    // scenario would dwarf the evaluation; refused rather than run
+    // without it under the policy's name.
+    for (policy, path) in policies.iter().zip(&o.policies) {
+        if policy.memory.is_some_and(|m| m.model_learning_enable) {
+            bail!(
+                "{}: [memory] model_learning_enable: evaluate does not learn models between cycles (a self-diagnosis per cycle and scenario); `tdeploy cycles` does, or set it to false",
+                path.display()
+            );
+        }
+    }
     let names: Vec<String> = policies.iter().map(|p| p.name.clone()).collect();
     if let Some(dup) = names
         .iter()

@@ -98,9 +98,10 @@ pub struct MemorySettings {
     pub model_learning_enable: bool,
     /// Library effects the self-diagnosis looks for per cycle beyond those
     /// already learnt, 1 to 8 (each round screens every missing effect
-    /// and fits those predicted to pay). Default 1: one new effect per
-    /// cycle, so that each cycle's search stays within seconds; a second
-    /// is found on a later cycle.
+    /// and fits those predicted to pay). Default 2: only a model that
+    /// explains the log is learnt, and a truth with two effects (the
+    /// default truth's friction and backlash) is explained by neither
+    /// alone; each round costs seconds.
     pub model_learning_rounds: usize,
     /// Cycles the self-diagnosis's log holds, the latest last, 1 to 8. The
     /// log is replayed from the design (its first cycle folded from there,
@@ -169,7 +170,7 @@ impl Default for MemorySettings {
             feedforward_splits: 2,
             payout_scale_prior_sd: 0.01,
             model_learning_enable: false,
-            model_learning_rounds: 1,
+            model_learning_rounds: 2,
             model_learning_window_cycles: 2,
         }
     }
