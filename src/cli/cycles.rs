@@ -129,6 +129,10 @@ struct MemoryWriter<'a> {
 }
 
 impl CycleObserver for MemoryWriter<'_> {
+    fn on_start(&mut self, note: &str) {
+        say!("model: {note}");
+    }
+
     fn on_cycle(&mut self, result: &CycleResult, _: &Deployment, case: &Case) {
         if self.failure.is_none() {
             if let Err(e) = append_case(self.path, case) {
@@ -154,21 +158,30 @@ impl CycleObserver for MemoryWriter<'_> {
                 .planning_model_rms
                 .map_or("– (its replay failed)".into(), |r| format!("{r:.2} σ RMS"))
         );
+        if let Some(note) = &result.planning_note {
+            say!("  planned on the model file: {note}");
+        }
         if let Some(u) = &result.model_update {
+            let scored = if u.held_out { "held-out" } else { "in-sample" };
+            let planner = if u.planner_takes == "none" || u.planner_takes.is_empty() {
+                "the planner takes none of it".to_string()
+            } else {
+                format!("the planner takes {}", u.planner_takes)
+            };
             let what = match u.outcome() {
                 "accepted" => format!(
-                    "held-out {:.2} σ on the model planned on → {:.2} σ fitted: the next cycle plans on {}",
+                    "{scored} {:.2} σ on the model planned on → {:.2} σ fitted: the next cycle's model carries {} ({planner})",
                     u.planned_rms, u.fitted_rms, u.carried
                 ),
                 "not_better" => format!(
-                    "held-out {:.2} σ on the model planned on, {:.2} σ fitted: not better, the next cycle keeps {}",
+                    "{scored} {:.2} σ on the model planned on, {:.2} σ fitted: the next cycle's model keeps {}",
                     u.planned_rms, u.fitted_rms, u.carried
                 ),
                 "nothing_learnt" => format!(
-                    "held-out {:.2} σ on the model planned on; nothing learnt, the next cycle keeps {}",
+                    "{scored} {:.2} σ on the model planned on; nothing learnt, the next cycle's model keeps {}",
                     u.planned_rms, u.carried
                 ),
-                _ => format!("the next cycle keeps {}", u.carried),
+                _ => format!("the next cycle's model keeps {}", u.carried),
             };
             let note = u.note.as_ref().map_or(String::new(), |n| format!(" ({n})"));
             say!("  model: {}{note} ({:.1} s); {what}", u.verdict, u.time_s);

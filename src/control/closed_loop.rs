@@ -83,10 +83,6 @@ pub enum DeployError {
     /// The truth cannot be built or cannot reach the folded start.
     #[error("the truth plant, reaching the folded start: {0}")]
     TruthStart(PlantError),
-    /// The model learnt between cycles (`tdeploy cycles`) cannot be
-    /// built on the controller's model file's bridge.
-    #[error("the model learnt between cycles: {0}")]
-    LearntModel(PlantError),
     /// The controller's model and the truth are not the same bridge.
     #[error("the controller's model and the truth differ: {}", .0.describe())]
     Mismatch(BridgeMismatch),

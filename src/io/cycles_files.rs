@@ -23,8 +23,9 @@
 //!   replayed open-loop from the design through the cycle's fold and
 //!   commands, in noise SDs: near 1 where the model explains the cycle;
 //!   empty where the replay failed; with a policy that learns its model,
-//!   against the model the cycle was planned on: the readings of the
-//!   cycle were held out of everything it learnt), then the self-diagnosis
+//!   against the model file and every effect learnt beyond it, of which
+//!   the planner takes the structural part: the readings of the cycle
+//!   were held out of everything it learnt), then the self-diagnosis
 //!   after the cycle (`[memory] model_learning_enable`; empty without):
 //!   `model_update` (`accepted`: the next cycle plans on the model fitted
 //!   on this cycle's log; `not_better`: the fit did not predict the

@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::control::{measured_gap_vectors, Deployment};
+use crate::model::parameter_spec::DEFAULT_SEARCH_WIDENING;
 use crate::model::{EffectKind, Effects, Structure};
 use crate::numerics::{FieldError, NumberRange};
 use crate::plan::PlanStatus;
@@ -136,6 +137,10 @@ impl LearntEffect {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CaseModel {
+    /// The controller's model file the effects were learnt beyond
+    /// ([`model_base`]): a memory reused with another model file does not
+    /// carry them onto it.
+    pub base: String,
     /// The library effects the next cycle's model carries beyond the
     /// model file's own (each replaces the file's effect of its kind):
     /// those fitted on this cycle's log where `accepted`, else those
@@ -143,7 +148,11 @@ pub struct CaseModel {
     pub effects: Vec<LearntEffect>,
     /// Whether the fit on this cycle's log replaced the model before it.
     pub accepted: bool,
-    /// RMS residual, noise SDs, of the held-out readings of the
+    /// Whether the two RMS below are over readings held out of the fit
+    /// (the log's newest cycle); false on a one-cycle log (the first cycle
+    /// of a run), whose fit is scored on the readings it was fitted to.
+    pub held_out: bool,
+    /// RMS residual, noise SDs, of the scored readings of the
     /// self-diagnosis's log against the model this cycle was planned on.
     pub planned_rms: f64,
     /// The same readings against the model fitted on the log.
@@ -154,9 +163,11 @@ pub struct CaseModel {
 
 impl CaseModel {
     /// Checks every effect against the library: a known name, one value
-    /// per parameter inside its admissible range, standard errors finite
-    /// and not negative, and the RMS finite and not negative. The error
-    /// names the field (`model.effects[1].values[0]`).
+    /// per parameter inside the range a fit searches
+    /// ([`crate::model::effects::ParameterSpec::search_range`] at
+    /// [`DEFAULT_SEARCH_WIDENING`]: no learnt value lies outside it),
+    /// standard errors finite and not negative, and the RMS finite and not
+    /// negative. The error names the field (`model.effects[1].values[0]`).
     pub fn validate(&self) -> Result<(), FieldError> {
         for (i, e) in self.effects.iter().enumerate() {
             let field = |rest: &str| format!("model.effects[{i}].{rest}");
@@ -185,12 +196,12 @@ impl CaseModel {
                 }
             }
             for (k, (spec, &x)) in specs.iter().zip(&e.values).enumerate() {
-                let (lo, hi) = spec.admissible;
+                let (lo, hi) = spec.search_range(DEFAULT_SEARCH_WIDENING);
                 if !(x.is_finite() && x >= lo && x <= hi) {
                     return Err(FieldError::new(
                         field(&format!("values[{k}]")),
                         format!(
-                            "{x} is outside {}'s admissible range [{lo}, {hi}]",
+                            "{x} is outside [{lo}, {hi}], the range {} is learnt in",
                             spec.name
                         ),
                     ));
@@ -231,6 +242,15 @@ impl CaseModel {
                 acc.with_parameters(kind, values)
             })
     }
+}
+
+/// The identity of a controller's model file as a learnt model records
+/// it ([`CaseModel::base`]): its structure's name and its effects, as
+/// JSON. Two model files with the same bridge and effects are the same
+/// base.
+pub fn model_base(structure_name: &str, effects: &Effects) -> String {
+    let effects = serde_json::to_string(effects).unwrap_or_default();
+    format!("{structure_name} {effects}")
 }
 
 /// One cycle.
@@ -499,9 +519,11 @@ mod tests {
                 },
             ],
             accepted: true,
+            held_out: true,
             planned_rms: 1.5,
             fitted_rms: 1.0,
             held_out_readings: 300,
+            base: "reference {}".into(),
         }
     }
 

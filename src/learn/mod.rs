@@ -20,6 +20,8 @@ pub mod ilc;
 pub mod memory;
 
 pub use adaptation::{adapt, retrieve, AdaptError, Adaptation, EndStateCache};
-pub use case::{Case, CaseConditions, CaseLearning, CaseModel, CaseOutcome, LearntEffect};
+pub use case::{
+    model_base, Case, CaseConditions, CaseLearning, CaseModel, CaseOutcome, LearntEffect,
+};
 pub use ilc::{learn_commands, IlcData, IlcUpdate};
 pub use memory::{CaseMemory, FeatureScales, Neighbour};

@@ -16,8 +16,6 @@ use crate::model::effects::ParameterSpec;
 // Guards against dividing by zero, not tunings: any tiny positive value
 // gives the same fit wherever the problem is regular, so they are not
 // settings.
-/// Smallest scale of a parameter (the width of its plausible range).
-const SCALE_FLOOR: f64 = 1e-12;
 /// Smallest diagonal entry of `JᵀJ` the damping is relative to, so that a
 /// parameter the readings do not feel is still damped.
 const DAMPING_DIAGONAL_FLOOR: f64 = 1e-12;
@@ -52,31 +50,8 @@ impl SearchBox {
     /// The box of parameters `specs`.
     pub fn of(specs: &[ParameterSpec], settings: &FitSettings) -> SearchBox {
         let widening = settings.search_widening;
-        let scale: Vec<f64> = specs
-            .iter()
-            .map(|p| (p.plausible.1 - p.plausible.0).abs().max(SCALE_FLOOR))
-            .collect();
-        // The neutral value (the effect absent) is always inside: a range
-        // that excludes it forces every fit onto a bound (thermal expansion's
-        // plausible range does not reach zero).
-        let lower = specs
-            .iter()
-            .zip(&scale)
-            .map(|(p, s)| {
-                (p.plausible.0 - widening * s)
-                    .min(p.neutral)
-                    .max(p.admissible.0)
-            })
-            .collect();
-        let upper = specs
-            .iter()
-            .zip(&scale)
-            .map(|(p, s)| {
-                (p.plausible.1 + widening * s)
-                    .max(p.neutral)
-                    .min(p.admissible.1)
-            })
-            .collect();
+        let scale: Vec<f64> = specs.iter().map(ParameterSpec::scale).collect();
+        let (lower, upper) = specs.iter().map(|p| p.search_range(widening)).unzip();
         SearchBox {
             scale,
             lower,

@@ -19,7 +19,38 @@ pub struct ParameterSpec {
     pub admissible: (f64, f64),
 }
 
+/// The search range's widening a fit uses by default (half the plausible
+/// width each side; `FitSettings::search_widening` in `crate::measure`),
+/// and so the range of values a model learnt between cycles may hold.
+pub const DEFAULT_SEARCH_WIDENING: f64 = 0.5;
+
+/// Smallest width a parameter's scale takes: a plausible range of zero
+/// width would make the scaled search divide by zero. A definition.
+const SCALE_FLOOR: f64 = 1e-12;
+
 impl ParameterSpec {
+    /// The scale a search works in: the plausible range's width.
+    pub fn scale(&self) -> f64 {
+        (self.plausible.1 - self.plausible.0).abs().max(SCALE_FLOOR)
+    }
+
+    /// The range a fit searches: the plausible range widened by `widening`
+    /// of its width on each side, always holding the neutral value (a
+    /// range that excludes it forces every fit onto a bound: thermal
+    /// expansion's plausible range does not reach zero), within the
+    /// admissible range.
+    pub fn search_range(&self, widening: f64) -> (f64, f64) {
+        let s = self.scale();
+        (
+            (self.plausible.0 - widening * s)
+                .min(self.neutral)
+                .max(self.admissible.0),
+            (self.plausible.1 + widening * s)
+                .max(self.neutral)
+                .min(self.admissible.1),
+        )
+    }
+
     /// Whether the neutral value is also an end of the admissible range
     /// (μ = 0, a backlash of 0): the effect can only be added on one side,
     /// and a fit stopped there says the effect lacks this part.

@@ -22,11 +22,11 @@ use super::model_learning::{describe_learnt, learn_model};
 use super::statistics::scenario_seed;
 use crate::control::{deploy_guided, ClosedLoopSetup, DeployError, Deployment, Guidance};
 use crate::learn::{
-    adapt, AdaptError, Case, CaseConditions, CaseLearning, CaseMemory, CaseModel, EndStateCache,
-    FeatureScales,
+    adapt, model_base, AdaptError, Case, CaseConditions, CaseLearning, CaseMemory, CaseModel,
+    EndStateCache, FeatureScales,
 };
 use crate::measure::compare::compare;
-use crate::model::ForwardModel;
+use crate::model::{EffectKind, ForwardModel};
 use crate::plan::{folded_start, PlanContext, PlanError};
 use crate::sim::{EffectModel, Plant, PlantError};
 
@@ -73,15 +73,16 @@ pub struct CycleResult {
     /// ([`Case::learnt_approach_error_m`]; empty where the approach was cut
     /// short).
     pub ilc_error_m: Option<f64>,
-    /// RMS of the cycle's readings against the controller's model (its
-    /// model file: the structure and every effect, the motor's and the
-    /// sensors' included, of which the planner's forward model uses the
-    /// structural ones and friction), replayed open-loop through the cycle
-    /// from the design (the fold to the start, then the commands sent),
-    /// in noise SDs: the learning curve of the model's error. Every
+    /// RMS of the cycle's readings against the controller's model for the
+    /// cycle (its model file and, with model learning, every effect learnt
+    /// beyond it: the structure and every effect, the motor's and the
+    /// sensors' included, of which the planner's forward model takes the
+    /// structural ones, [`planner_takes`]), replayed open-loop through the
+    /// cycle from the design (the fold to the start, then the commands
+    /// sent), in noise SDs: the learning curve of the model's error. Every
     /// reading is held out: nothing was fitted to it. From the second
     /// cycle on, the truth starts where the last fold-back left it and the
-    /// replay from the design, so even the truth's own model reads a
+    /// replay from the design, so even the truth's own model may read a
     /// little above 1 where friction made the paths differ. `None` where
     /// no model was given or its replay failed.
     pub planning_model_rms: Option<f64>,
@@ -89,6 +90,10 @@ pub struct CycleResult {
     /// model_learning_enable`): what it learnt and whether the next cycle
     /// plans on it; `None` where the policy does not learn its model.
     pub model_update: Option<ModelUpdateResult>,
+    /// Why the cycle planned on the model file although a model had been
+    /// learnt (it could not be planned on), in words.
+    #[serde(skip)]
+    pub planning_note: Option<String>,
     /// Why the memory gave no guidance although it held cases
     /// (serialised as its message).
     #[serde(serialize_with = "error_message")]
@@ -107,6 +112,9 @@ pub struct ModelUpdateResult {
     pub accepted: bool,
     /// Whether the self-diagnosis ran (else `verdict` says why not).
     pub ran: bool,
+    /// Whether the two RMS are over readings held out of the fit (false
+    /// on a one-cycle log: in-sample).
+    pub held_out: bool,
     /// Whether it fitted anything beyond the model the cycle was planned
     /// on (false: nothing learnt).
     pub changed: bool,
@@ -119,6 +127,8 @@ pub struct ModelUpdateResult {
     /// The effects the next cycle's model carries beyond the controller's
     /// model file, in words ([`describe_learnt`]).
     pub carried: String,
+    /// The part of them the planner takes ([`planner_takes`]), in words.
+    pub planner_takes: String,
     /// The diagnosis's verdict in words, or why it failed.
     pub verdict: String,
     /// Why something found was not learnt, in words.
@@ -132,6 +142,9 @@ pub struct ModelUpdateResult {
 /// Receives each cycle as it ends (the CLI stores the case and moves its
 /// progress bar; numerics never print).
 pub trait CycleObserver {
+    /// Called before the first cycle where the model learnt before is not
+    /// taken up (why, in words).
+    fn on_start(&mut self, _note: &str) {}
     /// Called after cycle `result.cycle`, with its deployment and the case
     /// it added to the memory.
     fn on_cycle(&mut self, result: &CycleResult, deployment: &Deployment, case: &Case);
@@ -209,32 +222,53 @@ pub fn run_cycles(
     )
     .map_err(DeployError::TruthStart)?;
     let learns_model = policy.memory.filter(|m| m.model_learning_enable);
-    // The model learnt so far: the latest a case of the memory stored.
-    let mut carried: Option<CaseModel> = match learns_model {
-        Some(_) => memory.cases.iter().rev().find_map(|c| c.model.clone()),
-        None => None,
+    let (mut carried, start_note) = match (learns_model, planning) {
+        (Some(_), Some(nominal)) => learnt_start(memory, nominal),
+        _ => (None, None),
     };
+    if let Some(note) = &start_note {
+        observer.on_start(note);
+    }
     let scales = FeatureScales::default();
     let mut end_states = EndStateCache::default();
+    let mut planned_effects: Vec<crate::learn::LearntEffect> = Vec::new();
     let mut recent: std::collections::VecDeque<Deployment> = Default::default();
     let mut results = Vec::new();
     for cycle in 1..=cycles {
         let clock = std::time::Instant::now();
-        // The model this cycle plans on: the model file's, or what was
-        // learnt beyond it.
+        // The model this cycle plans on: what was learnt beyond the model
+        // file, or the model file's.
+        let mut planning_note = None;
         let learnt = match (&carried, planning) {
             (Some(c), Some(nominal)) if !c.effects.is_empty() => {
-                Some(learnt_models(nominal, c).map_err(DeployError::LearntModel)?)
+                match learnt_plan(nominal, c, problem, policy) {
+                    Ok(l) => Some(l),
+                    Err(e) => {
+                        planning_note = Some(format!(
+                            "the model learnt before cannot be planned on ({e}): this cycle plans on the model file, and the learning starts again"
+                        ));
+                        carried = None;
+                        None
+                    }
+                }
             }
             _ => None,
         };
-        if cycle > 1 && learnt.is_some() {
+        let this_planned = learnt
+            .as_ref()
+            .map_or_else(Vec::new, |l| l.planner_effects.clone());
+        if this_planned != planned_effects {
             // The cached end state was relaxed on another model.
             end_states = EndStateCache::default();
         }
-        let model = learnt.as_ref().map_or(setup.model, |(f, _)| f);
-        let replayed = learnt.as_ref().map(|(_, e)| e).or(planning);
-        let start = folded_start(model, problem, policy.increment_m)?;
+        planned_effects = this_planned;
+        let own = learnt.as_ref().and_then(|l| l.planner.as_ref());
+        let model = own.map_or(setup.model, |(m, _)| m);
+        let replayed = learnt.as_ref().map(|l| &l.replayed).or(planning);
+        let start = match own {
+            Some((_, start)) => start.clone(),
+            None => folded_start(model, problem, policy.increment_m)?,
+        };
         let context = PlanContext::new(model, problem, policy, &start)?;
         // The start gap is measured inside the deployment; retrieval
         // compares what is known before it.
@@ -280,9 +314,11 @@ pub fn run_cycles(
             approach_completed: d.learnt_approach_completed.unwrap_or(false),
         });
         let planning_model_rms = replayed.and_then(|m| planning_model_rms(m, &d, setup));
-        if let Some(settings) = &learns_model {
+        if learns_model.is_some() {
             recent.push_back(d.clone());
-            while recent.len() > settings.model_learning_window_cycles {
+            // The older cycle fitted, the newest held out (see
+            // `model_learning`: why two).
+            while recent.len() > 2 {
                 recent.pop_front();
             }
         }
@@ -302,10 +338,12 @@ pub fn run_cycles(
                     let result = ModelUpdateResult {
                         accepted: update.model.accepted,
                         ran: true,
+                        held_out: update.model.held_out,
                         changed: update.changed,
                         planned_rms: update.model.planned_rms,
                         fitted_rms: update.model.fitted_rms,
                         carried: describe_learnt(&update.model.effects),
+                        planner_takes: describe_learnt(&planner_part(&update.model, nominal)),
                         verdict: update.verdict,
                         note: update.note,
                         time_s: clock.elapsed().as_secs_f64(),
@@ -339,6 +377,7 @@ pub fn run_cycles(
             ilc_error_m: case.learnt_approach_error_m(),
             planning_model_rms,
             model_update,
+            planning_note,
             adaptation_error,
             planning_time_s: adaptation_time_s
                 + d.records.iter().map(|r| r.planning_time_s).sum::<f64>(),
@@ -386,10 +425,12 @@ impl ModelUpdateResult {
         ModelUpdateResult {
             accepted: false,
             ran: false,
+            held_out: false,
             changed: false,
             planned_rms: f64::NAN,
             fitted_rms: f64::NAN,
             carried: describe_learnt(carried.as_ref().map_or(&[][..], |c| &c.effects[..])),
+            planner_takes: String::new(),
             verdict: format!("not run: {why}"),
             note: None,
             time_s,
@@ -397,27 +438,103 @@ impl ModelUpdateResult {
     }
 }
 
-/// The models a cycle runs on after `learnt`: the planner's (the
-/// structural effects learnt: stiffness, joint masses; friction only
-/// where the model file `nominal` has it, since planning through
-/// stick-slip is what fails, issue 22; flexible supports only as the
-/// model file has them, since they add support nodes the controller's
-/// bridge does not have) and the measurement tools' (every effect
-/// learnt).
-fn learnt_models(
+/// Whether the planner takes a learnt effect of `kind` beyond the model
+/// file `nominal`: the stiffness and joint-mass errors always; friction
+/// only where the model file plans with friction (planning through
+/// stick-slip is what fails, issue 22); flexible supports only where the
+/// model file has them (they add support nodes the controller's bridge
+/// lacks otherwise); the motor, seat, thermal and load-cell effects never
+/// (they act in the plant and the readings, not in the forward model).
+pub fn planner_takes(kind: EffectKind, nominal: &EffectModel) -> bool {
+    match kind {
+        EffectKind::StiffnessError | EffectKind::JointMassError => true,
+        EffectKind::JointFriction | EffectKind::SupportFlexibility => {
+            nominal.effects.parameters(kind).is_some()
+        }
+        EffectKind::Motor
+        | EffectKind::Thermal
+        | EffectKind::LoadCellBias
+        | EffectKind::JointEccentricity => false,
+    }
+}
+
+/// The learnt effects of `learnt` the planner takes beyond `nominal`.
+fn planner_part(learnt: &CaseModel, nominal: &EffectModel) -> Vec<crate::learn::LearntEffect> {
+    learnt
+        .effects
+        .iter()
+        .filter(|e| e.kind().is_some_and(|k| planner_takes(k, nominal)))
+        .cloned()
+        .collect()
+}
+
+/// A cycle's models after a learnt model.
+struct LearntPlan {
+    /// The planner's model, with its folded start: the model file with the
+    /// learnt effects it takes (`None` where it takes none: the model
+    /// file's, as without learning).
+    planner: Option<(ForwardModel, crate::model::DeploymentState)>,
+    /// The planner's effects beyond the model file (to tell a change of
+    /// model).
+    planner_effects: Vec<crate::learn::LearntEffect>,
+    /// The measurement tools': the model file with every learnt effect.
+    replayed: EffectModel,
+}
+
+/// The models a cycle runs on after `learnt` ([`planner_takes`]), its
+/// folded start and a check that it can be planned on; the error in words.
+fn learnt_plan(
     nominal: &EffectModel,
     learnt: &CaseModel,
-) -> Result<(ForwardModel, EffectModel), PlantError> {
+    problem: &crate::plan::DeploymentProblem,
+    policy: &crate::plan::Policy,
+) -> Result<LearntPlan, String> {
     let replayed = EffectModel {
         effects: learnt.effects_on(&nominal.effects),
         ..nominal.clone()
     };
-    let mut planned = replayed.clone();
-    if nominal.effects.joint_friction.is_none() {
-        planned.effects.joint_friction = None;
+    let taken = CaseModel {
+        effects: planner_part(learnt, nominal),
+        ..learnt.clone()
+    };
+    let planner = if taken.effects.is_empty() {
+        None
+    } else {
+        let planned = EffectModel {
+            effects: taken.effects_on(&nominal.effects),
+            ..nominal.clone()
+        };
+        let planner = planned.forward_model().map_err(|e| e.to_string())?;
+        let start =
+            folded_start(&planner, problem, policy.increment_m).map_err(|e| e.to_string())?;
+        PlanContext::new(&planner, problem, policy, &start).map_err(|e| e.to_string())?;
+        Some((planner, start))
+    };
+    Ok(LearntPlan {
+        planner,
+        planner_effects: taken.effects,
+        replayed,
+    })
+}
+
+/// The model a run starts from: the newest case's, if it was learnt
+/// beyond this model file (`nominal`); else none, with why (a case
+/// learnt beyond another model file, or a newest case that learnt no
+/// model, when an older one did).
+fn learnt_start(memory: &CaseMemory, nominal: &EffectModel) -> (Option<CaseModel>, Option<String>) {
+    let base = model_base(&nominal.structure.name, &nominal.effects);
+    match memory.cases.last().map(|c| &c.model) {
+        Some(Some(m)) if m.base == base => (Some(m.clone()), None),
+        Some(Some(_)) => (
+            None,
+            Some("the memory's newest model was learnt beyond another model file: starting from this one".into()),
+        ),
+        Some(None) if memory.cases.iter().any(|c| c.model.is_some()) => (
+            None,
+            Some("the memory's newest case learnt no model (a policy without model learning ran it): starting from the model file".into()),
+        ),
+        _ => (None, None),
     }
-    planned.effects.support_flexibility = nominal.effects.support_flexibility;
-    Ok((planned.forward_model()?, replayed))
 }
 
 /// RMS `z` of deployment `d`'s readings against `planning` replayed
@@ -505,6 +622,7 @@ mod tests {
             ilc_error_m: None,
             planning_model_rms: None,
             model_update: None,
+            planning_note: None,
             adaptation_error: Some(error),
             planning_time_s: 0.0,
         };

@@ -3,8 +3,12 @@
 //! file, and the next cycle plans on what was found if it predicts the
 //! readings held out of its fit better than the model it replaces.
 //!
-//! One update ([`learn_model`]), on a log of the last
-//! [`MemorySettings::model_learning_window_cycles`] cycles:
+//! One update ([`learn_model`]), on a log of the last two cycles (the
+//! older fitted, the newest held out; the first cycle of a run has a
+//! one-cycle log, fitted and scored on the same readings). Two, not more:
+//! with a longer log sliding a cycle at a time, a cycle fitted in one
+//! update would be held out in the next, and the model carried would be
+//! scored on readings it was fitted to.
 //! 1. **What was learnt before, first**: the library effects the model
 //!    carries from earlier cycles are fitted again together on the log's
 //!    fitted cycles, from their values ([`refit_effects`]); the refit
@@ -24,9 +28,10 @@
 //! 4. **Accepted only if it predicts better**: the model so found replaces
 //!    the one this cycle was planned on only if its held-out RMS residual
 //!    on the log is lower; otherwise the model before is carried on. With
-//!    a one-cycle log (the first cycle) every reading is both fitted and
-//!    scored: the diagnosis's penalty guards it, and the next cycle's
-//!    readings, which nothing was fitted to, judge it
+//!    a one-cycle log every reading is both fitted and scored: the
+//!    diagnosis's penalty guards it, it may start a model but not
+//!    displace one learnt before, and the next cycle's readings, which
+//!    nothing was fitted to, judge it
 //!    ([`crate::studies::cycles::CycleResult::planning_model_rms`]).
 //!
 //! Local candidates (one member, one drum, one sensor) are not searched:
@@ -35,7 +40,7 @@
 
 use thiserror::Error;
 
-use crate::learn::{CaseModel, LearntEffect};
+use crate::learn::{model_base, CaseModel, LearntEffect};
 use crate::measure::calibrate::describe_verdict;
 use crate::measure::compare::{compare, Stats};
 use crate::measure::diagnose::{
@@ -190,8 +195,9 @@ pub fn learn_model(
                 .chain(found.iter().map(|(k, _, _)| k))
                 .copied()
                 .collect();
+            let before = held_out(nominal, &fitted, log, &s)?.rms;
             if let Some(r) = refit_effects(&with(&fitted), &kinds, log, &s)? {
-                if r.converged && refit_learnable(&kinds, &r, &s) {
+                if r.converged && r.held_out_rms < before && refit_learnable(&kinds, &r, &s) {
                     errors = kinds.into_iter().zip(r.std_errors).collect();
                     fitted = r.effects;
                 }
@@ -200,7 +206,11 @@ pub fn learn_model(
     }
     let fitted_held = held_out(nominal, &fitted, log, &s)?;
     let changed = fitted != planned;
-    let accepted = changed && fitted_held.rms < planned_held.rms;
+    // A one-cycle log scores the fit on the readings it was fitted to: it
+    // may start a model, never displace one learnt with a cycle held out.
+    let held_out_scored = log.cycles.len() >= 2;
+    let displaces = carried.is_some_and(|c| !c.effects.is_empty());
+    let accepted = changed && fitted_held.rms < planned_held.rms && (held_out_scored || !displaces);
     let effects = if accepted {
         learnt_effects(&nominal.effects, &fitted, &errors, carried)
     } else {
@@ -217,12 +227,18 @@ pub fn learn_model(
         notes.push(format!("not learnt, not trusted: {}", untrusted.join("; ")));
     }
     if changed && !accepted {
-        notes.push("the fit did not predict the held-out readings better".into());
+        notes.push(if fitted_held.rms < planned_held.rms {
+            "a one-cycle log holds no cycle out: the model learnt before stays".into()
+        } else {
+            "the fit did not predict the held-out readings better".into()
+        });
     }
     Ok(ModelUpdate {
         model: CaseModel {
+            base: model_base(&nominal.structure.name, &nominal.effects),
             effects,
             accepted,
+            held_out: held_out_scored,
             planned_rms: planned_held.rms,
             fitted_rms: fitted_held.rms,
             held_out_readings: planned_held.count,

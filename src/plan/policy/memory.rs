@@ -9,9 +9,6 @@ use crate::numerics::{check_ranges, FieldError, NumberRange, Ranged};
 /// Most library effects one self-diagnosis looks for: the library's
 /// eight.
 pub const MAX_MODEL_LEARNING_ROUNDS: usize = 8;
-/// Most cycles in the self-diagnosis's log: each costs a cycle's replay
-/// per fit evaluation.
-pub const MAX_MODEL_LEARNING_WINDOW_CYCLES: usize = 8;
 
 /// How a policy learns from past cycles (`[memory]`; absent: it does
 /// not). Used by `crate::learn`: the case retrieved for a new cycle and the
@@ -82,18 +79,19 @@ pub struct MemorySettings {
     /// estimate between cycles of one bridge.
     pub payout_scale_prior_sd: f64,
     /// Whether the controller learns its *model* between cycles: after
-    /// each cycle `tdeploy cycles` diagnoses the log of the last
-    /// [`Self::model_learning_window_cycles`] cycles (the effects learnt
-    /// before refitted first, then the library's other effects screened,
-    /// no local candidate), and the next cycle plans on the result if it
-    /// predicts the log's held-out cycle better than the model it
-    /// replaces. Covers every library effect the controller's model lacks
-    /// (stiffness, joint masses, supports, seats, friction, the motors,
-    /// the load cells): the structural ones enter the planner's model,
-    /// friction only where the model file plans with friction (planning
-    /// through stick-slip is what fails, issue 22), the motor and sensor
-    /// effects only the model's error figure. Default false: it costs a
-    /// diagnosis per cycle (seconds to tens of seconds) and `evaluate`
+    /// each cycle `tdeploy cycles` diagnoses the log of the last two
+    /// cycles (the effects learnt before refitted first, then the
+    /// library's other effects screened, no local candidate), and the
+    /// next cycle runs on the result where the library explains the log
+    /// and it predicts the newest cycle, held out of its fit, better than
+    /// the model it replaces (`crate::studies::model_learning`). Covers
+    /// every library effect the controller's model lacks. The planner
+    /// takes the stiffness and joint-mass errors learnt; friction and
+    /// flexible supports only where the model file has them (planning
+    /// through stick-slip is what fails, issue 22; flexible supports add
+    /// nodes the controller's bridge lacks); the motor, seat, thermal and
+    /// load-cell effects enter only the model's error figure. Default
+    /// false: it costs a diagnosis per cycle (seconds) and `evaluate`
     /// does not run it.
     pub model_learning_enable: bool,
     /// Library effects the self-diagnosis looks for per cycle beyond those
@@ -103,19 +101,11 @@ pub struct MemorySettings {
     /// default truth's friction and backlash) is explained by neither
     /// alone; each round costs seconds.
     pub model_learning_rounds: usize,
-    /// Cycles the self-diagnosis's log holds, the latest last, 1 to 8. The
-    /// log is replayed from the design (its first cycle folded from there,
-    /// every later one from where the cycle before ended), and with two
-    /// or more its cycles alternate between fitted and held out, so that a
-    /// model replaces the one before only by predicting readings it was
-    /// not fitted to. Default 2: the smallest log that holds a cycle out;
-    /// each more cycle costs one more cycle's replay per fit.
-    pub model_learning_window_cycles: usize,
 }
 
 impl MemorySettings {
     /// Every number of the settings with its admissible range.
-    pub fn ranges(&self) -> [Ranged; 9] {
+    pub fn ranges(&self) -> [Ranged; 8] {
         let length = NumberRange::positive_up_to(1.0);
         [
             Ranged::count("neighbours", self.neighbours, NumberRange::count(1, 10_000)),
@@ -150,11 +140,6 @@ impl MemorySettings {
                 self.model_learning_rounds,
                 NumberRange::count(1, MAX_MODEL_LEARNING_ROUNDS),
             ),
-            Ranged::count(
-                "model_learning_window_cycles",
-                self.model_learning_window_cycles,
-                NumberRange::count(1, MAX_MODEL_LEARNING_WINDOW_CYCLES),
-            ),
         ]
     }
 }
@@ -171,7 +156,6 @@ impl Default for MemorySettings {
             payout_scale_prior_sd: 0.01,
             model_learning_enable: false,
             model_learning_rounds: 2,
-            model_learning_window_cycles: 2,
         }
     }
 }
