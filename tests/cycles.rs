@@ -66,6 +66,35 @@ fn cycles_compared(
     cycles_of(&policy, n, truth, planning, 1)
 }
 
+/// `n` cycles of `policy` on `truth` with sensor-noise seed `seed`,
+/// learning into `memory`, each cycle's readings compared with `planning`
+/// (the controller's model file, also the base of a learnt model), every
+/// cycle reported to `observer`.
+fn run_on_bridge(
+    policy: &Policy,
+    n: usize,
+    truth: &EffectModel,
+    memory: &mut CaseMemory,
+    planning: Option<&EffectModel>,
+    seed: u64,
+    observer: &mut dyn CycleObserver,
+) -> Vec<CycleResult> {
+    let (_, model, sensors) = bridge();
+    let problem = DeploymentProblem::default();
+    let setup = ClosedLoopSetup {
+        model: &model,
+        problem: &problem,
+        policy,
+        truth,
+        sensors: &sensors,
+        temperature_c: None,
+        seed,
+    };
+    let end = run_cycles(&setup, n, memory, planning, observer).unwrap();
+    assert_eq!(end.stopped, None);
+    end.results
+}
+
 /// `n` cycles of `policy` on `truth` with sensor-noise seed `seed`, each
 /// cycle's readings compared with `planning`.
 fn cycles_of(
@@ -75,20 +104,8 @@ fn cycles_of(
     planning: Option<&EffectModel>,
     seed: u64,
 ) -> Vec<CycleResult> {
-    let (_, model, sensors) = bridge();
-    let problem = DeploymentProblem::default();
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: None,
-        seed,
-    };
-    let end = run_cycles(&setup, n, &mut CaseMemory::default(), planning, &mut ()).unwrap();
-    assert_eq!(end.stopped, None);
-    end.results
+    let mut memory = CaseMemory::default();
+    run_on_bridge(policy, n, &truth, &mut memory, planning, seed, &mut ())
 }
 
 /// On the default truth (μ = 0.2, 3 mm backlash; fixed), the memory
@@ -666,23 +683,11 @@ fn model_learning_policy() -> Policy {
 /// model file the frictionless reference bridge: the results and the
 /// cases stored.
 fn learning_cycles(n: usize, truth: EffectModel) -> (Vec<CycleResult>, Vec<Case>) {
-    let (structure, model, sensors) = bridge();
-    let policy = model_learning_policy();
-    let problem = DeploymentProblem::default();
-    let nominal = EffectModel::for_measurement(structure, Default::default());
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy: &policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: None,
-        seed: 1,
-    };
+    let nominal = EffectModel::for_measurement(reference_structure(), Default::default());
     let mut memory = CaseMemory::default();
-    let end = run_cycles(&setup, n, &mut memory, Some(&nominal), &mut ()).unwrap();
-    assert_eq!(end.stopped, None);
-    (end.results, memory.cases)
+    let policy = model_learning_policy();
+    let r = run_on_bridge(&policy, n, &truth, &mut memory, Some(&nominal), 1, &mut ());
+    (r, memory.cases)
 }
 
 /// Issue 24, items 1 and 2: the controller learns its model between
@@ -810,21 +815,12 @@ fn a_log_of_consecutive_cycles_replays_the_truth_along_its_path() {
     use tensegrity_deploy::measure::compare::{compare, noise_rms_limit};
     use tensegrity_deploy::measure::settings::NoiseSettings;
     use tensegrity_deploy::studies::deployment_log::{cycles_log, deployment_log};
-    let (structure, model, sensors) = bridge();
+    let (structure, _, sensors) = bridge();
     let truth = default_truth(structure);
     let policy = read_policy(&repo_path("policies/qp.toml")).unwrap();
-    let problem = DeploymentProblem::default();
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy: &policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: None,
-        seed: 1,
-    };
     let mut kept = Deployments::default();
-    run_cycles(&setup, 3, &mut CaseMemory::default(), None, &mut kept).unwrap();
+    let mut memory = CaseMemory::default();
+    run_on_bridge(&policy, 3, &truth, &mut memory, None, 1, &mut kept);
     let d = &kept.0;
     let name = &truth.structure.name;
     let two = compare(&truth, &cycles_log(&[&d[1], &d[2]], name, sensors.clone())).unwrap();
@@ -971,22 +967,12 @@ impl CycleObserver for StartNote {
 /// so (the first cycle reads the frictionless model at about 2 σ again).
 #[test]
 fn a_model_learnt_beyond_another_model_file_is_not_carried_onto_this_one() {
-    let (structure, model, sensors) = bridge();
+    let structure = reference_structure();
     let policy = model_learning_policy();
-    let problem = DeploymentProblem::default();
     let truth = default_truth(structure.clone());
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy: &policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: None,
-        seed: 1,
-    };
     let nominal = EffectModel::for_measurement(structure.clone(), Default::default());
     let mut memory = CaseMemory::default();
-    run_cycles(&setup, 1, &mut memory, Some(&nominal), &mut ()).unwrap();
+    run_on_bridge(&policy, 1, &truth, &mut memory, Some(&nominal), 1, &mut ());
     assert!(!memory.cases[0].model.as_ref().unwrap().effects.is_empty());
     // The same bridge, described by another model file (its cables 2 %
     // softer): another base.
@@ -998,8 +984,8 @@ fn a_model_learnt_beyond_another_model_file_is_not_carried_onto_this_one() {
         ),
     );
     let mut note = StartNote::default();
-    let end = run_cycles(&setup, 1, &mut memory, Some(&other), &mut note).unwrap();
+    let r = run_on_bridge(&policy, 1, &truth, &mut memory, Some(&other), 1, &mut note);
     let note = note.0.expect("a note on the model not carried");
     assert!(note.contains("another model file"), "{note}");
-    assert!(end.results[0].planning_model_rms.unwrap() > 1.5);
+    assert!(r[0].planning_model_rms.unwrap() > 1.5);
 }
