@@ -21,7 +21,7 @@
 //! 3. **Only what explains the log, and is trusted**: effects found while
 //!    a structured residual is left (the diagnosis's "unexplained"
 //!    verdict), or with a parameter at its search bound, carried by one
-//!    sensor or with a rival the log cannot tell apart ([`learnable`]),
+//!    sensor or with a rival the log cannot tell apart (`learnable`),
 //!    stand in for something the library cannot say (an out-of-library
 //!    fault, several effects the search could not separate): they are not
 //!    learnt, and the update says why. Refits are held to the same.
