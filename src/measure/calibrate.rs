@@ -29,10 +29,10 @@
 use serde::{Serialize, Serializer};
 use thiserror::Error;
 
-use crate::measure::compare::{compare, noise_rms_limit, Stats};
+use crate::measure::compare::{noise_rms_limit, Stats};
 use crate::measure::diagnose::{
-    diagnose, effects_found, fit_candidate, part, Candidate, DiagnoseError, DiagnoseSettings,
-    Verdict,
+    diagnose, effects_found, fit_candidate, held_out_stats, Candidate, DiagnoseError,
+    DiagnoseSettings, Verdict,
 };
 use crate::measure::local::Term;
 use crate::measure::log::MeasurementLog;
@@ -228,8 +228,7 @@ pub enum CalibrationError {
 
 /// Held-out residual statistics of `model` on `log` (z in noise SDs).
 fn held_out(model: &EffectModel, log: &MeasurementLog) -> Result<Stats, PlantError> {
-    let settings = DiagnoseSettings::default();
-    Ok(part(&compare(model, log)?, log.cycles.len(), true, &settings).overall)
+    held_out_stats(model, log, &DiagnoseSettings::default())
 }
 
 fn fitted_effect(kind: EffectKind, values: &[f64], se: &[f64], converged: bool) -> FittedEffect {

@@ -450,6 +450,17 @@ pub fn part(c: &Comparison, cycles: usize, held: bool, settings: &DiagnoseSettin
     }
 }
 
+/// The held-out readings' residual statistics of `model` replaying `log`
+/// (`z` in noise SDs; every reading where the log is too short to split).
+pub fn held_out_stats(
+    model: &EffectModel,
+    log: &MeasurementLog,
+    settings: &DiagnoseSettings,
+) -> Result<super::compare::Stats, PlantError> {
+    let c = super::compare::compare(model, log)?;
+    Ok(part(&c, log.cycles.len(), true, settings).overall)
+}
+
 /// `best` and the candidates of `ranking` the log does not tell from it
 /// ([`is_rival`]): the most plausible of them a priori (least outside the
 /// plausible ranges of its parameters; [`implausibility`]) that the

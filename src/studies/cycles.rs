@@ -231,7 +231,13 @@ pub fn run_cycles(
     }
     let scales = FeatureScales::default();
     let mut end_states = EndStateCache::default();
-    let mut planned_effects: Vec<crate::learn::LearntEffect> = Vec::new();
+    // The model file's folded start and planning context, made once.
+    let nominal_start = folded_start(setup.model, problem, policy.increment_m)?;
+    let nominal_context = PlanContext::new(setup.model, problem, policy, &nominal_start)?;
+    // The models of the learnt effects they were made for, kept until the
+    // learnt model changes (a fold to the start costs a relaxation).
+    let mut plan: Option<LearntPlan> = None;
+    let mut plan_of: Vec<crate::learn::LearntEffect> = Vec::new();
     let mut recent: std::collections::VecDeque<Deployment> = Default::default();
     let mut results = Vec::new();
     for cycle in 1..=cycles {
@@ -239,37 +245,42 @@ pub fn run_cycles(
         // The model this cycle plans on: what was learnt beyond the model
         // file, or the model file's.
         let mut planning_note = None;
-        let learnt = match (&carried, planning) {
-            (Some(c), Some(nominal)) if !c.effects.is_empty() => {
-                match learnt_plan(nominal, c, problem, policy) {
-                    Ok(l) => Some(l),
-                    Err(e) => {
-                        planning_note = Some(format!(
-                            "the model learnt before cannot be planned on ({e}): this cycle plans on the model file, and the learning starts again"
-                        ));
-                        carried = None;
-                        None
+        let wanted = match (&carried, planning) {
+            (Some(c), Some(_)) => c.effects.clone(),
+            _ => Vec::new(),
+        };
+        if wanted != plan_of {
+            let before = plan.as_ref().map(|l| l.planner_effects.clone());
+            plan = match (&carried, planning) {
+                (Some(c), Some(nominal)) if !wanted.is_empty() => {
+                    match learnt_plan(nominal, c, problem, policy) {
+                        Ok(l) => Some(l),
+                        Err(e) => {
+                            planning_note = Some(format!(
+                                "the model learnt before cannot be planned on ({e}): this cycle plans on the model file, and the learning starts again"
+                            ));
+                            carried = None;
+                            None
+                        }
                     }
                 }
+                _ => None,
+            };
+            plan_of = if plan.is_some() { wanted } else { Vec::new() };
+            if plan.as_ref().map(|l| l.planner_effects.clone()) != before {
+                // The cached end state was relaxed on another model.
+                end_states = EndStateCache::default();
             }
-            _ => None,
-        };
-        let this_planned = learnt
-            .as_ref()
-            .map_or_else(Vec::new, |l| l.planner_effects.clone());
-        if this_planned != planned_effects {
-            // The cached end state was relaxed on another model.
-            end_states = EndStateCache::default();
         }
-        planned_effects = this_planned;
-        let own = learnt.as_ref().and_then(|l| l.planner.as_ref());
-        let model = own.map_or(setup.model, |(m, _)| m);
-        let replayed = learnt.as_ref().map(|l| &l.replayed).or(planning);
-        let start = match own {
-            Some((_, start)) => start.clone(),
-            None => folded_start(model, problem, policy.increment_m)?,
+        let learnt_context;
+        let (model, start, context) = match plan.as_ref().and_then(|l| l.planner.as_ref()) {
+            Some((m, start)) => {
+                learnt_context = PlanContext::new(m, problem, policy, start)?;
+                (m, start, &learnt_context)
+            }
+            None => (setup.model, &nominal_start, &nominal_context),
         };
-        let context = PlanContext::new(model, problem, policy, &start)?;
+        let replayed = plan.as_ref().map(|l| &l.replayed).or(planning);
         // The start gap is measured inside the deployment; retrieval
         // compares what is known before it.
         let conditions = CaseConditions {
@@ -283,8 +294,8 @@ pub fn run_cycles(
                 match adapt(
                     memory,
                     &conditions,
-                    &context,
-                    &start,
+                    context,
+                    start,
                     settings,
                     &scales,
                     &mut end_states,

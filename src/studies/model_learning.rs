@@ -42,10 +42,10 @@ use thiserror::Error;
 
 use crate::learn::{model_base, CaseModel, LearntEffect};
 use crate::measure::calibrate::describe_verdict;
-use crate::measure::compare::{compare, Stats};
+use crate::measure::compare::Stats;
 use crate::measure::diagnose::{
-    diagnose, part, refit_effects, Candidate, DiagnoseError, DiagnoseSettings, ParameterFlag,
-    Refit, Verdict,
+    diagnose, held_out_stats, refit_effects, Candidate, DiagnoseError, DiagnoseSettings,
+    ParameterFlag, Refit, Verdict,
 };
 use crate::measure::fit::SearchBox;
 use crate::measure::local::Term;
@@ -102,7 +102,7 @@ fn held_out(
         effects: effects.clone(),
         ..nominal.clone()
     };
-    Ok(part(&compare(&model, log)?, log.cycles.len(), true, settings).overall)
+    held_out_stats(&model, log, settings)
 }
 
 /// Learns the model for the next cycle from `log` (the last cycles, oldest
@@ -133,6 +133,9 @@ pub fn learn_model(
     };
     // What was learnt before, refitted together from its values.
     let mut refit = planned.clone();
+    // The held-out RMS of the model being built, kept as it changes (each
+    // value a replay of the log).
+    let mut fitted_rms = planned_held.rms;
     if let Some(r) = refit_effects(&with(&planned), &carried_kinds, log, &s)? {
         if r.converged
             && r.held_out_rms < planned_held.rms
@@ -140,6 +143,7 @@ pub fn learn_model(
         {
             errors.extend(carried_kinds.iter().copied().zip(r.std_errors));
             refit = r.effects;
+            fitted_rms = r.held_out_rms;
         }
     }
     // What that model still lacks.
@@ -185,6 +189,7 @@ pub fn learn_model(
         e.with_parameters(*kind, values)
     });
     if !found.is_empty() {
+        fitted_rms = held_out(nominal, &fitted, log, &s)?.rms;
         errors.retain(|(k, _)| !found.iter().any(|(f, _, _)| f == k));
         errors.extend(found.iter().map(|(k, _, se)| (*k, se.clone())));
         // The new effects were fitted with the earlier ones held: all of
@@ -195,22 +200,21 @@ pub fn learn_model(
                 .chain(found.iter().map(|(k, _, _)| k))
                 .copied()
                 .collect();
-            let before = held_out(nominal, &fitted, log, &s)?.rms;
             if let Some(r) = refit_effects(&with(&fitted), &kinds, log, &s)? {
-                if r.converged && r.held_out_rms < before && refit_learnable(&kinds, &r, &s) {
+                if r.converged && r.held_out_rms < fitted_rms && refit_learnable(&kinds, &r, &s) {
                     errors = kinds.into_iter().zip(r.std_errors).collect();
                     fitted = r.effects;
+                    fitted_rms = r.held_out_rms;
                 }
             }
         }
     }
-    let fitted_held = held_out(nominal, &fitted, log, &s)?;
     let changed = fitted != planned;
     // A one-cycle log scores the fit on the readings it was fitted to: it
     // may start a model, never displace one learnt with a cycle held out.
     let held_out_scored = log.cycles.len() >= 2;
     let displaces = carried.is_some_and(|c| !c.effects.is_empty());
-    let accepted = changed && fitted_held.rms < planned_held.rms && (held_out_scored || !displaces);
+    let accepted = changed && fitted_rms < planned_held.rms && (held_out_scored || !displaces);
     let effects = if accepted {
         learnt_effects(&nominal.effects, &fitted, &errors, carried)
     } else {
@@ -227,7 +231,7 @@ pub fn learn_model(
         notes.push(format!("not learnt, not trusted: {}", untrusted.join("; ")));
     }
     if changed && !accepted {
-        notes.push(if fitted_held.rms < planned_held.rms {
+        notes.push(if fitted_rms < planned_held.rms {
             "a one-cycle log holds no cycle out: the model learnt before stays".into()
         } else {
             "the fit did not predict the held-out readings better".into()
@@ -240,7 +244,7 @@ pub fn learn_model(
             accepted,
             held_out: held_out_scored,
             planned_rms: planned_held.rms,
-            fitted_rms: fitted_held.rms,
+            fitted_rms,
             held_out_readings: planned_held.count,
         },
         verdict: describe_verdict(&d.verdict),
