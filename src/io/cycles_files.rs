@@ -122,7 +122,14 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
             field(r.planning_model_rms),
             field(r.model_update.as_ref().map(|u| u.outcome())),
             field(r.model_update.as_ref().and_then(|u| finite(u.planned_rms))),
-            field(r.model_update.as_ref().and_then(|u| finite(u.fitted_rms))),
+            // Where nothing was fitted beyond the model planned on there is
+            // no fitted model to score: empty, not the planned figure again.
+            field(
+                r.model_update
+                    .as_ref()
+                    .filter(|u| u.changed)
+                    .and_then(|u| finite(u.fitted_rms)),
+            ),
             field(r.model_update.as_ref().map(|u| u.carried.clone())),
             field(r.adaptation_error.as_ref()),
         ]);

@@ -155,7 +155,9 @@ pub struct CaseModel {
     /// RMS residual, noise SDs, of the scored readings of the
     /// self-diagnosis's log against the model this cycle was planned on.
     pub planned_rms: f64,
-    /// The same readings against the model fitted on the log.
+    /// The same readings against the model fitted on the log (the model
+    /// planned on, `planned_rms` again, where nothing was fitted beyond
+    /// it).
     pub fitted_rms: f64,
     /// How many readings the two RMS are over.
     pub held_out_readings: usize,
