@@ -30,7 +30,9 @@ pub struct TruthWatch<'a> {
     /// first checked increment).
     pub worst: Option<LimitCheck>,
     /// Every violation with the increment (1 for the first) it happened
-    /// at, in order.
+    /// at, in order; counted over every solve the command makes, so the
+    /// seats' settling after the payout (joint eccentricity) continues
+    /// the count.
     pub breaches: Vec<(usize, LimitViolation)>,
     /// The force rows of the last checked increment (the command's end
     /// when every increment converged), N, with the solver's force
@@ -57,7 +59,7 @@ impl<'a> TruthWatch<'a> {
 }
 
 impl IncrementObserver for TruthWatch<'_> {
-    fn on_increment(&mut self, index: usize, _: usize, r: &RelaxReport, state: &DeploymentState) {
+    fn on_increment(&mut self, _: usize, _: usize, r: &RelaxReport, state: &DeploymentState) {
         self.increments += 1;
         // A state that is no equilibrium has no meaningful forces; the
         // plant reports the failed solve itself.
@@ -72,7 +74,7 @@ impl IncrementObserver for TruthWatch<'_> {
             .check_rows_held(self.model, state, &rows, r.tolerance_n, &self.held);
         self.checked += 1;
         self.breaches
-            .extend(c.violations.iter().map(|v| (index + 1, v.clone())));
+            .extend(c.violations.iter().map(|v| (self.increments, v.clone())));
         self.worst = Some(worst_along_path(self.worst.take(), c));
         self.last_rows = Some((rows, r.tolerance_n));
     }
@@ -124,5 +126,60 @@ mod tests {
             "{:?}",
             w.violations
         );
+    }
+    /// Regression (issue 22, tenth session): with joint eccentricity the
+    /// plant settles the cables over their seat arcs after a command's
+    /// payout, re-solving the bridge; those solves were run unobserved, so
+    /// the state a command ends in went unjudged. On `scenarios/wide.toml`
+    /// (seed 9090, scenario 27) a continuous-cable segment ended a
+    /// command at 0 N, held to 5 N, with no violation reported. The watch
+    /// now sees every solve of the command, and its last rows are the
+    /// forces of the state the plant ends in.
+    #[test]
+    fn the_truth_watch_judges_the_state_the_seats_settle_into() {
+        use crate::model::{EffectKind, Effects, RelaxSettings};
+        use crate::sim::EffectModel;
+        let structure = reference_bridge(&BridgeParameters::default()).unwrap();
+        let truth = EffectModel {
+            effects: Effects::default()
+                .with_parameters(EffectKind::JointFriction, &[0.2])
+                .with_parameters(EffectKind::JointEccentricity, &[0.02]),
+            structure,
+            settings: RelaxSettings::default(),
+            increment_m: 0.01,
+        };
+        let n = truth.structure.continuous_cables.len();
+        let mut plant = Plant::new(&truth, Some(&vec![0.40; n]), None).unwrap();
+        let model = plant.model().clone();
+        let limits = Limits::new(&model, &DeploymentProblem::default(), plant.state());
+        let mut watch = TruthWatch::new(&model, &limits, &[]);
+        let report = plant.apply(&vec![-0.03; n], None, &mut watch).unwrap();
+        // The seats moved material, so the bridge was solved again after
+        // the payout's increments, and the watch saw those solves.
+        assert!(
+            watch.increments > report.increments,
+            "{} increments watched, {} in the payout",
+            watch.increments,
+            report.increments
+        );
+        // The last settling pass moves less than the seats' tolerance of
+        // material and is not solved again, so a segment's force may
+        // differ from the last solved state's by up to EA·tolerance over
+        // its rest length; nothing else may differ.
+        let (rows, _) = watch.last_rows.unwrap();
+        let end = force_rows(&model, plant.state());
+        let s = model.structure();
+        let bound_n = s
+            .continuous_cables
+            .iter()
+            .map(|c| {
+                let shortest = c.segment_rest_lengths_m.iter().copied().fold(f64::INFINITY, f64::min);
+                c.ea_n * crate::sim::SEAT_TOLERANCE_M / (0.5 * shortest)
+            })
+            .fold(0.0, f64::max);
+        for (r, (a, b)) in rows.iter().zip(&end).enumerate() {
+            let allowed = if r < s.members.len() { 1e-9 * b.abs().max(1.0) } else { bound_n };
+            assert!((a - b).abs() <= allowed, "row {r}: watched {a} N, plant ends at {b} N");
+        }
     }
 }

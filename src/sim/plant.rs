@@ -121,7 +121,7 @@ impl Plant {
         // move it off the nominal as-built equilibrium; a state already in
         // equilibrium relaxes in zero iterations and is left as it is.
         plant.relax()?;
-        plant.follow_seats()?;
+        plant.follow_seats(&mut ())?;
         if let Some(payout) = start_payout_m {
             plant.apply_payout(payout, &mut ())?;
             // Only to remember the drums' direction: the payout reached is
@@ -158,7 +158,10 @@ impl Plant {
         self.set_temperature(temperature_c)?;
         let actual = self.motor.actual_payout(command_m);
         let report = self.apply_payout(&actual, observer)?;
-        self.follow_seats()?;
+        // The seats' settling is part of the command's path: the bridge
+        // passes through (and ends in) those states, so the observer sees
+        // them too.
+        self.follow_seats(observer)?;
         Ok(report)
     }
 
@@ -170,7 +173,7 @@ impl Plant {
         if self.set_temperature(temperature_c)? {
             self.relax()?;
         }
-        self.follow_seats()
+        self.follow_seats(&mut ())
     }
 
     /// The true state (for checks and logs; a controller must not read it
@@ -295,17 +298,21 @@ impl Plant {
     /// Moves the material the seats took up since they were last followed
     /// out of the segments and re-solves, until the arcs settle; the seats
     /// end as the arcs of the final state. Nothing with the effect off.
-    fn follow_seats(&mut self) -> Result<(), PlantError> {
+    fn follow_seats(&mut self, observer: &mut dyn IncrementObserver) -> Result<(), PlantError> {
         let Some(mut seats) = self.seats_m.take() else {
             return Ok(());
         };
-        let result = self.follow_seats_from(&mut seats);
+        let result = self.follow_seats_from(&mut seats, observer);
         self.seats_m = Some(seats);
         result
     }
 
     /// [`Self::follow_seats`], from the arcs `seats_m`.
-    fn follow_seats_from(&mut self, seats_m: &mut [f64]) -> Result<(), PlantError> {
+    fn follow_seats_from(
+        &mut self,
+        seats_m: &mut [f64],
+        observer: &mut dyn IncrementObserver,
+    ) -> Result<(), PlantError> {
         let no_payout = vec![0.0; self.base.continuous_cables.len()];
         let mut change_m = f64::INFINITY;
         for _ in 0..MAX_SEAT_SOLVES {
@@ -331,7 +338,7 @@ impl Plant {
                 return Ok(());
             }
             // A zero payout is one friction-aware increment from here.
-            self.apply_payout(&no_payout, &mut ())?;
+            self.apply_payout(&no_payout, observer)?;
         }
         Err(PlantError::SeatsUnsettled {
             cycle: 0,
