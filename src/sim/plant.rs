@@ -26,7 +26,7 @@ use super::effect_model::{EffectModel, PlantError};
 use super::sensors::{Sensor, SensorTarget};
 use crate::model::{
     CommandError, CommandReport, DeploymentState, Effects, ForwardModel, IncrementObserver,
-    JointFriction, MotorModel, RelaxSettings, RelaxStatus, Structure, Workspace,
+    JointFriction, MotorModel, RelaxReport, RelaxSettings, RelaxStatus, Structure, Workspace,
 };
 
 /// The seat arcs are followed until they change by less than this between
@@ -298,6 +298,12 @@ impl Plant {
     /// Moves the material the seats took up since they were last followed
     /// out of the segments and re-solves, until the arcs settle; the seats
     /// end as the arcs of the final state. Nothing with the effect off.
+    ///
+    /// `observer` is shown the settled state, the last solve, as one more
+    /// increment of the command: the bridge ends the command there. The
+    /// solves before it are iterates of the fixed point between the seat
+    /// arcs and the geometry, not states the bridge passes through, and
+    /// are not shown.
     fn follow_seats(&mut self, observer: &mut dyn IncrementObserver) -> Result<(), PlantError> {
         let Some(mut seats) = self.seats_m.take() else {
             return Ok(());
@@ -315,6 +321,7 @@ impl Plant {
     ) -> Result<(), PlantError> {
         let no_payout = vec![0.0; self.base.continuous_cables.len()];
         let mut change_m = f64::INFINITY;
+        let mut last = LastSolve::default();
         for _ in 0..MAX_SEAT_SOLVES {
             let Some(now) = self
                 .effects
@@ -335,10 +342,13 @@ impl Plant {
                 *before = *after;
             }
             if change_m < SEAT_TOLERANCE_M {
+                if let Some((report, state)) = last.0.take() {
+                    observer.on_increment(0, 1, &report, &state);
+                }
                 return Ok(());
             }
             // A zero payout is one friction-aware increment from here.
-            self.apply_payout(&no_payout, observer)?;
+            self.apply_payout(&no_payout, &mut last)?;
         }
         Err(PlantError::SeatsUnsettled {
             cycle: 0,
@@ -361,6 +371,16 @@ impl Plant {
             step: self.commands,
             status,
         }
+    }
+}
+
+/// Keeps the last increment a solve reached, with its report.
+#[derive(Default)]
+struct LastSolve(Option<(RelaxReport, DeploymentState)>);
+
+impl IncrementObserver for LastSolve {
+    fn on_increment(&mut self, _: usize, _: usize, report: &RelaxReport, state: &DeploymentState) {
+        self.0 = Some((*report, state.clone()));
     }
 }
 
