@@ -70,11 +70,13 @@ fn bench(c: &mut Criterion) {
                 effect: "joint_friction".into(),
                 values: vec![0.19],
                 std_errors: vec![None],
+                rival: None,
             },
             LearntEffect {
                 effect: "motor".into(),
                 values: vec![0.0, 0.0029],
                 std_errors: vec![None, None],
+                rival: None,
             },
         ],
         base: "reference {}".into(),

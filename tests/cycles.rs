@@ -776,6 +776,58 @@ fn a_learnt_structural_effect_is_planned_on() {
     );
 }
 
+/// Issue 24 (tenth session): a structural effect the log cannot tell from
+/// another is not planned on. On μ 0.15 (wrap) with cables 15 % softer
+/// (seed 7; the ninth session's held-out truth) the first cycle's
+/// self-diagnosis learns the friction and joints about 10 % heavier, which
+/// explain the log to its noise as softer cables would, and the planner
+/// planned the second cycle on heavier joints. The joint-mass error is
+/// now marked as explained alike by a stiffness error, kept in the model
+/// error figure, and the second cycle is planned as on the model file:
+/// the same commands and gap as `policies/memory.toml`'s. (The joints
+/// 30 % heavier of `a_learnt_structural_effect_is_planned_on` have no
+/// such rival and are planned on.)
+#[test]
+fn a_structural_effect_the_log_cannot_tell_from_another_is_not_planned_on() {
+    use tensegrity_deploy::model::{EffectKind, Effects};
+    let truth = EffectModel::for_measurement(
+        reference_structure(),
+        Effects::default()
+            .with_parameters(EffectKind::JointFriction, &[0.15])
+            .with_parameters(EffectKind::StiffnessError, &[1.0, 0.85, 1.0]),
+    );
+    let nominal = EffectModel::for_measurement(reference_structure(), Default::default());
+    let mut memory = CaseMemory::default();
+    let r = run_on_bridge(
+        &model_learning_policy(),
+        2,
+        &truth,
+        &mut memory,
+        Some(&nominal),
+        7,
+        &mut (),
+    );
+    let learnt = &memory.cases[0].model.as_ref().unwrap().effects;
+    let structural: Vec<_> = learnt
+        .iter()
+        .filter(|e| e.effect == "joint_mass_error" || e.effect == "stiffness_error")
+        .collect();
+    assert!(!structural.is_empty(), "{learnt:?}");
+    assert!(structural.iter().all(|e| e.rival.is_some()), "{learnt:?}");
+    let u = r[0].model_update.as_ref().unwrap();
+    assert_eq!(u.outcome(), "accepted", "{u:?}");
+    assert_eq!(u.planner_takes, "none", "{u:?}");
+    let plain = cycles_of(
+        &read_policy(&repo_path("policies/memory.toml")).unwrap(),
+        2,
+        truth,
+        None,
+        7,
+    );
+    assert_eq!(r[1].commands, plain[1].commands);
+    assert_eq!(r[1].final_true_gap_m, plain[1].final_true_gap_m);
+}
+
 /// A truth with nothing hidden (the controller's own model, read with
 /// noise): the self-diagnosis finds nothing, the model is never replaced
 /// and the planner plans on the model file every cycle, as the policy

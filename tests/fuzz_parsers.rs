@@ -633,11 +633,13 @@ fn consistent_memory_lines() -> Vec<serde_json::Value> {
                             effect: "joint_friction".into(),
                             values: vec![0.19],
                             std_errors: vec![Some(0.006)],
+                            rival: None,
                         },
                         LearntEffect {
                             effect: "motor".into(),
                             values: vec![0.001, 0.003],
                             std_errors: vec![None, Some(2e-4)],
+                            rival: None,
                         },
                     ],
                     base: "reference {}".into(),

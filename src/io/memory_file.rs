@@ -249,6 +249,7 @@ mod tests {
                 effect: "joint_friction".into(),
                 values: vec![0.19],
                 std_errors: vec![Some(0.006)],
+                rival: None,
             }],
             base: "reference {}".into(),
             accepted: true,

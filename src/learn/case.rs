@@ -119,6 +119,14 @@ pub struct LearntEffect {
     /// Their standard errors, same order (`None` where the log could not
     /// pin one down).
     pub std_errors: Vec<Option<f64>>,
+    /// Another library effect that, fitted in this one's place, explains
+    /// the log as well (within the diagnosis's penalty on this effect's
+    /// parameters): a structural effect with such a rival is carried in
+    /// the model-error figure but not planned on
+    /// (`studies::cycles::planner_takes`). `None` where no rival was
+    /// found or none was looked for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rival: Option<String>,
 }
 
 impl LearntEffect {
@@ -184,6 +192,14 @@ impl CaseModel {
                     field("effect"),
                     format!("{} is listed twice", e.effect),
                 ));
+            }
+            if let Some(rival) = &e.rival {
+                if !EffectKind::ALL.iter().any(|k| k.name() == rival) || *rival == e.effect {
+                    return Err(FieldError::new(
+                        field("rival"),
+                        format!("{rival:?} is no other effect of the library"),
+                    ));
+                }
             }
             let specs = kind.parameters();
             for (name, len) in [
@@ -513,11 +529,13 @@ mod tests {
                     effect: "joint_friction".into(),
                     values: vec![0.19],
                     std_errors: vec![Some(0.006)],
+                    rival: None,
                 },
                 LearntEffect {
                     effect: "motor".into(),
                     values: vec![0.001, 0.003],
                     std_errors: vec![None, Some(2e-4)],
+                    rival: None,
                 },
             ],
             accepted: true,
@@ -569,6 +587,17 @@ mod tests {
             "model.effects[1].std_errors[1]",
         );
         bad(&|m| m.fitted_rms = f64::INFINITY, "model.fitted_rms");
+        bad(
+            &|m| m.effects[0].rival = Some("friction".into()),
+            "model.effects[0].rival",
+        );
+        bad(
+            &|m| m.effects[0].rival = Some("joint_friction".into()),
+            "model.effects[0].rival",
+        );
+        let mut m = learnt();
+        m.effects[0].rival = Some("joint_mass_error".into());
+        m.validate().unwrap();
     }
 
     /// The learnt effects switch on over the model file's, each replacing

@@ -572,6 +572,23 @@ fn chi2(c: &Comparison) -> (f64, usize) {
     )
 }
 
+/// Whether a model with held-out RMS `other_rms` explains `readings`
+/// held-out readings as well as one with `best_rms` (both in noise SDs):
+/// its χ² exceeds `best`'s by no more than the criterion's penalty on the
+/// `parameters` of the effect `best` has in its place ([`is_rival`]'s
+/// rule for two named alternatives, with no look-elsewhere term: the
+/// alternative is not searched for among many).
+pub fn explains_alike(
+    readings: usize,
+    best_rms: f64,
+    other_rms: f64,
+    parameters: usize,
+    settings: &DiagnoseSettings,
+) -> bool {
+    let chi2 = |rms: f64| readings as f64 * rms * rms;
+    chi2(other_rms) - chi2(best_rms) <= parameter_penalty(parameters, readings, settings)
+}
+
 fn ln_count(n: usize) -> f64 {
     (n.max(1) as f64).ln()
 }

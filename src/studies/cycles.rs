@@ -469,12 +469,14 @@ pub fn planner_takes(kind: EffectKind, nominal: &EffectModel) -> bool {
     }
 }
 
-/// The learnt effects of `learnt` the planner takes beyond `nominal`.
+/// The learnt effects of `learnt` the planner takes beyond `nominal`:
+/// those of a kind it takes ([`planner_takes`]) with no rival the log
+/// could not tell from them (`LearntEffect::rival`).
 fn planner_part(learnt: &CaseModel, nominal: &EffectModel) -> Vec<crate::learn::LearntEffect> {
     learnt
         .effects
         .iter()
-        .filter(|e| e.kind().is_some_and(|k| planner_takes(k, nominal)))
+        .filter(|e| e.rival.is_none() && e.kind().is_some_and(|k| planner_takes(k, nominal)))
         .cloned()
         .collect()
 }
