@@ -208,13 +208,12 @@ fn a_learnt_command_the_model_refuses_whole_is_sent_in_parts_not_cut() {
 /// A cycle that does not connect says why on its line, as `deploy`'s
 /// verdict does: before, `cycles` printed only the status label. On the
 /// held-out truth `experiments/truths/light-friction-stiff-cables.toml`
-/// the memoryless controller connects in the first cycle and, from the
-/// fold-back, stops in the second with an unmeasured axial cable's
-/// minimum binding. Since the truth's supervisor judges the states the
-/// cable seats settle into (tenth session), that stop is also seen to
-/// have broken the axial cables' minimum in its last command, and the
-/// status says so (`limits_broken`, not `not_reachable`); the reason is
-/// on the line either way.
+/// the memoryless controller stops with an unmeasured axial cable's
+/// minimum binding. (Until the tenth session it connected in the first
+/// cycle and stopped "not reachable" in the second; since the truth's
+/// folded start and every command's end are settled on the cable seats,
+/// and judged there, both cycles stop, and the stop is seen to break the
+/// axial cables' minimum: `limits_broken`, with the reason on the line.)
 #[test]
 fn a_cycle_that_does_not_connect_says_what_binds() {
     let dir = tempfile::tempdir().unwrap();
@@ -236,18 +235,19 @@ fn a_cycle_that_does_not_connect_says_what_binds() {
     );
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     let text = common::cli::stdout(&out);
-    let line = text
+    let stopped: Vec<&str> = text
         .lines()
-        .find(|l| l.starts_with("cycle 2: "))
-        .unwrap_or_else(|| panic!("{text}"));
-    assert!(
-        line.starts_with("cycle 2: limits_broken (not connected: not reachable safely: ")
-            && line.contains(" binds")
-            && line.contains("truth limits broken"),
-        "{line}"
-    );
-    let first = text.lines().find(|l| l.starts_with("cycle 1: ")).unwrap();
-    assert!(first.starts_with("cycle 1: connected after "), "{first}");
+        .filter(|l| l.starts_with("cycle ") && !l.contains(": connected after "))
+        .collect();
+    assert!(!stopped.is_empty(), "{text}");
+    for line in stopped {
+        assert!(
+            line.contains(": limits_broken (not connected: not reachable safely: ")
+                && line.contains(" binds")
+                && line.contains("truth limits broken"),
+            "{line}"
+        );
+    }
 }
 
 /// The memoryless policy on the same truth and noise does not learn: its

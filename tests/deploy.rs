@@ -19,7 +19,7 @@ use tensegrity_deploy::control::{
 };
 use tensegrity_deploy::io::log::read_log;
 use tensegrity_deploy::model::{EffectKind, Effects};
-use tensegrity_deploy::plan::{DeploymentProblem, PlanStatus, Policy};
+use tensegrity_deploy::plan::{DeploymentProblem, LimitViolation, PlanStatus, Policy};
 use tensegrity_deploy::sim::{default_truth, standard_sensors, CycleSchedule, EffectModel, Sensor};
 
 /// Counts what the observer is shown.
@@ -763,11 +763,13 @@ fn an_uneven_fold_connects_without_breaking_a_limit() {
 /// trial that slackens a cable the model has slack is now refused
 /// (`plan::slack`): the trust region shrinks until the first command
 /// reels `B_cc0` in with the others, and that command keeps every truth
-/// limit. The deployment connects, but since the truth's supervisor
-/// judges the states the cable seats settle into (tenth session) it is
-/// seen to break `B_cc0[0]`'s minimum by 0.1–0.2 N in its second
-/// command, the take-up of `B_cc1` (the frictionless model cannot see
-/// a neighbour's segment that low fall): known limitations, item 18.
+/// limit. The deployment connects; since the tenth session (the truth's
+/// folded start settled on the cable seats, each command judged where the
+/// seats settle) it breaks one `B_cc0` segment's minimum by under 0.3 N in
+/// its second command, the take-up of `B_cc1`, which restored the segment
+/// to 5 N at the first command's end and lowers it again (the
+/// frictionless model cannot see a neighbour's segment that low fall:
+/// known limitations, item 18). Nothing else breaks.
 #[test]
 fn the_first_command_does_not_slacken_a_cable_the_fold_left_slack() {
     use tensegrity_deploy::io::evaluation_files::read_distribution;
@@ -813,6 +815,15 @@ fn the_first_command_does_not_slacken_a_cable_the_fold_left_slack() {
         "{:?}",
         d.records[0].truth_violations
     );
+    assert!(broken_limits(&d) <= 2, "{}", broken_limits(&d));
+    for r in &d.records {
+        for v in &r.truth_violations {
+            let ok = r.index == 2
+                && matches!(v, LimitViolation::BelowLower { member, force_n, lower_n }
+                    if member.starts_with("segment B_cc0[") && lower_n - force_n < 0.3);
+            assert!(ok, "command {}: {}", r.index, v.describe());
+        }
+    }
     assert!(matches!(d.status, PlanStatus::Connected), "{:?}", d.status);
 }
 

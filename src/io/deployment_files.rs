@@ -24,7 +24,9 @@
 //!   `truth_worst_utilisation` (worst member utilisation of the truth along
 //!   the command, every increment), `truth_min_tension_n`,
 //!   `truth_violations` (limits broken along the command),
-//!   `truth_increments`, `truth_increments_checked`,
+//!   `truth_increments`, `truth_increments_checked` (the payout's
+//!   increments, and with cable seats the state they settle into, one
+//!   more),
 //!   `model_worst_utilisation` (the controller's prediction), `qp_status`,
 //!   `trust_region_m`, `rejected_trials`, `active_constraints` (`; `
 //!   separated), `truth_violation_list` (`; ` separated). Empty: no value

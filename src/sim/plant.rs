@@ -121,9 +121,12 @@ impl Plant {
         // move it off the nominal as-built equilibrium; a state already in
         // equilibrium relaxes in zero iterations and is left as it is.
         plant.relax()?;
-        plant.follow_seats(&mut ())?;
+        plant.follow_seats(&mut (), 0)?;
         if let Some(payout) = start_payout_m {
             plant.apply_payout(payout, &mut ())?;
+            // The fold moves material over the seats like any command: the
+            // folded start is the settled state.
+            plant.follow_seats(&mut (), 0)?;
             // Only to remember the drums' direction: the payout reached is
             // the one given.
             plant.motor.actual_payout(payout);
@@ -135,8 +138,9 @@ impl Plant {
     /// through the motor model (slip, backlash) and applies it in
     /// increments at `temperature_c`; every increment's state goes to
     /// `observer` (so a caller can assert limits along the path); then the
-    /// seat arcs are followed, with re-solves the observer does not see
-    /// (they move no motor).
+    /// seat arcs are followed, and the state they settle into, where the
+    /// command ends, goes to `observer` as one more increment
+    /// ([`Self::follow_seats`]; the report counts the payout's).
     pub fn apply(
         &mut self,
         command_m: &[f64],
@@ -158,10 +162,7 @@ impl Plant {
         self.set_temperature(temperature_c)?;
         let actual = self.motor.actual_payout(command_m);
         let report = self.apply_payout(&actual, observer)?;
-        // The seats' settling is part of the command's path: the bridge
-        // passes through (and ends in) those states, so the observer sees
-        // them too.
-        self.follow_seats(observer)?;
+        self.follow_seats(observer, report.increments)?;
         Ok(report)
     }
 
@@ -173,7 +174,7 @@ impl Plant {
         if self.set_temperature(temperature_c)? {
             self.relax()?;
         }
-        self.follow_seats(&mut ())
+        self.follow_seats(&mut (), 0)
     }
 
     /// The true state (for checks and logs; a controller must not read it
@@ -299,16 +300,23 @@ impl Plant {
     /// out of the segments and re-solves, until the arcs settle; the seats
     /// end as the arcs of the final state. Nothing with the effect off.
     ///
-    /// `observer` is shown the settled state, the last solve, as one more
-    /// increment of the command: the bridge ends the command there. The
-    /// solves before it are iterates of the fixed point between the seat
-    /// arcs and the geometry, not states the bridge passes through, and
-    /// are not shown.
-    fn follow_seats(&mut self, observer: &mut dyn IncrementObserver) -> Result<(), PlantError> {
+    /// `observer` is shown the settled state, the last solve, as increment
+    /// `increments` of `increments + 1` of the command (after the payout's
+    /// `increments`): the bridge ends the command there, exactly (the
+    /// material the arcs would still move, under [`SEAT_TOLERANCE_M`],
+    /// stays for the next follow). The solves before it are iterates of
+    /// the fixed point between the seat arcs and the geometry, not states
+    /// the bridge passes through, and are not shown; nothing is shown
+    /// where no material moved.
+    fn follow_seats(
+        &mut self,
+        observer: &mut dyn IncrementObserver,
+        increments: usize,
+    ) -> Result<(), PlantError> {
         let Some(mut seats) = self.seats_m.take() else {
             return Ok(());
         };
-        let result = self.follow_seats_from(&mut seats, observer);
+        let result = self.follow_seats_from(&mut seats, observer, increments);
         self.seats_m = Some(seats);
         result
     }
@@ -318,6 +326,7 @@ impl Plant {
         &mut self,
         seats_m: &mut [f64],
         observer: &mut dyn IncrementObserver,
+        increments: usize,
     ) -> Result<(), PlantError> {
         let no_payout = vec![0.0; self.base.continuous_cables.len()];
         let mut change_m = f64::INFINITY;
@@ -329,7 +338,17 @@ impl Plant {
             else {
                 return Ok(());
             };
-            change_m = 0.0;
+            change_m = now
+                .iter()
+                .zip(seats_m.iter())
+                .map(|(after, before)| (after - before).abs())
+                .fold(0.0, f64::max);
+            if change_m < SEAT_TOLERANCE_M {
+                if let Some((report, state)) = last.0.take() {
+                    observer.on_increment(increments, increments + 1, &report, &state);
+                }
+                return Ok(());
+            }
             for ((rest, before), after) in self
                 .state
                 .segment_rest_lengths_m
@@ -338,14 +357,7 @@ impl Plant {
                 .zip(&now)
             {
                 *rest -= after - *before;
-                change_m = change_m.max((after - *before).abs());
                 *before = *after;
-            }
-            if change_m < SEAT_TOLERANCE_M {
-                if let Some((report, state)) = last.0.take() {
-                    observer.on_increment(0, 1, &report, &state);
-                }
-                return Ok(());
             }
             // A zero payout is one friction-aware increment from here.
             self.apply_payout(&no_payout, &mut last)?;
