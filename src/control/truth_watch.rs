@@ -126,6 +126,26 @@ mod tests {
             w.violations
         );
     }
+    /// The reference bridge with μ 0.2 and 20 mm cable seats, folded
+    /// 40 cm: its plant, truth model, default limits and motor count.
+    fn folded_on_seats() -> (Plant, ForwardModel, Limits, usize) {
+        use crate::model::{EffectKind, Effects, RelaxSettings};
+        use crate::sim::EffectModel;
+        let truth = EffectModel {
+            effects: Effects::default()
+                .with_parameters(EffectKind::JointFriction, &[0.2])
+                .with_parameters(EffectKind::JointEccentricity, &[0.02]),
+            structure: reference_bridge(&BridgeParameters::default()).unwrap(),
+            settings: RelaxSettings::default(),
+            increment_m: 0.01,
+        };
+        let n = truth.structure.continuous_cables.len();
+        let plant = Plant::new(&truth, Some(&vec![0.40; n]), None).unwrap();
+        let model = plant.model().clone();
+        let limits = Limits::new(&model, &DeploymentProblem::default(), plant.state());
+        (plant, model, limits, n)
+    }
+
     /// Regression (issue 22, tenth session): with joint eccentricity the
     /// plant settles the cables over their seat arcs after a command's
     /// payout, re-solving the bridge; those solves were run unobserved, so
@@ -136,21 +156,7 @@ mod tests {
     /// its last rows are the forces of the state the plant ends in.
     #[test]
     fn the_truth_watch_judges_the_state_the_seats_settle_into() {
-        use crate::model::{EffectKind, Effects, RelaxSettings};
-        use crate::sim::EffectModel;
-        let structure = reference_bridge(&BridgeParameters::default()).unwrap();
-        let truth = EffectModel {
-            effects: Effects::default()
-                .with_parameters(EffectKind::JointFriction, &[0.2])
-                .with_parameters(EffectKind::JointEccentricity, &[0.02]),
-            structure,
-            settings: RelaxSettings::default(),
-            increment_m: 0.01,
-        };
-        let n = truth.structure.continuous_cables.len();
-        let mut plant = Plant::new(&truth, Some(&vec![0.40; n]), None).unwrap();
-        let model = plant.model().clone();
-        let limits = Limits::new(&model, &DeploymentProblem::default(), plant.state());
+        let (mut plant, model, limits, n) = folded_on_seats();
         let mut watch = TruthWatch::new(&model, &limits, &[]);
         let report = plant.apply(&vec![-0.03; n], None, &mut watch).unwrap();
         // The seats moved material, so the bridge was solved again after
@@ -170,20 +176,7 @@ mod tests {
     /// command moves no material and shows no settled increment.
     #[test]
     fn the_folded_start_is_settled_on_its_seats() {
-        use crate::model::{EffectKind, Effects, RelaxSettings};
-        use crate::sim::EffectModel;
-        let truth = EffectModel {
-            effects: Effects::default()
-                .with_parameters(EffectKind::JointFriction, &[0.2])
-                .with_parameters(EffectKind::JointEccentricity, &[0.02]),
-            structure: reference_bridge(&BridgeParameters::default()).unwrap(),
-            settings: RelaxSettings::default(),
-            increment_m: 0.01,
-        };
-        let n = truth.structure.continuous_cables.len();
-        let mut plant = Plant::new(&truth, Some(&vec![0.40; n]), None).unwrap();
-        let model = plant.model().clone();
-        let limits = Limits::new(&model, &DeploymentProblem::default(), plant.state());
+        let (mut plant, model, limits, n) = folded_on_seats();
         let mut watch = TruthWatch::new(&model, &limits, &[]);
         let report = plant.apply(&vec![0.0; n], None, &mut watch).unwrap();
         assert_eq!(watch.increments, report.increments);
