@@ -817,14 +817,17 @@ fn a_structural_effect_the_log_cannot_tell_from_another_is_not_planned_on() {
     let u = r[0].model_update.as_ref().unwrap();
     assert_eq!(u.outcome(), "accepted", "{u:?}");
     assert_eq!(u.planner_takes, "none", "{u:?}");
-    let plain = cycles_of(
+    let mut plain_memory = CaseMemory::default();
+    let plain = run_on_bridge(
         &read_policy(&repo_path("policies/memory.toml")).unwrap(),
         2,
-        truth,
+        &truth,
+        &mut plain_memory,
         None,
         7,
+        &mut (),
     );
-    assert_eq!(r[1].commands, plain[1].commands);
+    assert_eq!(memory.cases[1].commands_m, plain_memory.cases[1].commands_m);
     assert_eq!(r[1].final_true_gap_m, plain[1].final_true_gap_m);
 }
 

@@ -245,12 +245,20 @@ mod tests {
         let path = dir.path().join("m.tdm");
         let mut learnt = case(1);
         learnt.model = Some(CaseModel {
-            effects: vec![LearntEffect {
-                effect: "joint_friction".into(),
-                values: vec![0.19],
-                std_errors: vec![Some(0.006)],
-                rival: None,
-            }],
+            effects: vec![
+                LearntEffect {
+                    effect: "joint_friction".into(),
+                    values: vec![0.19],
+                    std_errors: vec![Some(0.006)],
+                    rival: None,
+                },
+                LearntEffect {
+                    effect: "joint_mass_error".into(),
+                    values: vec![1.1],
+                    std_errors: vec![Some(0.02)],
+                    rival: Some("stiffness_error".into()),
+                },
+            ],
             base: "reference {}".into(),
             accepted: true,
             held_out: true,

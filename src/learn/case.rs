@@ -194,10 +194,18 @@ impl CaseModel {
                 ));
             }
             if let Some(rival) = &e.rival {
-                if !EffectKind::ALL.iter().any(|k| k.name() == rival) || *rival == e.effect {
+                let structural = ["stiffness_error", "joint_mass_error"];
+                if !structural.contains(&e.effect.as_str())
+                    || !structural.contains(&rival.as_str())
+                    || *rival == e.effect
+                {
                     return Err(FieldError::new(
                         field("rival"),
-                        format!("{rival:?} is no other effect of the library"),
+                        format!(
+                            "{rival:?} on {}: a rival is the other structural effect \
+                             (stiffness_error, joint_mass_error) of a structural one",
+                            e.effect
+                        ),
                     ));
                 }
             }
@@ -595,9 +603,21 @@ mod tests {
             &|m| m.effects[0].rival = Some("joint_friction".into()),
             "model.effects[0].rival",
         );
+        // Friction is no structural effect: it has no rival.
+        bad(
+            &|m| m.effects[0].rival = Some("joint_mass_error".into()),
+            "model.effects[0].rival",
+        );
         let mut m = learnt();
-        m.effects[0].rival = Some("joint_mass_error".into());
+        m.effects.push(LearntEffect {
+            effect: "joint_mass_error".into(),
+            values: vec![1.1],
+            std_errors: vec![Some(0.02)],
+            rival: Some("stiffness_error".into()),
+        });
         m.validate().unwrap();
+        m.effects[2].rival = Some("joint_mass_error".into());
+        assert!(m.validate().is_err());
     }
 
     /// The learnt effects switch on over the model file's, each replacing

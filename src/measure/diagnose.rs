@@ -572,21 +572,25 @@ fn chi2(c: &Comparison) -> (f64, usize) {
     )
 }
 
-/// Whether a model with held-out RMS `other_rms` explains `readings`
-/// held-out readings as well as one with `best_rms` (both in noise SDs):
-/// its χ² exceeds `best`'s by no more than the criterion's penalty on the
-/// `parameters` of the effect `best` has in its place ([`is_rival`]'s
-/// rule for two named alternatives, with no look-elsewhere term: the
-/// alternative is not searched for among many).
+/// Whether a model with RMS `other_rms` (noise SDs) over `readings`
+/// readings explains them as well as one with `best_rms`: the criterion
+/// (χ² plus each model's parameter penalty) of the other exceeds the
+/// best's by no more than the penalty of the best's own
+/// `best_parameters`, the other having `other_parameters` in their
+/// place ([`is_rival`]'s rule for two named alternatives, with no
+/// look-elsewhere term: the alternative is not searched for among many).
 pub fn explains_alike(
     readings: usize,
     best_rms: f64,
     other_rms: f64,
-    parameters: usize,
+    best_parameters: usize,
+    other_parameters: usize,
     settings: &DiagnoseSettings,
 ) -> bool {
-    let chi2 = |rms: f64| readings as f64 * rms * rms;
-    chi2(other_rms) - chi2(best_rms) <= parameter_penalty(parameters, readings, settings)
+    let criterion =
+        |rms: f64, k: usize| readings as f64 * rms * rms + parameter_penalty(k, readings, settings);
+    criterion(other_rms, other_parameters) - criterion(best_rms, best_parameters)
+        <= parameter_penalty(best_parameters, readings, settings)
 }
 
 fn ln_count(n: usize) -> f64 {
