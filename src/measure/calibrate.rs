@@ -23,8 +23,9 @@
 //!
 //! # Held-out residual
 //! Every figure "held out" is the RMS, in noise SDs, of the residuals of
-//! the cycles the diagnosis holds out ([`part`]; a one-cycle log is its
-//! own held-out part): the effects are fitted on the other cycles.
+//! the cycles the diagnosis holds out (`measure::diagnose::held_out_stats`;
+//! a one-cycle log is its own held-out part): the effects are fitted on
+//! the other cycles.
 
 use serde::{Serialize, Serializer};
 use thiserror::Error;

@@ -577,7 +577,7 @@ fn chi2(c: &Comparison) -> (f64, usize) {
 /// (χ² plus each model's parameter penalty) of the other exceeds the
 /// best's by no more than the penalty of the best's own
 /// `best_parameters`, the other having `other_parameters` in their
-/// place ([`is_rival`]'s rule for two named alternatives, with no
+/// place (the rival rule of the diagnosis for two named alternatives, with no
 /// look-elsewhere term: the alternative is not searched for among many).
 pub fn explains_alike(
     readings: usize,

@@ -140,7 +140,7 @@ impl Plant {
     /// `observer` (so a caller can assert limits along the path); then the
     /// seat arcs are followed, and the state they settle into, where the
     /// command ends, goes to `observer` as one more increment
-    /// ([`Self::follow_seats`]; the report counts the payout's).
+    /// (see `follow_seats`; the report counts the payout's).
     pub fn apply(
         &mut self,
         command_m: &[f64],
