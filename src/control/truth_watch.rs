@@ -126,6 +126,7 @@ mod tests {
             w.violations
         );
     }
+
     /// The reference bridge with μ 0.2 and 20 mm cable seats, folded
     /// 40 cm: its plant, truth model, default limits and motor count.
     fn folded_on_seats() -> (Plant, ForwardModel, Limits, usize) {
@@ -167,6 +168,7 @@ mod tests {
         let (rows, _) = watch.last_rows.unwrap();
         assert_eq!(rows, force_rows(&model, plant.state()));
     }
+
     /// Regression (independent review, tenth session): the fold moved
     /// material over the seats, but the plant followed the seat arcs only
     /// before folding, so the folded start (from which the start-broken

@@ -106,6 +106,11 @@ pub struct CaseLearning {
     pub approach_completed: bool,
 }
 
+/// The effects a learnt effect may have a rival among
+/// ([`LearntEffect::rival`]): the structural errors the planner plans on
+/// from any model file, each of which can stand in for the other.
+pub const RIVAL_EFFECTS: [EffectKind; 2] = [EffectKind::StiffnessError, EffectKind::JointMassError];
+
 /// One library effect of a learnt model, as fitted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -194,11 +199,8 @@ impl CaseModel {
                 ));
             }
             if let Some(rival) = &e.rival {
-                let structural = ["stiffness_error", "joint_mass_error"];
-                if !structural.contains(&e.effect.as_str())
-                    || !structural.contains(&rival.as_str())
-                    || *rival == e.effect
-                {
+                let structural = |name: &str| RIVAL_EFFECTS.iter().any(|k| k.name() == name);
+                if !structural(&e.effect) || !structural(rival) || *rival == e.effect {
                     return Err(FieldError::new(
                         field("rival"),
                         format!(

@@ -22,6 +22,7 @@ pub mod memory;
 pub use adaptation::{adapt, retrieve, AdaptError, Adaptation, EndStateCache};
 pub use case::{
     model_base, Case, CaseConditions, CaseLearning, CaseModel, CaseOutcome, LearntEffect,
+    RIVAL_EFFECTS,
 };
 pub use ilc::{learn_commands, IlcData, IlcUpdate};
 pub use memory::{CaseMemory, FeatureScales, Neighbour};

@@ -344,8 +344,10 @@ impl Plant {
                 .map(|(after, before)| (after - before).abs())
                 .fold(0.0, f64::max);
             if change_m < SEAT_TOLERANCE_M {
-                if let Some((report, state)) = last.0.take() {
-                    observer.on_increment(increments, increments + 1, &report, &state);
+                // Nothing moved since the last solve: the plant's state is
+                // that solve's.
+                if let Some(report) = last.0 {
+                    observer.on_increment(increments, increments + 1, &report, &self.state);
                 }
                 return Ok(());
             }
@@ -386,13 +388,13 @@ impl Plant {
     }
 }
 
-/// Keeps the last increment a solve reached, with its report.
+/// Keeps the report of the last increment a solve reached.
 #[derive(Default)]
-struct LastSolve(Option<(RelaxReport, DeploymentState)>);
+struct LastSolve(Option<RelaxReport>);
 
 impl IncrementObserver for LastSolve {
-    fn on_increment(&mut self, _: usize, _: usize, report: &RelaxReport, state: &DeploymentState) {
-        self.0 = Some((*report, state.clone()));
+    fn on_increment(&mut self, _: usize, _: usize, report: &RelaxReport, _: &DeploymentState) {
+        self.0 = Some(*report);
     }
 }
 

@@ -40,7 +40,7 @@
 
 use thiserror::Error;
 
-use crate::learn::{model_base, CaseModel, LearntEffect};
+use crate::learn::{model_base, CaseModel, LearntEffect, RIVAL_EFFECTS};
 use crate::measure::calibrate::describe_verdict;
 use crate::measure::compare::Stats;
 use crate::measure::diagnose::{
@@ -263,11 +263,6 @@ pub fn learn_model(
     })
 }
 
-/// The effects that change the structure the planner plans on
-/// ([`crate::studies::cycles::planner_takes`] takes them from any model
-/// file): each may stand in for another, and the log may not tell which.
-const STRUCTURAL: [EffectKind; 2] = [EffectKind::StiffnessError, EffectKind::JointMassError];
-
 /// Marks each structural effect of `learnt` (fitted on `log` to the RMS
 /// `fitted_rms` over its `readings` scored readings, the model `fitted`)
 /// whose place the other structural effect fills as well
@@ -300,10 +295,10 @@ fn mark_structural_rivals(
             .unwrap_or_else(|| k.parameters().iter().map(|p| p.neutral).collect())
     };
     for e in learnt.iter_mut() {
-        let Some(kind) = e.kind().filter(|k| STRUCTURAL.contains(k)) else {
+        let Some(kind) = e.kind().filter(|k| RIVAL_EFFECTS.contains(k)) else {
             continue;
         };
-        for other in STRUCTURAL.into_iter().filter(|k| *k != kind) {
+        for other in RIVAL_EFFECTS.into_iter().filter(|k| *k != kind) {
             // In its place: the other, or nothing where the other is
             // learnt already.
             let replaces = !kinds.contains(&other);
