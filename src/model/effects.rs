@@ -7,7 +7,8 @@
 //!   flexibility): a transformed [`Structure`]
 //!   ([`Effects::apply_to_structure`]);
 //! - **the cable path** (joint eccentricity): material held on the cable
-//!   seats as the wrap angles change ([`Effects::seat_material_m`]);
+//!   seats as the wrap angles change ([`Effects::forward_model_of`],
+//!   [`crate::model::solver::seats`]);
 //! - **the joints** (friction): the [`JointFriction`] of the model
 //!   ([`Effects::joint_friction`]);
 //! - **the motors** (drum slip, backlash): commanded payouts become actual
@@ -29,12 +30,12 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::cable_seats::seat_material_m;
 use super::faults::Faults;
 use super::flexible_supports::with_flexible_supports;
 use super::friction::JointFriction;
 pub use super::friction_effect::{AngleShape, JointFrictionEffect};
 pub use super::parameter_spec::ParameterSpec;
+use super::solver::{ForwardModel, RelaxSettings, SettingsError};
 use super::structure::{Structure, StructureError};
 
 /// The effects of the library, in a fixed order.
@@ -463,16 +464,19 @@ impl Effects {
         }
     }
 
-    /// The cable held on the joints' seats at the end of each
-    /// continuous-cable segment in `positions_m`, m ([`seat_material_m`]);
-    /// `None` when the effect is off.
-    pub fn seat_material_m(
+    /// The forward model of `structure` (these effects already applied to
+    /// it, [`Self::apply_to_structure`]) with these effects' joint
+    /// friction and cable seats, and solver `settings`.
+    pub fn forward_model_of(
         &self,
-        structure: &Structure,
-        positions_m: &[nalgebra::Vector3<f64>],
-    ) -> Option<Vec<f64>> {
-        self.joint_eccentricity
-            .map(|e| seat_material_m(structure, positions_m, e.seat_radius_m))
+        structure: Structure,
+        settings: RelaxSettings,
+    ) -> Result<ForwardModel, SettingsError> {
+        let model = ForwardModel::new(structure, self.joint_friction(), settings)?;
+        match self.joint_eccentricity {
+            Some(e) => model.with_cable_seats(e.seat_radius_m),
+            None => Ok(model),
+        }
     }
 
     /// The structure at thermal strain `strain` (from
@@ -608,9 +612,11 @@ mod tests {
                 vec![0.01, -0.02]
             );
             assert!(e.joint_friction().static_mu.is_zero());
-            if let Some(m) = e.seat_material_m(&s, &s.reference_positions()) {
-                assert!(m.iter().all(|v| *v == 0.0));
-            }
+            let model = e
+                .forward_model_of(s.clone(), RelaxSettings::default())
+                .unwrap();
+            let arcs = model.reference_state().seat_material_m;
+            assert!(arcs.iter().all(|v| *v == 0.0));
         }
     }
 

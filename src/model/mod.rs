@@ -22,7 +22,7 @@ pub use friction::{AngleConvention, FrictionCoefficient, FrictionError, JointFri
 pub use solver::{
     CommandError, CommandReport, ForwardModel, IncrementObserver, MemberForces, MotorDirection,
     MotorResponse, PayoutSensitivities, RelaxReport, RelaxSettings, RelaxStatus, SensitivityError,
-    SettingsError, SlipOnset, SolveMode, Workspace,
+    SettingsError, SlipOnset, SolveMode, Workspace, SEAT_TOLERANCE_M,
 };
 pub use state::{DeploymentState, JointSlip};
 pub use stiffness::{min_stiffness_eigenvalue, tangent_stiffness, JointMode};

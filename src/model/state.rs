@@ -43,6 +43,13 @@ pub struct DeploymentState {
     /// `offset + j` for the joint between segments `j−1` and `j`; entry
     /// `offset + 0` is unused: segment 0 starts at the motor).
     pub joint_slip: Vec<JointSlip>,
+    /// Cable held on the joint seats at the ends of every continuous-cable
+    /// segment, m, flat as the segments, as the seat arcs were last
+    /// followed ([`crate::model::cable_seats`]); empty where the model
+    /// has no seats (or has not followed them yet: the first follow takes
+    /// the arcs as they are, moving nothing).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub seat_material_m: Vec<f64>,
 }
 
 impl DeploymentState {
@@ -61,6 +68,7 @@ impl DeploymentState {
             segment_rest_lengths_m: rest,
             segment_offsets,
             payout_m: vec![0.0; structure.continuous_cables.len()],
+            seat_material_m: Vec::new(),
         }
     }
 

@@ -41,16 +41,14 @@ impl EffectModel {
     /// The forward model of this bridge at its reference temperature:
     /// the effects that change the structure applied to it (mass,
     /// stiffness, local faults, supports), with the effects' joint
-    /// friction and these solver settings. Motor, thermal,
-    /// joint-eccentricity (seat) and sensor effects act in a
+    /// friction, cable seats (joint eccentricity) and these solver
+    /// settings. Motor, thermal and sensor effects act in a
     /// [`super::Plant`] and in the readings, not here.
     pub fn forward_model(&self) -> Result<ForwardModel, PlantError> {
         let structure = self.effects.apply_to_structure(&self.structure)?;
-        Ok(ForwardModel::new(
-            structure,
-            self.effects.joint_friction(),
-            self.settings.clone(),
-        )?)
+        self.effects
+            .forward_model_of(structure, self.settings.clone())
+            .map_err(PlantError::from)
     }
 }
 

@@ -12,7 +12,7 @@ pub mod sensors;
 
 pub use default_truth::{default_truth, default_truth_effects};
 pub use effect_model::{EffectModel, PlantError};
-pub use plant::{Plant, SEAT_TOLERANCE_M};
+pub use plant::Plant;
 pub use schedule_run::{CycleSchedule, Readings, Run, StepFeatures};
 pub use sensors::{
     standard_sensors, Sensor, SensorTarget, LOAD_CELL_NOISE_N, POSITION_NOISE_M,

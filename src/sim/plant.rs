@@ -9,11 +9,12 @@
 //! (rest lengths of steel, and the material in the segments, follow it);
 //! the command goes through the motor model (slip, backlash); the payout
 //! the drums make is applied in increments, each relaxed to equilibrium;
-//! with joint eccentricity on, the material the cable seats took up or gave
-//! back ([`crate::model::cable_seats`]) is moved out of or into the segments
-//! and the state solved again, until the arcs change by less than
-//! [`SEAT_TOLERANCE_M`]. [`EffectModel::run`] replays schedules through
-//! this same code.
+//! with joint eccentricity on, the truth's forward model follows the cable
+//! seats to the end of the command ([`crate::model::solver::seats`]: the
+//! material the arcs took up or gave back is moved out of or into the
+//! segments and the state solved again, until the arcs change by less than
+//! [`crate::model::SEAT_TOLERANCE_M`]). [`EffectModel::run`] replays
+//! schedules through this same code.
 //!
 //! Temperatures are `Option`s as in logs: `None` means unknown, which the
 //! model takes as its reference temperature (no thermal strain) and the
@@ -26,15 +27,8 @@ use super::effect_model::{EffectModel, PlantError};
 use super::sensors::{Sensor, SensorTarget};
 use crate::model::{
     CommandError, CommandReport, DeploymentState, Effects, ForwardModel, IncrementObserver,
-    JointFriction, MotorModel, RelaxReport, RelaxSettings, RelaxStatus, Structure, Workspace,
+    MotorModel, RelaxSettings, RelaxStatus, Structure, Workspace,
 };
-
-/// The seat arcs are followed until they change by less than this between
-/// two solves, m: a thousandth of the 1 mm position noise.
-pub const SEAT_TOLERANCE_M: f64 = 1e-6;
-/// Most re-solves per step for the seat arcs (each a warm, zero-payout
-/// increment; two or three are typical).
-const MAX_SEAT_SOLVES: usize = 20;
 
 /// A truth model with effects, stepped one command at a time, as the real
 /// bridge is by its motors.
@@ -53,7 +47,6 @@ pub struct Plant {
     /// Members of the bridge itself; effects may append foundation members
     /// after them, which thermal strain leaves alone.
     bridge_members: usize,
-    friction: JointFriction,
     settings: RelaxSettings,
     increment_m: f64,
     /// The truth model at the current thermal strain.
@@ -61,9 +54,6 @@ pub struct Plant {
     state: DeploymentState,
     ws: Workspace,
     motor: MotorModel,
-    /// Material on the cable seats at the end of each segment, m, as the
-    /// state was last solved; `None` with joint eccentricity off.
-    seats_m: Option<Vec<f64>>,
     /// Thermal strain the model's and state's rest lengths are at.
     strain: f64,
     temperature_c: Option<f64>,
@@ -96,14 +86,11 @@ impl Plant {
         }
         let forward = model.forward_model()?;
         let base = forward.structure().clone();
-        let friction = forward.friction().clone();
-        let state = forward.reference_state();
         // The as-built state has its arcs wrapped already.
-        let seats_m = model.effects.seat_material_m(&base, &state.positions_m);
+        let state = forward.reference_state();
         let mut plant = Plant {
             effects: model.effects.clone(),
             bridge_members: model.structure.members.len(),
-            friction,
             settings: model.settings.clone(),
             increment_m: model.increment_m,
             motor: model.effects.motor_model(base.continuous_cables.len()),
@@ -111,7 +98,6 @@ impl Plant {
             model: forward,
             state,
             ws: Workspace::default(),
-            seats_m,
             strain: 0.0,
             temperature_c: None,
             commands: 0,
@@ -121,12 +107,11 @@ impl Plant {
         // move it off the nominal as-built equilibrium; a state already in
         // equilibrium relaxes in zero iterations and is left as it is.
         plant.relax()?;
-        plant.follow_seats(&mut (), 0)?;
+        plant.follow_seats()?;
         if let Some(payout) = start_payout_m {
-            plant.apply_payout(payout, &mut ())?;
             // The fold moves material over the seats like any command: the
             // folded start is the settled state.
-            plant.follow_seats(&mut (), 0)?;
+            plant.apply_payout(payout, &mut ())?;
             // Only to remember the drums' direction: the payout reached is
             // the one given.
             plant.motor.actual_payout(payout);
@@ -137,10 +122,10 @@ impl Plant {
     /// Sends one command (payout change per motor, m; positive pays out)
     /// through the motor model (slip, backlash) and applies it in
     /// increments at `temperature_c`; every increment's state goes to
-    /// `observer` (so a caller can assert limits along the path); then the
-    /// seat arcs are followed, and the state they settle into, where the
-    /// command ends, goes to `observer` as one more increment
-    /// (see `follow_seats`; the report counts the payout's).
+    /// `observer` (so a caller can assert limits along the path); with
+    /// cable seats the state they settle into, where the command ends,
+    /// goes to `observer` as one more increment
+    /// ([`ForwardModel::apply_payout`]; the report counts the payout's).
     pub fn apply(
         &mut self,
         command_m: &[f64],
@@ -161,9 +146,7 @@ impl Plant {
         }
         self.set_temperature(temperature_c)?;
         let actual = self.motor.actual_payout(command_m);
-        let report = self.apply_payout(&actual, observer)?;
-        self.follow_seats(observer, report.increments)?;
-        Ok(report)
+        self.apply_payout(&actual, observer)
     }
 
     /// Holds the motors while the temperature becomes `temperature_c`:
@@ -174,7 +157,7 @@ impl Plant {
         if self.set_temperature(temperature_c)? {
             self.relax()?;
         }
-        self.follow_seats(&mut (), 0)
+        self.follow_seats()
     }
 
     /// The true state (for checks and logs; a controller must not read it
@@ -249,10 +232,9 @@ impl Plant {
         // Rest lengths of steel follow the temperature; the material in the
         // segments grows with them.
         let scale = (1.0 + strain) / (1.0 + self.strain);
-        self.model = ForwardModel::new(
+        self.model = self.effects.forward_model_of(
             self.effects
                 .structure_at_strain(&self.base, strain, self.bridge_members),
-            self.friction.clone(),
             self.settings.clone(),
         )?;
         for r in &mut self.state.segment_rest_lengths_m {
@@ -296,86 +278,32 @@ impl Plant {
         }
     }
 
-    /// Moves the material the seats took up since they were last followed
-    /// out of the segments and re-solves, until the arcs settle; the seats
-    /// end as the arcs of the final state. Nothing with the effect off.
-    ///
-    /// `observer` is shown the settled state, the last solve, as increment
-    /// `increments` of `increments + 1` of the command (after the payout's
-    /// `increments`): the bridge ends the command there, exactly (the
-    /// material the arcs would still move, under [`SEAT_TOLERANCE_M`],
-    /// stays for the next follow). The solves before it are iterates of
-    /// the fixed point between the seat arcs and the geometry, not states
-    /// the bridge passes through, and are not shown; nothing is shown
-    /// where no material moved.
-    fn follow_seats(
-        &mut self,
-        observer: &mut dyn IncrementObserver,
-        increments: usize,
-    ) -> Result<(), PlantError> {
-        let Some(mut seats) = self.seats_m.take() else {
-            return Ok(());
-        };
-        let result = self.follow_seats_from(&mut seats, observer, increments);
-        self.seats_m = Some(seats);
-        result
-    }
-
-    /// [`Self::follow_seats`], from the arcs `seats_m`.
-    fn follow_seats_from(
-        &mut self,
-        seats_m: &mut [f64],
-        observer: &mut dyn IncrementObserver,
-        increments: usize,
-    ) -> Result<(), PlantError> {
-        let no_payout = vec![0.0; self.base.continuous_cables.len()];
-        let mut change_m = f64::INFINITY;
-        let mut last = LastSolve::default();
-        for _ in 0..MAX_SEAT_SOLVES {
-            let Some(now) = self
-                .effects
-                .seat_material_m(self.model.structure(), &self.state.positions_m)
-            else {
-                return Ok(());
-            };
-            change_m = now
-                .iter()
-                .zip(seats_m.iter())
-                .map(|(after, before)| (after - before).abs())
-                .fold(0.0, f64::max);
-            if change_m < SEAT_TOLERANCE_M {
-                // Nothing moved since the last solve: the plant's state is
-                // that solve's.
-                if let Some(report) = last.0 {
-                    observer.on_increment(increments, increments + 1, &report, &self.state);
-                }
-                return Ok(());
-            }
-            for ((rest, before), after) in self
-                .state
-                .segment_rest_lengths_m
-                .iter_mut()
-                .zip(seats_m.iter_mut())
-                .zip(&now)
-            {
-                *rest -= after - *before;
-                *before = *after;
-            }
-            // A zero payout is one friction-aware increment from here.
-            self.apply_payout(&no_payout, &mut last)?;
+    /// Follows the seat arcs after a change other than a command (the
+    /// effects, a temperature): nothing without seats.
+    fn follow_seats(&mut self) -> Result<(), PlantError> {
+        let r = self
+            .model
+            .follow_seats(&mut self.state, &mut self.ws)
+            .map_err(|source| self.command_error(source))?;
+        if r.status.is_converged() {
+            Ok(())
+        } else {
+            Err(self.solver_error(r.status))
         }
-        Err(PlantError::SeatsUnsettled {
-            cycle: 0,
-            step: self.commands,
-            change_m,
-        })
     }
 
     fn command_error(&self, source: CommandError) -> PlantError {
-        PlantError::Command {
-            cycle: 0,
-            step: self.commands,
-            source,
+        match source {
+            CommandError::SeatsUnsettled { change_m } => PlantError::SeatsUnsettled {
+                cycle: 0,
+                step: self.commands,
+                change_m,
+            },
+            source => PlantError::Command {
+                cycle: 0,
+                step: self.commands,
+                source,
+            },
         }
     }
 
@@ -385,16 +313,6 @@ impl Plant {
             step: self.commands,
             status,
         }
-    }
-}
-
-/// Keeps the report of the last increment a solve reached.
-#[derive(Default)]
-struct LastSolve(Option<RelaxReport>);
-
-impl IncrementObserver for LastSolve {
-    fn on_increment(&mut self, _: usize, _: usize, report: &RelaxReport, _: &DeploymentState) {
-        self.0 = Some(*report);
     }
 }
 

@@ -57,6 +57,13 @@ pub enum CommandError {
     /// The increment size is not positive.
     #[error("command increment must be positive, got {0} m")]
     BadIncrement(f64),
+    /// The cable-seat arcs did not settle within the re-solves allowed
+    /// (see [`super::seats`]).
+    #[error("the cable-seat arcs did not settle ({change_m:.2e} m still changing)")]
+    SeatsUnsettled {
+        /// Largest arc change at the last re-solve, m.
+        change_m: f64,
+    },
     /// The command would need more than [`MAX_INCREMENTS_PER_COMMAND`]
     /// increments: a bound on the work one command may take.
     #[error("a payout change of {largest_m} m in increments of at most {increment_m} m needs more than {MAX_INCREMENTS_PER_COMMAND} increments (the limit per command)")]
@@ -119,6 +126,31 @@ pub struct CommandReport {
     pub max_friction_residual_n: f64,
 }
 
+impl CommandReport {
+    /// The report of no work: converged, nothing applied.
+    pub fn empty() -> Self {
+        CommandReport {
+            status: RelaxStatus::Converged,
+            increments: 0,
+            iterations: 0,
+            newton_iterations: 0,
+            max_residual_n: 0.0,
+            max_friction_residual_n: 0.0,
+        }
+    }
+
+    /// Adds the solver work and residuals of `other` (not its increments
+    /// or status).
+    pub(super) fn add_work(&mut self, other: &CommandReport) {
+        self.iterations += other.iterations;
+        self.newton_iterations += other.newton_iterations;
+        self.max_residual_n = self.max_residual_n.max(other.max_residual_n);
+        self.max_friction_residual_n = self
+            .max_friction_residual_n
+            .max(other.max_friction_residual_n);
+    }
+}
+
 /// Shortest rest length a first segment may be reeled down to, m.
 const MIN_SEGMENT_REST_M: f64 = 1e-3;
 
@@ -127,8 +159,29 @@ impl ForwardModel {
     /// positive pays out) in increments of at most `max_increment_m`.
     ///
     /// Stops at the first increment that does not converge and reports its
-    /// status; the state is then that increment's last iterate.
+    /// status; the state is then that increment's last iterate. A model
+    /// with cable seats then follows the seat arcs, and the state they
+    /// settle into, where the command ends, goes to `observer` as one
+    /// more increment ([`super::seats`]; the report's `increments` counts
+    /// the payout's, its work the re-solves' too).
     pub fn apply_payout(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        delta_payout_m: &[f64],
+        max_increment_m: f64,
+        observer: &mut dyn IncrementObserver,
+    ) -> Result<CommandReport, CommandError> {
+        let mut out =
+            self.apply_payout_unseated(state, ws, delta_payout_m, max_increment_m, observer)?;
+        if out.status.is_converged() {
+            self.follow_seats_observed(state, ws, observer, out.increments, &mut out)?;
+        }
+        Ok(out)
+    }
+
+    /// [`Self::apply_payout`] without following the seats.
+    pub(super) fn apply_payout_unseated(
         &self,
         state: &mut DeploymentState,
         ws: &mut Workspace,
@@ -173,14 +226,7 @@ impl ForwardModel {
             });
         }
         let count = count as usize;
-        let mut out = CommandReport {
-            status: RelaxStatus::Converged,
-            increments: 0,
-            iterations: 0,
-            newton_iterations: 0,
-            max_residual_n: 0.0,
-            max_friction_residual_n: 0.0,
-        };
+        let mut out = CommandReport::empty();
         // An empty command on a balanced state has nothing to solve: no
         // tangent to assemble or factorise for a zero load (issue 12).
         if largest == 0.0 {

@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 
 use super::element::{Element, ElementLaw};
 use super::settings::{RelaxSettings, SettingsError};
+use crate::model::cable_seats::seat_material_m;
 use crate::model::friction::JointFriction;
 use crate::model::state::DeploymentState;
 use crate::model::structure::Structure;
@@ -32,6 +33,10 @@ pub struct ForwardModel {
     /// How tangents are stored and factorised (dense or sparse blocks),
     /// made at the first Newton solve: see `ForwardModel::tangent_layout`.
     pub(super) tangent_layout: std::sync::OnceLock<crate::numerics::BlockLayout>,
+    /// Radius of the cable's arc on the joint seats, m, where the model
+    /// follows the seats ([`Self::with_cable_seats`]); `None`: the cables
+    /// pass through the joint centres.
+    pub(super) seat_radius_m: Option<f64>,
 }
 
 /// Forces in every member and segment of a state.
@@ -135,7 +140,29 @@ impl ForwardModel {
             free_dofs,
             dof_blocks,
             tangent_layout: std::sync::OnceLock::new(),
+            seat_radius_m: None,
         })
+    }
+
+    /// This model with the continuous cables running over cable seats of
+    /// radius `seat_radius_m` (m, finite, ≥ 0) around the joint centres
+    /// (joint eccentricity, [`crate::model::cable_seats`]): every command
+    /// ends with the seat arcs followed ([`Self::follow_seats`]).
+    pub fn with_cable_seats(mut self, seat_radius_m: f64) -> Result<Self, SettingsError> {
+        if !(seat_radius_m >= 0.0 && seat_radius_m.is_finite()) {
+            return Err(SettingsError {
+                field: "seat_radius_m".into(),
+                reason: format!("must be a finite number in [0, ∞), got {seat_radius_m}"),
+            });
+        }
+        self.seat_radius_m = Some(seat_radius_m);
+        Ok(self)
+    }
+
+    /// Radius of the cable seats this model follows, m (`None`: the
+    /// cables pass through the joint centres).
+    pub fn cable_seat_radius_m(&self) -> Option<f64> {
+        self.seat_radius_m
     }
 
     /// The structure.
@@ -154,8 +181,16 @@ impl ForwardModel {
     }
 
     /// The as-built state of this model's structure.
+    ///
+    /// With cable seats the as-built arcs are wrapped already (the cable
+    /// was cut to the design prestress on the real joints): the state
+    /// holds them, and only changes of the wrap angles move material.
     pub fn reference_state(&self) -> DeploymentState {
-        DeploymentState::reference(&self.structure)
+        let mut state = DeploymentState::reference(&self.structure);
+        if let Some(r) = self.seat_radius_m {
+            state.seat_material_m = seat_material_m(&self.structure, &state.positions_m, r);
+        }
+        state
     }
 
     /// Number of free degrees of freedom.

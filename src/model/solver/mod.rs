@@ -2,7 +2,8 @@
 //! the [`forward_model`] type, the two-node `element` force law, the
 //! `residual` with the friction return mapping, dynamic relaxation
 //! ([`relax`]), Newton with the consistent friction tangent (`newton`),
-//! commands applied in increments ([`command`]), and the payout
+//! commands applied in increments ([`command`]), the cable seats
+//! followed to the end of a command ([`seats`]), and the payout
 //! sensitivities of an equilibrium ([`sensitivity`]).
 
 pub mod command;
@@ -12,6 +13,7 @@ pub mod forward_model;
 mod newton;
 pub mod relax;
 mod residual;
+pub mod seats;
 pub mod sensitivity;
 pub mod settings;
 pub mod status;
@@ -23,6 +25,7 @@ pub use command::{
 pub use counters::NewtonCounters;
 pub use forward_model::{ForwardModel, MemberForces};
 pub use relax::SolveMode;
+pub use seats::SEAT_TOLERANCE_M;
 pub use sensitivity::{
     MotorDirection, MotorResponse, PayoutSensitivities, SensitivityError, SlipOnset,
 };

@@ -1,0 +1,244 @@
+//! The cable seats followed to the end of a command (joint eccentricity,
+//! [`crate::model::cable_seats`]).
+//!
+//! A cable over a seat of radius `r` holds `r·φ` of its material on the
+//! seat's arc, with `φ` its wrap angle there. When a command changes the
+//! wrap angles, the arcs take up or give back material, which the straight
+//! runs lose or gain. A model with seats ([`ForwardModel::with_cable_seats`])
+//! ends every command by moving the material the arcs took since they
+//! were last followed out of the segments and solving again (a zero-payout
+//! increment, friction-aware), until the arcs change by less than
+//! [`SEAT_TOLERANCE_M`]: a fixed point between the arcs and the geometry.
+//! The state's [`DeploymentState::seat_material_m`] carries the arcs from
+//! one command to the next.
+//!
+//! The iterates before the fixed point are not states the bridge passes
+//! through; the settled state is where the command ends, and an
+//! [`IncrementObserver`] is shown it as one more increment after the
+//! payout's (`n` of `n + 1`), so a supervisor judges the state the bridge
+//! is in. The truth's plant and the controller's model run this same code:
+//! a controller that plans on a model with seats sees what its commands do
+//! to the arcs.
+
+use super::command::{CommandError, CommandReport, IncrementObserver};
+use super::{ForwardModel, RelaxReport, Workspace};
+use crate::model::cable_seats::seat_material_m;
+use crate::model::state::DeploymentState;
+
+/// The seat arcs are followed until they change by less than this between
+/// two solves, m: a thousandth of the 1 mm position noise.
+pub const SEAT_TOLERANCE_M: f64 = 1e-6;
+/// Most re-solves per command for the seat arcs (each a warm, zero-payout
+/// increment; two or three are typical).
+const MAX_SEAT_SOLVES: usize = 20;
+
+impl ForwardModel {
+    /// Follows the seat arcs of `state` (already in equilibrium) to their
+    /// fixed point, for a state changed otherwise than by a command (the
+    /// effects applied to an as-built state, a new temperature). Nothing
+    /// without seats. The report counts the re-solves' work, no
+    /// increments; its status is the first re-solve's that did not
+    /// converge (the state is then that solve's last iterate).
+    pub fn follow_seats(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+    ) -> Result<CommandReport, CommandError> {
+        let mut out = CommandReport::empty();
+        self.follow_seats_observed(state, ws, &mut (), 0, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Self::follow_seats`] at the end of a command of `increments`
+    /// increments, its work added to `out`: the settled state goes to
+    /// `observer` as increment `increments` of `increments + 1` where any
+    /// material moved. The material the arcs would still move, under
+    /// [`SEAT_TOLERANCE_M`], stays for the next follow: the state ends
+    /// exactly as the observer saw it.
+    pub(super) fn follow_seats_observed(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        observer: &mut dyn IncrementObserver,
+        increments: usize,
+        out: &mut CommandReport,
+    ) -> Result<(), CommandError> {
+        let Some(radius_m) = self.seat_radius_m else {
+            return Ok(());
+        };
+        if state.seat_material_m.len() != state.segment_rest_lengths_m.len() {
+            // Never followed: the arcs are taken as they are.
+            state.seat_material_m = seat_material_m(&self.structure, &state.positions_m, radius_m);
+            return Ok(());
+        }
+        let no_payout = vec![0.0; self.structure.continuous_cables.len()];
+        let mut last: Option<RelaxReport> = None;
+        let mut change_m = f64::INFINITY;
+        for _ in 0..MAX_SEAT_SOLVES {
+            let now = seat_material_m(&self.structure, &state.positions_m, radius_m);
+            change_m = now
+                .iter()
+                .zip(&state.seat_material_m)
+                .map(|(after, before)| (after - before).abs())
+                .fold(0.0, f64::max);
+            if change_m < SEAT_TOLERANCE_M {
+                if let Some(report) = last {
+                    observer.on_increment(increments, increments + 1, &report, state);
+                }
+                return Ok(());
+            }
+            for ((rest, before), after) in state
+                .segment_rest_lengths_m
+                .iter_mut()
+                .zip(state.seat_material_m.iter_mut())
+                .zip(&now)
+            {
+                *rest -= after - *before;
+                *before = *after;
+            }
+            let mut solve = LastSolve(None);
+            let r = self.apply_payout_unseated(state, ws, &no_payout, 1.0, &mut solve)?;
+            out.add_work(&r);
+            if !r.status.is_converged() {
+                out.status = r.status;
+                return Ok(());
+            }
+            last = solve.0;
+        }
+        Err(CommandError::SeatsUnsettled { change_m })
+    }
+}
+
+/// Keeps the report of the last increment a solve reached.
+struct LastSolve(Option<RelaxReport>);
+
+impl IncrementObserver for LastSolve {
+    fn on_increment(&mut self, _: usize, _: usize, report: &RelaxReport, _: &DeploymentState) {
+        self.0 = Some(*report);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::{JointFriction, RelaxSettings};
+
+    fn bridge(seat_radius_m: Option<f64>) -> ForwardModel {
+        let m = ForwardModel::new(
+            reference_bridge(&BridgeParameters::default()).unwrap(),
+            JointFriction::constant(0.1).unwrap(),
+            RelaxSettings::default(),
+        )
+        .unwrap();
+        match seat_radius_m {
+            Some(r) => m.with_cable_seats(r).unwrap(),
+            None => m,
+        }
+    }
+
+    /// Every material change of a command ends on the seats or in the
+    /// segments: the cable's total (segments plus arcs) is its payout, and
+    /// the arcs are those of the final geometry to the tolerance.
+    #[test]
+    fn a_command_conserves_the_cable_and_ends_on_settled_arcs() {
+        let r = 0.02;
+        let model = bridge(Some(r));
+        let n = model.structure().continuous_cables.len();
+        let mut ws = Workspace::default();
+        let mut state = model.reference_state();
+        let total = |s: &DeploymentState| -> f64 {
+            s.segment_rest_lengths_m.iter().sum::<f64>() + s.seat_material_m.iter().sum::<f64>()
+        };
+        let before = total(&state);
+        let report = model
+            .apply_payout(&mut state, &mut ws, &vec![0.05; n], 0.01, &mut ())
+            .unwrap();
+        assert!(report.status.is_converged(), "{report:?}");
+        let paid: f64 = state.payout_m.iter().sum();
+        assert!(
+            (total(&state) - before - paid).abs() < 1e-12,
+            "cable conserved"
+        );
+        let arcs = seat_material_m(model.structure(), &state.positions_m, r);
+        let off = arcs
+            .iter()
+            .zip(&state.seat_material_m)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(off < SEAT_TOLERANCE_M, "arcs settled: {off} m");
+        // The arcs moved material: the state differs from the seatless one.
+        let plain = bridge(None);
+        let mut seatless = plain.reference_state();
+        plain
+            .apply_payout(&mut seatless, &mut ws, &vec![0.05; n], 0.01, &mut ())
+            .unwrap();
+        let moved = seatless
+            .positions_m
+            .iter()
+            .zip(&state.positions_m)
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max);
+        assert!(moved > 1e-4, "seats change the geometry: {moved} m");
+    }
+
+    /// The observer is shown the state the command ends in, after the
+    /// payout's increments, as one more increment.
+    #[test]
+    fn the_observer_sees_the_settled_state_last() {
+        struct Seen(Vec<(usize, usize, DeploymentState)>);
+        impl IncrementObserver for Seen {
+            fn on_increment(
+                &mut self,
+                index: usize,
+                count: usize,
+                _: &RelaxReport,
+                state: &DeploymentState,
+            ) {
+                self.0.push((index, count, state.clone()));
+            }
+        }
+        let model = bridge(Some(0.02));
+        let n = model.structure().continuous_cables.len();
+        let mut state = model.reference_state();
+        let mut seen = Seen(Vec::new());
+        let report = model
+            .apply_payout(
+                &mut state,
+                &mut Workspace::default(),
+                &vec![0.03; n],
+                0.01,
+                &mut seen,
+            )
+            .unwrap();
+        assert_eq!(report.increments, 3);
+        let indices: Vec<(usize, usize)> = seen.0.iter().map(|(i, c, _)| (*i, *c)).collect();
+        assert_eq!(indices, vec![(0, 3), (1, 3), (2, 3), (3, 4)]);
+        assert_eq!(seen.0.last().unwrap().2, state, "ends where it was judged");
+    }
+
+    /// A state that never followed its seats takes its arcs as they are.
+    #[test]
+    fn a_state_without_arcs_takes_them_as_they_are() {
+        let model = bridge(Some(0.02));
+        let mut state = DeploymentState::reference(model.structure());
+        let rest = state.segment_rest_lengths_m.clone();
+        let r = model
+            .follow_seats(&mut state, &mut Workspace::default())
+            .unwrap();
+        assert_eq!(r.increments, 0);
+        assert_eq!(state.segment_rest_lengths_m, rest);
+        assert_eq!(
+            state.seat_material_m,
+            model.reference_state().seat_material_m
+        );
+    }
+
+    #[test]
+    fn a_seat_radius_must_be_finite_and_not_negative() {
+        for bad in [f64::NAN, -1e-3, f64::INFINITY] {
+            let e = bridge(None).with_cable_seats(bad).unwrap_err();
+            assert_eq!(e.field, "seat_radius_m");
+        }
+    }
+}
