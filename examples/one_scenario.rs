@@ -6,7 +6,9 @@
 //! violations, this shows them.
 //!
 //! From the repository root:
-//! `cargo run --release --example one_scenario -- scenarios/wide.toml SEED INDEX`
+//! `cargo run --release --example one_scenario -- scenarios/wide.toml SEED INDEX [SEAT_RADIUS_M]`
+//! (with `SEAT_RADIUS_M`, the controller's model runs over cable seats of
+//! that radius, [`ForwardModel::with_cable_seats`]).
 //!
 //! Each command line gives the truth's checked and total increments (with
 //! cable seats, the settled state is the last), the command per motor in
@@ -21,8 +23,10 @@ use tensegrity_deploy::plan::{DeploymentProblem, Policy};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let [distribution, seed, index] = args.as_slice() else {
-        return Err("usage: DISTRIBUTION.toml SEED INDEX".into());
+    let (distribution, seed, index, seat_radius_m) = match args.as_slice() {
+        [d, s, i] => (d, s, i, None),
+        [d, s, i, r] => (d, s, i, Some(r.parse::<f64>()?)),
+        _ => return Err("usage: DISTRIBUTION.toml SEED INDEX [SEAT_RADIUS_M]".into()),
     };
     let scenario =
         read_distribution(std::path::Path::new(distribution))?.draw(seed.parse()?, index.parse()?);
@@ -33,6 +37,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         JointFriction::frictionless(),
         RelaxSettings::default(),
     )?;
+    let nominal = match seat_radius_m {
+        Some(r) => nominal.with_cable_seats(r)?,
+        None => nominal,
+    };
     let problem = DeploymentProblem::default();
     let policy = Policy::default();
     let deployment = scenario.with_setup(&bridge, &nominal, &problem, &policy, |setup| {

@@ -5,10 +5,11 @@
 //! - `truth_mu`: the reference bridge with the truth's own joint friction
 //!   (its μ and angle convention, exactly);
 //! - `truth_structure`: the truth's structure (its stiffness and mass
-//!   errors and local faults) without friction;
-//! - `truth_model`: both, the truth's forward model (the motor, thermal,
-//!   joint-eccentricity and sensor effects stay hidden: they act in the
-//!   plant).
+//!   errors and local faults) and cable seats, without friction;
+//! - `truth_model`: both, the truth's forward model (the motor, thermal
+//!   and sensor effects stay hidden: they act in the plant);
+//! - `truth_seats`: the frictionless reference bridge over the truth's
+//!   cable seats (its joint eccentricity, exactly).
 //!
 //! Flexible supports stay out of both: they add nodes and members, and a
 //! controller's model must be the truth's bridge node for node
@@ -17,7 +18,7 @@
 //! From the repository root:
 //! `cargo run --release --example perfect_knowledge -- D.toml SEED N [POLICY [CONTROLLERS]]`
 //! (POLICY default `policies/qp.toml`; CONTROLLERS a comma-separated
-//! subset of the four, default all) prints one CSV row per scenario: for each controller its status,
+//! subset of the five, default all) prints one CSV row per scenario: for each controller its status,
 //! whether it succeeded (connected, no truth limit broken), truth
 //! violations, commands, final true gap (m) and wall time (s), then the
 //! μ and fold the scenario drew. The truths, sensors and noise are the ones `tdeploy
@@ -34,7 +35,13 @@ use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::DeploymentProblem;
 use tensegrity_deploy::studies::evaluation::RunResult;
 
-const CONTROLLERS: [&str; 4] = ["nominal", "truth_mu", "truth_structure", "truth_model"];
+const CONTROLLERS: [&str; 5] = [
+    "nominal",
+    "truth_mu",
+    "truth_structure",
+    "truth_model",
+    "truth_seats",
+];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -94,11 +101,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             )
             .map_err(|e| e.to_string())?;
             let truth_structure = structure_only.forward_model().map_err(|e| e.to_string())?;
+            let truth_seats = match truth.effects.joint_eccentricity {
+                Some(e) => nominal
+                    .clone()
+                    .with_cable_seats(e.seat_radius_m)
+                    .map_err(|e| e.to_string())?,
+                None => nominal.clone(),
+            };
             let mut row = format!("{i}");
-            for (k, model) in [&nominal, &truth_mu, &truth_structure, &truth_model]
-                .into_iter()
-                .enumerate()
-                .filter(|(k, _)| chosen.contains(&CONTROLLERS[*k]))
+            for (k, model) in [
+                &nominal,
+                &truth_mu,
+                &truth_structure,
+                &truth_model,
+                &truth_seats,
+            ]
+            .into_iter()
+            .enumerate()
+            .filter(|(k, _)| chosen.contains(&CONTROLLERS[*k]))
             {
                 let started = std::time::Instant::now();
                 let r = s.with_setup(&bridge, &nominal, &base, &policy, |setup| {

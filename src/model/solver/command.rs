@@ -138,17 +138,6 @@ impl CommandReport {
             max_friction_residual_n: 0.0,
         }
     }
-
-    /// Adds the solver work and residuals of `other` (not its increments
-    /// or status).
-    pub(super) fn add_work(&mut self, other: &CommandReport) {
-        self.iterations += other.iterations;
-        self.newton_iterations += other.newton_iterations;
-        self.max_residual_n = self.max_residual_n.max(other.max_residual_n);
-        self.max_friction_residual_n = self
-            .max_friction_residual_n
-            .max(other.max_friction_residual_n);
-    }
 }
 
 /// Shortest rest length a first segment may be reeled down to, m.
@@ -181,7 +170,7 @@ impl ForwardModel {
     }
 
     /// [`Self::apply_payout`] without following the seats.
-    pub(super) fn apply_payout_unseated(
+    fn apply_payout_unseated(
         &self,
         state: &mut DeploymentState,
         ws: &mut Workspace,

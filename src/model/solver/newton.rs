@@ -131,6 +131,21 @@ impl ForwardModel {
         ws: &mut Workspace,
         delta_payout_m: &[f64],
     ) -> NewtonOutcome {
+        self.newton_increment_with_material(state, ws, delta_payout_m, &[])
+    }
+
+    /// [`Self::newton_increment`] with the material of every segment also
+    /// changed by `delta_rest_m` (m, flat as the segments; empty: none),
+    /// ramped with the payout: what the cable seats move
+    /// ([`super::seats`]), so that continuation carries it as it carries a
+    /// payout.
+    pub(super) fn newton_increment_with_material(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        delta_payout_m: &[f64],
+        delta_rest_m: &[f64],
+    ) -> NewtonOutcome {
         let mut outcome = NewtonOutcome::default();
         let start = state.clone();
         let partial = |lambda: f64, positions: &DeploymentState| {
@@ -139,6 +154,9 @@ impl ForwardModel {
             for (c, d) in delta_payout_m.iter().enumerate() {
                 s.segment_rest_lengths_m[s.segment_offsets[c]] += lambda * d;
                 s.payout_m[c] += lambda * d;
+            }
+            for (r, d) in s.segment_rest_lengths_m.iter_mut().zip(delta_rest_m) {
+                *r += lambda * d;
             }
             s.stick_all_joints();
             s

@@ -21,6 +21,7 @@
 //! to the arcs.
 
 use super::command::{CommandError, CommandReport, IncrementObserver};
+use super::relax::SolveMode;
 use super::{ForwardModel, RelaxReport, Workspace};
 use crate::model::cable_seats::seat_material_m;
 use crate::model::state::DeploymentState;
@@ -87,34 +88,48 @@ impl ForwardModel {
                 }
                 return Ok(());
             }
-            for ((rest, before), after) in state
-                .segment_rest_lengths_m
-                .iter_mut()
-                .zip(state.seat_material_m.iter_mut())
-                .zip(&now)
-            {
-                *rest -= after - *before;
-                *before = *after;
-            }
-            let mut solve = LastSolve(None);
-            let r = self.apply_payout_unseated(state, ws, &no_payout, 1.0, &mut solve)?;
-            out.add_work(&r);
+            let taken: Vec<f64> = now
+                .iter()
+                .zip(&state.seat_material_m)
+                .map(|(after, before)| before - after)
+                .collect();
+            state.seat_material_m = now;
+            let r = self.solve_material_change(state, ws, &no_payout, &taken);
+            out.iterations += r.iterations;
+            out.newton_iterations += r.newton_iterations;
+            out.max_residual_n = out.max_residual_n.max(r.max_residual_n);
+            out.max_friction_residual_n =
+                out.max_friction_residual_n.max(r.max_friction_residual_n);
             if !r.status.is_converged() {
                 out.status = r.status;
                 return Ok(());
             }
-            last = solve.0;
+            last = Some(r);
         }
         Err(CommandError::SeatsUnsettled { change_m })
     }
-}
 
-/// Keeps the report of the last increment a solve reached.
-struct LastSolve(Option<RelaxReport>);
-
-impl IncrementObserver for LastSolve {
-    fn on_increment(&mut self, _: usize, _: usize, report: &RelaxReport, _: &DeploymentState) {
-        self.0 = Some(*report);
+    /// One friction-aware increment that changes each segment's material by
+    /// `delta_rest_m` (m) with no payout: Newton with continuation on the
+    /// change (a change applied at once leaves Newton no path, and DR,
+    /// 10–100× slower, solved most seat re-solves), then DR for what
+    /// Newton leaves.
+    fn solve_material_change(
+        &self,
+        state: &mut DeploymentState,
+        ws: &mut Workspace,
+        no_payout: &[f64],
+        delta_rest_m: &[f64],
+    ) -> RelaxReport {
+        ws.continuation_step = 0.0;
+        ws.drop_kept_tangent();
+        let newton = self.newton_increment_with_material(state, ws, no_payout, delta_rest_m);
+        let mut r = self.relax_with(state, ws, SolveMode::DrOnly);
+        if !newton.converged {
+            ws.counters.dr_iterations_after_newton += r.iterations;
+        }
+        r.newton_iterations += newton.iterations;
+        r
     }
 }
 
