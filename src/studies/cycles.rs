@@ -454,18 +454,18 @@ impl ModelUpdateResult {
 /// only where the model file plans with friction (planning through
 /// stick-slip is what fails, issue 22); flexible supports only where the
 /// model file has them (they add support nodes the controller's bridge
-/// lacks otherwise); the motor, seat, thermal and load-cell effects never
-/// (they act in the plant and the readings, not in the forward model).
+/// lacks otherwise); cable seats only where the model file has them (a
+/// frictionless model over seats stops as many runs the default connects
+/// safely as it keeps from breaking limits, `docs/controller.md`, how a
+/// run is judged); the motor, thermal and load-cell effects never (they
+/// act in the plant and the readings, not in the forward model).
 pub fn planner_takes(kind: EffectKind, nominal: &EffectModel) -> bool {
     match kind {
         EffectKind::StiffnessError | EffectKind::JointMassError => true,
-        EffectKind::JointFriction | EffectKind::SupportFlexibility => {
-            nominal.effects.parameters(kind).is_some()
-        }
-        EffectKind::Motor
-        | EffectKind::Thermal
-        | EffectKind::LoadCellBias
-        | EffectKind::JointEccentricity => false,
+        EffectKind::JointFriction
+        | EffectKind::SupportFlexibility
+        | EffectKind::JointEccentricity => nominal.effects.parameters(kind).is_some(),
+        EffectKind::Motor | EffectKind::Thermal | EffectKind::LoadCellBias => false,
     }
 }
 

@@ -249,6 +249,37 @@ mod tests {
         );
     }
 
+    /// Eleventh session: the material the arcs moved was taken out of the
+    /// segments at once, leaving Newton no continuation path, and the
+    /// re-solve went to DR (most of `evaluate`'s seat time). Ramped, it
+    /// is Newton's: no DR iteration.
+    #[test]
+    fn a_seat_re_solve_is_ramped_by_newton_not_handed_to_dr() {
+        let r = 0.02;
+        let seated = bridge(Some(r));
+        let plain = bridge(None);
+        let n = plain.structure().continuous_cables.len();
+        let mut ws = Workspace::default();
+        // A 40 cm fold on the bridge without seats, its arcs as they were
+        // as built: following them moves every wrap change of the fold.
+        let mut state = plain.reference_state();
+        let fold = plain
+            .apply_payout(&mut state, &mut ws, &vec![0.4; n], 0.01, &mut ())
+            .unwrap();
+        assert!(fold.status.is_converged());
+        state.seat_material_m = seated.reference_state().seat_material_m;
+        let moved = seat_material_m(seated.structure(), &state.positions_m, r)
+            .iter()
+            .zip(&state.seat_material_m)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(moved > 1e-3, "the fold moved {moved} m over a seat");
+        let report = seated.follow_seats(&mut state, &mut ws).unwrap();
+        assert!(report.status.is_converged(), "{report:?}");
+        assert!(report.newton_iterations > 0);
+        assert_eq!(report.iterations, 0, "DR iterations: {report:?}");
+    }
+
     #[test]
     fn a_seat_radius_must_be_finite_and_not_negative() {
         for bad in [f64::NAN, -1e-3, f64::INFINITY] {
