@@ -20,7 +20,9 @@
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
-use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings, Workspace};
+use tensegrity_deploy::model::{
+    DeploymentState, ForwardModel, JointFriction, RelaxSettings, Workspace,
+};
 
 fn bridge_model(mu: f64) -> ForwardModel {
     bridge_model_with(mu, RelaxSettings::default())
@@ -65,6 +67,18 @@ fn single_increment(c: &mut Criterion) {
     }
 }
 
+/// The state paying every cable out 40 cm (folding) in 1 cm increments
+/// leaves.
+fn folded_40cm(model: &ForwardModel, ws: &mut Workspace) -> DeploymentState {
+    let n = model.structure().continuous_cables.len();
+    let mut folded = model.reference_state();
+    let fold = model
+        .apply_payout(&mut folded, ws, &vec![0.4; n], 0.01, &mut ())
+        .unwrap();
+    assert!(fold.status.is_converged(), "folding: {fold:?}");
+    folded
+}
+
 /// Every cable reeled in 40 cm in 1 cm increments, from the state that
 /// paying every cable out 40 cm (folding) leaves.
 fn whole_deployment(c: &mut Criterion) {
@@ -80,11 +94,7 @@ fn whole_deployment(c: &mut Criterion) {
         );
         let n = model.structure().continuous_cables.len();
         let mut ws = Workspace::default();
-        let mut folded = model.reference_state();
-        let fold = model
-            .apply_payout(&mut folded, &mut ws, &vec![0.4; n], 0.01, &mut ())
-            .unwrap();
-        assert!(fold.status.is_converged(), "folding: {fold:?}");
+        let folded = folded_40cm(&model, &mut ws);
         let mut probe = folded.clone();
         ws.reset_newton_counters();
         let r = model
@@ -123,12 +133,8 @@ fn deployment_over_seats(c: &mut Criterion) {
     let model = bridge_model(0.2).with_cable_seats(0.02).unwrap();
     let n = model.structure().continuous_cables.len();
     let mut ws = Workspace::default();
-    let mut folded = model.reference_state();
-    let fold = model
-        .apply_payout(&mut folded, &mut ws, &vec![0.4; n], 0.01, &mut ())
-        .unwrap();
-    assert!(fold.status.is_converged(), "folding: {fold:?}");
-    let deploy = |s: &mut tensegrity_deploy::model::DeploymentState, ws: &mut Workspace| {
+    let folded = folded_40cm(&model, &mut ws);
+    let deploy = |s: &mut DeploymentState, ws: &mut Workspace| {
         let (mut newton, mut dr) = (0, 0);
         for _ in 0..8 {
             let r = model
