@@ -245,3 +245,58 @@ fn a_model_that_is_not_the_truths_bridge_node_for_node_exits_2_naming_it() {
     );
     assert!(!o.exists(), "nothing written");
 }
+
+/// Issue 22: a run that does not connect names what binds. Folds of
+/// 58–60 cm stop at the start (known limitations, item 18): `runs.csv`'s
+/// `binds` names the segment the controller would not slacken further,
+/// and the printed summary counts it.
+#[test]
+fn a_run_that_stops_names_what_binds() {
+    let distribution = common::repo_text("scenarios/default.toml")
+        .lines()
+        .map(|l| {
+            if l.starts_with("fold_m") {
+                "fold_m = [0.58, 0.60]"
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let tmp = dir_with(&[("big.toml", &distribution)]);
+    let out = tdeploy(
+        &[
+            "evaluate",
+            "--distribution",
+            "big.toml",
+            "--scenarios",
+            "3",
+            "--seed",
+            "5",
+            "-o",
+            "o",
+        ],
+        tmp.path(),
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let (header, rows) = common::files::read_csv(&tmp.path().join("o/runs.csv"));
+    let (status, binds) = (
+        common::files::column(&header, "status"),
+        common::files::column(&header, "binds"),
+    );
+    let stopped: Vec<&Vec<String>> = rows.iter().filter(|r| r[status] != "connected").collect();
+    assert!(!stopped.is_empty(), "the big folds stop");
+    for r in stopped {
+        assert!(
+            r[binds].starts_with("segment A_cc") && r[binds].ends_with(" min"),
+            "{} names {:?}",
+            r[status],
+            r[binds]
+        );
+    }
+    let printed = common::cli::stdout(&out);
+    assert!(
+        printed.contains("what binds in the 3 runs that did not connect"),
+        "{printed}"
+    );
+}

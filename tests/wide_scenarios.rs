@@ -158,6 +158,7 @@ fn the_wide_distribution_gives_the_same_bytes_at_1_and_2_threads() {
         "faults.member_error.part_position",
         "faults.half_difference.cable_scale",
         "fold_b_m",
+        "binds",
     ] {
         column(&header, name);
     }

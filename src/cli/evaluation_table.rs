@@ -14,8 +14,11 @@ use tensegrity_deploy::io::write_atomically;
 use tensegrity_deploy::plan::RunOutcome;
 use tensegrity_deploy::report::evaluation_figure::evaluation_svg;
 use tensegrity_deploy::studies::evaluation::{
-    first_against_others, summarise_results, PolicySummary,
+    binding_counts, first_against_others, summarise_results, PolicySummary,
 };
+
+/// How many of the names that bind most often the table prints.
+const BINDS_NAMED: usize = 5;
 
 /// Milliseconds of an optional duration in seconds, for tables.
 fn ms(v: Option<f64>) -> String {
@@ -105,6 +108,26 @@ pub fn print_and_write(
             s.worst_utilisation,
             s.violations,
             ms(s.planning_time_median_s)
+        );
+    }
+    for (p, (name, s)) in names.iter().zip(&summaries).enumerate() {
+        let failed = s.runs - s.successes;
+        if failed == 0 {
+            continue;
+        }
+        let (counts, unnamed) = binding_counts(&runs.results, p);
+        let mut named: Vec<String> = counts
+            .iter()
+            .take(BINDS_NAMED)
+            .map(|(limit, n)| format!("{limit} ({n})"))
+            .collect();
+        if counts.len() > BINDS_NAMED {
+            named.push(format!("{} more", counts.len() - BINDS_NAMED));
+        }
+        say!(
+            "{name}: what binds in the {failed} runs that did not connect (runs naming it; runs.csv's binds): {}{}",
+            if named.is_empty() { "nothing named".into() } else { named.join(", ") },
+            if unnamed > 0 { format!("; {unnamed} name nothing") } else { String::new() }
         );
     }
     // The first policy against each other one on the same scenarios.

@@ -23,7 +23,7 @@
 //! uses every key.
 //!
 //! **`evaluation.toml`**: what was run (format
-//! `tensegrity-deploy/evaluation/2`): seed, scenario count, cycles per
+//! `tensegrity-deploy/evaluation/3`): seed, scenario count, cycles per
 //! scenario, shard, policy names and fingerprints, the controller model's
 //! source and the distribution itself. Shards merge only if everything but the shard
 //! agrees.
@@ -33,13 +33,17 @@
 //! [`crate::studies::evaluation::ScenarioDistribution::drawn_names`]),
 //! then `policy,status,succeeded,commands,corrective_commands,
 //! final_measured_gap_m,final_true_gap_m,cable_travel_m,
-//! truth_worst_utilisation,truth_violations,approach_gap_m` (SI units;
-//! empty = none; with several cycles per scenario, the last cycle's,
-//! violations and utilisation over all cycles). `status` is the run's
-//! verdict label ([`crate::plan::RunVerdict::label`]: what the truth did;
-//! `limits_broken` if any cycle broke a limit) and `succeeded` is `true`
-//! exactly for `connected`. Format 1 had neither the cycles nor the
-//! approach gap.
+//! truth_worst_utilisation,truth_violations,approach_gap_m,binds` (SI
+//! units; empty = none; with several cycles per scenario, the last
+//! cycle's, violations and utilisation over all cycles). `status` is the
+//! run's verdict label ([`crate::plan::RunVerdict::label`]: what the truth
+//! did; `limits_broken` if any cycle broke a limit) and `succeeded` is
+//! `true` exactly for `connected`. `binds` names what decided a run that
+//! did not connect, `; `-separated ([`crate::plan::RunVerdict::binds`]:
+//! the limits the truth broke, e.g. `cable A_axial_m0_0 min`, or the
+//! limits and motors the controller stopped on, e.g. `segment A_cc1[3]
+//! min`, `A_cc0 stroke min`); empty where nothing is named. Format 1 had
+//! neither the cycles nor the approach gap, format 2 no `binds`.
 //! Numbers are written as the shortest text that reads back to the same
 //! value, so a merge re-writes the rows of its shards byte for byte.
 //!
@@ -65,10 +69,10 @@ use crate::studies::evaluation::{RunResult, Scenario, ScenarioDistribution, Shar
 /// The `format` of a scenario-distribution file.
 pub const DISTRIBUTION_FORMAT: &str = "tensegrity-deploy/scenarios/1";
 /// The `format` of `evaluation.toml`.
-pub const EVALUATION_FORMAT: &str = "tensegrity-deploy/evaluation/2";
+pub const EVALUATION_FORMAT: &str = "tensegrity-deploy/evaluation/3";
 
 /// The columns of `runs.csv` after the drawn values.
-const RESULT_COLUMNS: [&str; 11] = [
+const RESULT_COLUMNS: [&str; 12] = [
     "policy",
     "status",
     "succeeded",
@@ -80,7 +84,14 @@ const RESULT_COLUMNS: [&str; 11] = [
     "truth_worst_utilisation",
     "truth_violations",
     "approach_gap_m",
+    "binds",
 ];
+
+/// Separates the names of `runs.csv`'s `binds` column.
+const BINDS_SEPARATOR: &str = "; ";
+/// Longest name `binds` may hold, characters: a row name of the bridge is
+/// under 40 (`clearance A_s1–A_s7`, `segment A_cc1[3] min`).
+const MAX_BIND_NAME_CHARS: usize = 80;
 
 /// Whether `status` is one a run of `runs.csv` may have: a deployment's
 /// verdict ([`RunVerdict::LABELS`]) or [`NOT_STARTED`].
@@ -337,6 +348,7 @@ impl EvaluationRuns {
                 r.worst_utilisation.to_string(),
                 r.truth_violations.to_string(),
                 opt(r.approach_gap_m),
+                r.binds.join(BINDS_SEPARATOR),
             ]);
             table.row(row);
         }
@@ -356,6 +368,23 @@ impl EvaluationRuns {
         }
         table
     }
+}
+
+/// The names of a `binds` field (empty: none); `None` if a name is empty,
+/// too long or not printable text on one line.
+fn parse_binds(field: &str) -> Option<Vec<String>> {
+    if field.is_empty() {
+        return Some(Vec::new());
+    }
+    field
+        .split(BINDS_SEPARATOR)
+        .map(|name| {
+            let chars = name.chars().count();
+            let printable = name.chars().all(|c| !c.is_control());
+            (chars > 0 && chars <= MAX_BIND_NAME_CHARS && printable && name.trim() == name)
+                .then(|| name.to_string())
+        })
+        .collect()
 }
 
 /// Reads `runs.csv` written for `record` (its policies and drawn values),
@@ -498,6 +527,14 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
             worst_utilisation: non_negative(at + 8)?,
             truth_violations: count(at + 9)?,
             approach_gap_m: optional_non_negative(at + 10)?,
+            binds: parse_binds(field(at + 11)).ok_or_else(|| {
+                bad(
+                    at + 11,
+                    &format!(
+                        "a `{BINDS_SEPARATOR}`-separated list of limit names (each printable, one line, 1 to {MAX_BIND_NAME_CHARS} characters)"
+                    ),
+                )
+            })?,
             planning_time_median_s: None,
         });
     }
@@ -590,6 +627,22 @@ mod tests {
             ),
             "{e}"
         );
+    }
+
+    /// `binds` reads back what `runs_table` writes, and refuses a name
+    /// that is empty, not one printable line, padded or overlong.
+    #[test]
+    fn binds_read_back_and_refuse_what_no_run_writes() {
+        let names = vec![
+            "segment A_cc1[3] min".to_string(),
+            "clearance A_s1–A_s7".to_string(),
+        ];
+        assert_eq!(parse_binds(&names.join(BINDS_SEPARATOR)), Some(names));
+        assert_eq!(parse_binds(""), Some(Vec::new()));
+        let long = "x".repeat(MAX_BIND_NAME_CHARS + 1);
+        for bad in ["a; ; b", "a;  b", "a\u{7}b", " a", "a; ", long.as_str()] {
+            assert_eq!(parse_binds(bad), None, "{bad:?}");
+        }
     }
 
     #[test]

@@ -176,6 +176,32 @@ impl RunVerdict {
         self.start_broken.iter().filter(|l| !l.restored).collect()
     }
 
+    /// What decided a run that did not connect, each limit or motor named
+    /// as the QP names its rows (`segment A_cc1[2] min`, `A_cc0 stroke
+    /// min`, `A_cc1 slack`): the limits the truth broke, where it broke
+    /// any; else, for a stop, what binds ([`NotReachable::binding`]:
+    /// the limits the controller would not break; empty where the stop
+    /// names none, e.g. a spent command budget or a solver failure); the
+    /// start-broken limits left unrestored. Empty for a connected run and
+    /// for a gap out of tolerance (no limit decided it).
+    ///
+    /// [`NotReachable::binding`]: super::causes::NotReachable::binding
+    pub fn binds(&self) -> Vec<String> {
+        match self.outcome() {
+            RunOutcome::LimitsBroken => self.broken.iter().map(|b| b.violation.limit()).collect(),
+            RunOutcome::Stopped => match &self.status {
+                PlanStatus::NotReachable { cause } => cause.binding(),
+                _ => Vec::new(),
+            },
+            RunOutcome::LimitsNotRestored => self
+                .not_restored()
+                .iter()
+                .map(|l| format!("{} {}", l.member, if l.lower { "min" } else { "max" }))
+                .collect(),
+            RunOutcome::Connected | RunOutcome::GapOutOfTolerance => Vec::new(),
+        }
+    }
+
     /// The `status` the tables write: `connected`, `limits_broken`, the
     /// controller's stop ([`PlanStatus::label`]), `gap_out_of_tolerance`
     /// or `limits_not_restored`.
@@ -373,6 +399,36 @@ mod tests {
             "{}",
             v.describe()
         );
+    }
+
+    /// `runs.csv`'s `binds`: the limits broken outrank the controller's
+    /// stop, a stop names what it would not break, a start-broken limit
+    /// left unrestored is named, a connected run names nothing.
+    #[test]
+    fn a_run_names_what_decided_it() {
+        let stop = PlanStatus::NotReachable {
+            cause: NotReachable::QpInfeasible {
+                binding: vec!["segment A_cc1[2] min".into(), "A_cc0 stroke min".into()],
+            },
+        };
+        let mut v = verdict(stop, 0.2);
+        assert_eq!(v.binds(), vec!["segment A_cc1[2] min", "A_cc0 stroke min"]);
+        v.broken = Breach::first_per_limit([(3, 1, &slack("cable B_axial_m0_4", 0.0))]);
+        v.violations = 1;
+        assert_eq!(v.binds(), vec!["cable B_axial_m0_4 min"]);
+        assert!(verdict(PlanStatus::Connected, 0.01).binds().is_empty());
+        assert!(verdict(PlanStatus::CommandLimit, 0.2).binds().is_empty());
+        let mut left = verdict(PlanStatus::Connected, 0.01);
+        left.start_broken.push(StartBrokenLimit {
+            member: "segment A_cc1[3]".into(),
+            lower: true,
+            limit_n: 5.0,
+            start_n: 0.0,
+            end_n: 2.0,
+            restored: false,
+        });
+        assert_eq!(left.label(), "limits_not_restored");
+        assert_eq!(left.binds(), vec!["segment A_cc1[3] min"]);
     }
 
     #[test]

@@ -677,6 +677,11 @@ pub struct RunResult {
     /// Largest measured gap after the first approach, m (the error a
     /// case memory learns to remove; `None` if no approach was measured).
     pub approach_gap_m: Option<f64>,
+    /// What decided a run that did not connect
+    /// ([`crate::plan::RunVerdict::binds`]: the limits broken, or the
+    /// limits and motors the controller stopped on), in run order; empty
+    /// for a connected run and where nothing is named.
+    pub binds: Vec<String>,
     /// Median planning time per command, s (wall clock: the one value
     /// that varies from run to run).
     pub planning_time_median_s: Option<f64>,
@@ -691,32 +696,36 @@ impl RunResult {
         tolerance_m: f64,
     ) -> RunResult {
         match deployment {
-            Some(d) => RunResult {
-                scenario,
-                policy,
-                status: d.verdict(tolerance_m).label().to_string(),
-                succeeded: d.verdict(tolerance_m).is_connected(),
-                commands: d.records.len(),
-                corrective_commands: d.corrective_commands,
-                final_measured_gap_m: d.final_measured_gap_m(),
-                final_true_gap_m: d.final_true_gap_m(),
-                cable_travel_m: d
-                    .records
-                    .iter()
-                    .flat_map(|r| r.command_m.iter())
-                    .map(|u| u.abs())
-                    .sum(),
-                worst_utilisation: d
-                    .records
-                    .iter()
-                    .map(|r| r.truth_worst_utilisation)
-                    .fold(0.0, f64::max),
-                truth_violations: d.truth_limit_violations,
-                approach_gap_m: d.approach_gap_m(),
-                planning_time_median_s: median(
-                    d.records.iter().map(|r| r.planning_time_s).collect(),
-                ),
-            },
+            Some(d) => {
+                let verdict = d.verdict(tolerance_m);
+                RunResult {
+                    scenario,
+                    policy,
+                    status: verdict.label().to_string(),
+                    succeeded: verdict.is_connected(),
+                    binds: verdict.binds(),
+                    commands: d.records.len(),
+                    corrective_commands: d.corrective_commands,
+                    final_measured_gap_m: d.final_measured_gap_m(),
+                    final_true_gap_m: d.final_true_gap_m(),
+                    cable_travel_m: d
+                        .records
+                        .iter()
+                        .flat_map(|r| r.command_m.iter())
+                        .map(|u| u.abs())
+                        .sum(),
+                    worst_utilisation: d
+                        .records
+                        .iter()
+                        .map(|r| r.truth_worst_utilisation)
+                        .fold(0.0, f64::max),
+                    truth_violations: d.truth_limit_violations,
+                    approach_gap_m: d.approach_gap_m(),
+                    planning_time_median_s: median(
+                        d.records.iter().map(|r| r.planning_time_s).collect(),
+                    ),
+                }
+            }
             None => RunResult {
                 scenario,
                 policy,
@@ -730,6 +739,7 @@ impl RunResult {
                 worst_utilisation: 0.0,
                 truth_violations: 0,
                 approach_gap_m: None,
+                binds: Vec::new(),
                 planning_time_median_s: None,
             },
         }
@@ -761,7 +771,8 @@ impl RunResult {
     /// start, `not_started`): the last cycle's figures, since the cycles
     /// before it are the learning, except that limits broken in any cycle
     /// count (`truth_violations` summed, `worst_utilisation` the largest)
-    /// and fail the run (its status is then `limits_broken`). A run whose
+    /// and fail the run (its status is then `limits_broken`, and `binds`
+    /// names the limits broken in every cycle, each once). A run whose
     /// truth could not be folded back before the last cycle has the status
     /// `cycles_stopped` and did not succeed.
     pub fn of_cycles(
@@ -776,11 +787,20 @@ impl RunResult {
             .iter()
             .map(|r| r.worst_utilisation)
             .fold(0.0, f64::max);
+        let mut broken: Vec<String> = Vec::new();
+        for r in per_cycle.iter().filter(|r| r.truth_violations > 0) {
+            for b in &r.binds {
+                if !broken.contains(b) {
+                    broken.push(b.clone());
+                }
+            }
+        }
         let Some(mut last) = per_cycle.into_iter().last() else {
             return RunResult::of(scenario, policy, None, 0.0);
         };
         if violations > 0 {
             last.status = "limits_broken".into();
+            last.binds = broken;
         } else if ran < cycles {
             last.status = "cycles_stopped".into();
         }
@@ -789,6 +809,33 @@ impl RunResult {
         last.worst_utilisation = utilisation;
         last
     }
+}
+
+/// What binds over policy `policy`'s runs that did not connect: each name
+/// of their [`RunResult::binds`] with the number of runs naming it, most
+/// frequent first (ties by name), and the number of those runs that name
+/// nothing (a spent budget, a solver failure, a run that did not start).
+pub fn binding_counts(results: &[RunResult], policy: usize) -> (Vec<(String, usize)>, usize) {
+    let mut counts: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+    let mut unnamed = 0;
+    for r in results
+        .iter()
+        .filter(|r| r.policy == policy && !r.succeeded)
+    {
+        if r.binds.is_empty() {
+            unnamed += 1;
+        }
+        for name in &r.binds {
+            *counts.entry(name.as_str()).or_default() += 1;
+        }
+    }
+    let mut out: Vec<(String, usize)> = counts
+        .into_iter()
+        .map(|(n, c)| (n.to_string(), c))
+        .collect();
+    // Stable: names stay in order within a count.
+    out.sort_by(|a, b| b.1.cmp(&a.1));
+    (out, unnamed)
 }
 
 /// What one policy did over all scenarios.
@@ -1082,8 +1129,33 @@ mod tests {
             worst_utilisation: utilisation,
             truth_violations: violations,
             approach_gap_m: Some(0.012),
+            binds: if violations > 0 {
+                vec![format!("cable A_axial_m0_{commands} min")]
+            } else {
+                Vec::new()
+            },
             planning_time_median_s: None,
         }
+    }
+
+    /// What binds, over the runs that did not connect: each name with its
+    /// runs, most frequent first, and the runs that name nothing.
+    #[test]
+    fn binding_counts_count_runs_per_name() {
+        let mut runs = vec![cycle(9, 0, 0.4), cycle(7, 1, 0.9), cycle(7, 2, 0.9)];
+        runs[0].succeeded = false;
+        runs[0].status = "command_limit".into();
+        runs[2].binds.push("segment A_cc1[3] min".into());
+        let (counts, unnamed) = binding_counts(&runs, 1);
+        assert_eq!(
+            counts,
+            vec![
+                ("cable A_axial_m0_7 min".to_string(), 2),
+                ("segment A_cc1[3] min".to_string(), 1)
+            ]
+        );
+        assert_eq!(unnamed, 1);
+        assert_eq!(binding_counts(&runs, 0), (Vec::new(), 0));
     }
 
     /// The last cycle's figures, but a limit broken while learning counts
@@ -1101,6 +1173,9 @@ mod tests {
         assert_eq!(whole.worst_utilisation, 0.9);
         assert!(!whole.succeeded);
         assert_eq!(whole.status, "limits_broken");
+        // What the learning cycle broke, though the last cycle kept every
+        // limit.
+        assert_eq!(whole.binds, vec!["cable A_axial_m0_10 min".to_string()]);
 
         let clean = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4), cycle(8, 0, 0.5)], 2);
         assert!(clean.succeeded);
