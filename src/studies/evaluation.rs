@@ -834,7 +834,7 @@ pub fn binding_counts(results: &[RunResult], policy: usize) -> (Vec<(String, usi
         .map(|(n, c)| (n.to_string(), c))
         .collect();
     // Stable: names stay in order within a count.
-    out.sort_by(|a, b| b.1.cmp(&a.1));
+    out.sort_by_key(|(_, count)| std::cmp::Reverse(*count));
     (out, unnamed)
 }
 
