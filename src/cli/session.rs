@@ -374,7 +374,12 @@ impl Inputs {
         let policy = read_policy(&dir.join("policy.toml"))?;
         let sensors = read_session_sensors(dir, model.structure())?;
         let start_payout_m = problem.motor_limits(motors)?.start_payout_m;
-        let folded_start = read_folded_start(dir, model.structure(), &start_payout_m)?;
+        let folded_start = read_folded_start(
+            dir,
+            model.structure(),
+            &start_payout_m,
+            model.cable_seat_radius_m().is_some(),
+        )?;
         let guidance = read_guidance(dir, motors)?;
         Ok(Inputs {
             meta,

@@ -276,13 +276,16 @@ pub fn read_meta(dir: &Path) -> Result<SessionMeta, FileError> {
 }
 
 /// Reads the model's folded start the session keeps
-/// (`folded_start.json`), checked against `structure` and the problem's
-/// `start_payout_m`; `None` when the file is missing (the controller then
-/// folds the model itself, to the same state).
+/// (`folded_start.json`), checked against `structure`, the problem's
+/// `start_payout_m` and whether the model runs over cable seats
+/// (`seated`: the state then holds the arcs of every segment, else none);
+/// `None` when the file is missing (the controller then folds the model
+/// itself, to the same state).
 pub fn read_folded_start(
     dir: &Path,
     structure: &Structure,
     start_payout_m: &[f64],
+    seated: bool,
 ) -> Result<Option<DeploymentState>, FileError> {
     let path = dir.join("folded_start.json");
     if !path.exists() {
@@ -338,6 +341,24 @@ pub fn read_folded_start(
         return Err(invalid(
             "positions_m",
             "a position or rest length that is not a finite (positive) number".into(),
+        ));
+    }
+    let arcs = if seated { structure.segment_count() } else { 0 };
+    if state.seat_material_m.len() != arcs
+        || state
+            .seat_material_m
+            .iter()
+            .any(|m| !(m.is_finite() && *m >= 0.0))
+    {
+        return Err(invalid(
+            "seat_material_m",
+            if seated {
+                format!(
+                    "the model runs over cable seats: the kept start must hold the arcs of its {arcs} segments as finite lengths ≥ 0 m (a start kept by a build before the seats were the model's has none: start a new session)"
+                )
+            } else {
+                "the model has no cable seats, but the kept start holds arcs".into()
+            },
         ));
     }
     Ok(Some(state))
@@ -653,11 +674,29 @@ mod tests {
         write_json(&dir.path().join("folded_start.json"), &state).unwrap();
         let start = vec![0.4; n];
         assert_eq!(
-            read_folded_start(dir.path(), &s, &start).unwrap(),
+            read_folded_start(dir.path(), &s, &start, false).unwrap(),
             Some(state.clone())
         );
+        // A model over cable seats keeps the arcs with its start: a start
+        // without them (kept before the seats were the model's) is refused.
+        let e = read_folded_start(dir.path(), &s, &start, true)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("folded_start.json") && e.contains("seat_material_m"),
+            "{e}"
+        );
+        let mut seated = state.clone();
+        seated.seat_material_m = vec![0.001; s.segment_count()];
+        write_json(&dir.path().join("folded_start.json"), &seated).unwrap();
+        assert_eq!(
+            read_folded_start(dir.path(), &s, &start, true).unwrap(),
+            Some(seated)
+        );
+        assert!(read_folded_start(dir.path(), &s, &start, false).is_err());
+        write_json(&dir.path().join("folded_start.json"), &state).unwrap();
         let other = vec![0.3; n];
-        let e = read_folded_start(dir.path(), &s, &other)
+        let e = read_folded_start(dir.path(), &s, &other, false)
             .unwrap_err()
             .to_string();
         assert!(
@@ -666,12 +705,15 @@ mod tests {
         );
         state.positions_m.pop();
         write_json(&dir.path().join("folded_start.json"), &state).unwrap();
-        let e = read_folded_start(dir.path(), &s, &start)
+        let e = read_folded_start(dir.path(), &s, &start, false)
             .unwrap_err()
             .to_string();
         assert!(e.contains("node or segment counts"), "{e}");
         std::fs::remove_file(dir.path().join("folded_start.json")).unwrap();
-        assert_eq!(read_folded_start(dir.path(), &s, &start).unwrap(), None);
+        assert_eq!(
+            read_folded_start(dir.path(), &s, &start, false).unwrap(),
+            None
+        );
     }
 
     /// A session's `guidance.json` written before the feedforward halves

@@ -16,10 +16,10 @@
 //!
 //! The as-built state has its arcs already wrapped (the cable was cut to
 //! the design prestress on the real joints), so only *changes* of the wrap
-//! angles move material: a replay subtracts the change of
-//! [`seat_material_m`] since the last solve from each segment and solves
-//! again until the arcs stop changing (see
-//! [`crate::sim::schedule_run`]).
+//! angles move material: a model with seats subtracts the change of
+//! [`seat_material_m`] since the last solve from each segment at the end
+//! of every command and solves again until the arcs stop changing (see
+//! [`crate::model::solver::seats`]).
 
 use nalgebra::Vector3;
 

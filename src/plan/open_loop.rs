@@ -24,6 +24,12 @@ pub fn folded_start(
     if !r.status.is_converged() {
         return Err(PlanError::Start(r.status));
     }
+    // As the truth's plant starts: the arcs followed after the relax (a
+    // model with seats; nothing otherwise), then the fold.
+    let r = model.follow_seats(&mut state, &mut ws)?;
+    if !r.status.is_converged() {
+        return Err(PlanError::Start(r.status));
+    }
     let r = model.apply_payout(
         &mut state,
         &mut ws,

@@ -595,6 +595,37 @@ mod tests {
     use super::*;
     use crate::model::{MotorDirection, SensitivityError};
 
+    /// Which learnt effects the planner takes: the structural ones always;
+    /// friction, supports and seats only where the model file has them;
+    /// motor, thermal and load-cell effects never.
+    #[test]
+    fn the_planner_takes_a_learnt_seat_only_over_a_model_with_seats() {
+        use crate::design::{reference_bridge, BridgeParameters};
+        let plain = EffectModel::for_measurement(
+            reference_bridge(&BridgeParameters::default()).unwrap(),
+            crate::model::Effects::default(),
+        );
+        let seated = EffectModel {
+            effects: plain
+                .effects
+                .with_parameters(EffectKind::JointEccentricity, &[0.02]),
+            ..plain.clone()
+        };
+        for kind in EffectKind::ALL {
+            let expected = match kind {
+                EffectKind::StiffnessError | EffectKind::JointMassError => (true, true),
+                EffectKind::JointEccentricity => (false, true),
+                _ => (false, false),
+            };
+            assert_eq!(
+                (planner_takes(kind, &plain), planner_takes(kind, &seated)),
+                expected,
+                "{}",
+                kind.name()
+            );
+        }
+    }
+
     #[test]
     fn a_fold_back_failure_and_an_adaptation_error_read_as_before() {
         let stop = FoldBackFailure {

@@ -243,7 +243,7 @@ pub fn learn_model(
     }
     if !unchecked.is_empty() {
         notes.push(format!(
-            "no rival check for {} (the refit in its place did not converge): planned on as found",
+            "no rival check for {} (the refit in its place failed or did not converge): planned on as found",
             unchecked.join(", ")
         ));
     }

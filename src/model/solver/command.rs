@@ -148,11 +148,14 @@ impl ForwardModel {
     /// positive pays out) in increments of at most `max_increment_m`.
     ///
     /// Stops at the first increment that does not converge and reports its
-    /// status; the state is then that increment's last iterate. A model
-    /// with cable seats then follows the seat arcs, and the state they
-    /// settle into, where the command ends, goes to `observer` as one
-    /// more increment ([`super::seats`]; the report's `increments` counts
-    /// the payout's, its work the re-solves' too).
+    /// status; the state is then that increment's last iterate. With
+    /// cable seats, a command whose increments all converged then follows
+    /// the seat arcs, and the state they settle into, where the command
+    /// ends, goes to `observer` as one more increment ([`super::seats`];
+    /// the report's `increments` counts the payout's, its work the
+    /// re-solves' too). A state that holds no arcs yet takes them as they
+    /// are before the payout, so the command's own wrap changes move
+    /// material.
     pub fn apply_payout(
         &self,
         state: &mut DeploymentState,
@@ -161,6 +164,7 @@ impl ForwardModel {
         max_increment_m: f64,
         observer: &mut dyn IncrementObserver,
     ) -> Result<CommandReport, CommandError> {
+        self.wrap_missing_arcs(state);
         let mut out =
             self.apply_payout_unseated(state, ws, delta_payout_m, max_increment_m, observer)?;
         if out.status.is_converged() {

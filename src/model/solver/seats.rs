@@ -67,15 +67,13 @@ impl ForwardModel {
         let Some(radius_m) = self.seat_radius_m else {
             return Ok(());
         };
-        if state.seat_material_m.len() != state.segment_rest_lengths_m.len() {
-            // Never followed: the arcs are taken as they are.
-            state.seat_material_m = seat_material_m(&self.structure, &state.positions_m, radius_m);
+        if self.wrap_missing_arcs(state) {
             return Ok(());
         }
-        let no_payout = vec![0.0; self.structure.continuous_cables.len()];
         let mut last: Option<RelaxReport> = None;
         let mut change_m = f64::INFINITY;
-        for _ in 0..MAX_SEAT_SOLVES {
+        // The arcs are measured after each re-solve, the last included.
+        for solves in 0..=MAX_SEAT_SOLVES {
             let now = seat_material_m(&self.structure, &state.positions_m, radius_m);
             change_m = now
                 .iter()
@@ -88,13 +86,16 @@ impl ForwardModel {
                 }
                 return Ok(());
             }
+            if solves == MAX_SEAT_SOLVES {
+                break;
+            }
             let taken: Vec<f64> = now
                 .iter()
                 .zip(&state.seat_material_m)
                 .map(|(after, before)| before - after)
                 .collect();
             state.seat_material_m = now;
-            let r = self.solve_material_change(state, ws, &no_payout, &taken);
+            let r = self.solve_material_change(state, ws, &taken);
             out.iterations += r.iterations;
             out.newton_iterations += r.newton_iterations;
             out.max_residual_n = out.max_residual_n.max(r.max_residual_n);
@@ -109,6 +110,20 @@ impl ForwardModel {
         Err(CommandError::SeatsUnsettled { change_m })
     }
 
+    /// Gives `state` the arcs of its geometry where it holds none (a state
+    /// built without this model, e.g. [`DeploymentState::reference`] of
+    /// the structure): the arcs are taken as they are, moving nothing.
+    /// Returns whether it did; nothing without seats.
+    pub(super) fn wrap_missing_arcs(&self, state: &mut DeploymentState) -> bool {
+        match self.seat_radius_m {
+            Some(r) if state.seat_material_m.len() != state.segment_rest_lengths_m.len() => {
+                state.seat_material_m = seat_material_m(&self.structure, &state.positions_m, r);
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// One friction-aware increment that changes each segment's material by
     /// `delta_rest_m` (m) with no payout: Newton with continuation on the
     /// change (a change applied at once leaves Newton no path, and DR,
@@ -118,12 +133,12 @@ impl ForwardModel {
         &self,
         state: &mut DeploymentState,
         ws: &mut Workspace,
-        no_payout: &[f64],
         delta_rest_m: &[f64],
     ) -> RelaxReport {
         ws.continuation_step = 0.0;
         ws.drop_kept_tangent();
-        let newton = self.newton_increment_with_material(state, ws, no_payout, delta_rest_m);
+        let no_payout = vec![0.0; self.structure.continuous_cables.len()];
+        let newton = self.newton_increment_with_material(state, ws, &no_payout, delta_rest_m);
         let mut r = self.relax_with(state, ws, SolveMode::DrOnly);
         if !newton.converged {
             ws.counters.dr_iterations_after_newton += r.iterations;
@@ -162,19 +177,31 @@ mod tests {
         let n = model.structure().continuous_cables.len();
         let mut ws = Workspace::default();
         let mut state = model.reference_state();
-        let total = |s: &DeploymentState| -> f64 {
-            s.segment_rest_lengths_m.iter().sum::<f64>() + s.seat_material_m.iter().sum::<f64>()
+        // Each cable's material: its segments' plus its arcs'.
+        let totals = |s: &DeploymentState| -> Vec<f64> {
+            s.segment_offsets
+                .windows(2)
+                .map(|w| {
+                    (w[0]..w[1])
+                        .map(|j| s.segment_rest_lengths_m[j] + s.seat_material_m[j])
+                        .sum()
+                })
+                .collect()
         };
-        let before = total(&state);
+        let before = totals(&state);
+        // Unequal payouts, so that the cables' arcs change unequally.
+        let command: Vec<f64> = (0..n).map(|c| 0.01 * (1 + c % 5) as f64).collect();
         let report = model
-            .apply_payout(&mut state, &mut ws, &vec![0.05; n], 0.01, &mut ())
+            .apply_payout(&mut state, &mut ws, &command, 0.01, &mut ())
             .unwrap();
         assert!(report.status.is_converged(), "{report:?}");
-        let paid: f64 = state.payout_m.iter().sum();
-        assert!(
-            (total(&state) - before - paid).abs() < 1e-12,
-            "cable conserved"
-        );
+        for (c, (after, before)) in totals(&state).iter().zip(&before).enumerate() {
+            assert!(
+                (after - before - command[c]).abs() < 1e-12,
+                "cable {c}: {after} - {before} != {}",
+                command[c]
+            );
+        }
         let arcs = seat_material_m(model.structure(), &state.positions_m, r);
         let off = arcs
             .iter()
@@ -186,7 +213,7 @@ mod tests {
         let plain = bridge(None);
         let mut seatless = plain.reference_state();
         plain
-            .apply_payout(&mut seatless, &mut ws, &vec![0.05; n], 0.01, &mut ())
+            .apply_payout(&mut seatless, &mut ws, &command, 0.01, &mut ())
             .unwrap();
         let moved = seatless
             .positions_m
@@ -232,21 +259,31 @@ mod tests {
         assert_eq!(seen.0.last().unwrap().2, state, "ends where it was judged");
     }
 
-    /// A state that never followed its seats takes its arcs as they are.
+    /// A state that never followed its seats takes its arcs as they are,
+    /// and a command from it moves the material of its own wrap changes:
+    /// it ends as the command from the model's own as-built state.
     #[test]
     fn a_state_without_arcs_takes_them_as_they_are() {
         let model = bridge(Some(0.02));
+        let mut ws = Workspace::default();
         let mut state = DeploymentState::reference(model.structure());
         let rest = state.segment_rest_lengths_m.clone();
-        let r = model
-            .follow_seats(&mut state, &mut Workspace::default())
-            .unwrap();
-        assert_eq!(r.increments, 0);
+        let r = model.follow_seats(&mut state, &mut ws).unwrap();
+        assert_eq!((r.iterations, r.newton_iterations), (0, 0));
         assert_eq!(state.segment_rest_lengths_m, rest);
         assert_eq!(
             state.seat_material_m,
             model.reference_state().seat_material_m
         );
+        let n = model.structure().continuous_cables.len();
+        let mut bare = DeploymentState::reference(model.structure());
+        let mut wrapped = model.reference_state();
+        for s in [&mut bare, &mut wrapped] {
+            model
+                .apply_payout(s, &mut Workspace::default(), &vec![0.03; n], 0.01, &mut ())
+                .unwrap();
+        }
+        assert_eq!(bare, wrapped);
     }
 
     /// Eleventh session: the material the arcs moved was taken out of the

@@ -86,11 +86,13 @@ pub struct MemorySettings {
     /// and it predicts the newest cycle, held out of its fit, better than
     /// the model it replaces (`crate::studies::model_learning`). Covers
     /// every library effect the controller's model lacks. The planner
-    /// takes the stiffness and joint-mass errors learnt; friction and
-    /// flexible supports only where the model file has them (planning
-    /// through stick-slip is what fails, issue 22; flexible supports add
-    /// nodes the controller's bridge lacks); the motor, seat, thermal and
-    /// load-cell effects enter only the model's error figure. Default
+    /// takes the stiffness and joint-mass errors learnt; friction,
+    /// flexible supports and cable seats only where the model file has
+    /// them (planning through stick-slip is what fails, issue 22;
+    /// flexible supports add nodes the controller's bridge lacks; seats on
+    /// a frictionless model stop as many safe runs as they save); the
+    /// motor, thermal and load-cell effects enter only the model's error
+    /// figure. Default
     /// false: it costs a diagnosis per cycle (seconds) and `evaluate`
     /// does not run it.
     pub model_learning_enable: bool,
