@@ -156,6 +156,7 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
         ("corrective_commands", "18446744073709551615"),
         ("cable_travel_m", "-5"),
         ("final_true_gap_m", "inf"),
+        ("binds", " x"),
     ] {
         let bad = dir(&format!("bad-{name}"));
         std::fs::create_dir(&bad).unwrap();

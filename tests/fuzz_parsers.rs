@@ -791,6 +791,14 @@ fn shard_contents() {
                         prop_assert!(r.cable_travel_m.is_finite() && r.cable_travel_m >= 0.0);
                         prop_assert!(r.worst_utilisation.is_finite() && r.worst_utilisation >= 0.0);
                         prop_assert!(r.corrective_commands.is_none_or(|k| k <= r.commands));
+                        prop_assert!(r.status != "connected" || r.binds.is_empty());
+                        for name in &r.binds {
+                            let chars = name.chars().count();
+                            prop_assert!(chars > 0 && chars <= 80 && name.trim() == name);
+                            prop_assert!(
+                                !name.contains(';') && !name.chars().any(char::is_control)
+                            );
+                        }
                         for g in [r.final_measured_gap_m, r.final_true_gap_m, r.approach_gap_m]
                             .into_iter()
                             .flatten()

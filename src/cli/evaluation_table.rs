@@ -124,10 +124,14 @@ pub fn print_and_write(
         if counts.len() > BINDS_NAMED {
             named.push(format!("{} more", counts.len() - BINDS_NAMED));
         }
+        let unnamed = (unnamed > 0).then(|| format!("{unnamed} name nothing"));
+        let words: Vec<String> = [(!named.is_empty()).then(|| named.join(", ")), unnamed]
+            .into_iter()
+            .flatten()
+            .collect();
         say!(
-            "{name}: what binds in the {failed} runs that did not connect (runs naming it; runs.csv's binds): {}{}",
-            if named.is_empty() { "nothing named".into() } else { named.join(", ") },
-            if unnamed > 0 { format!("; {unnamed} name nothing") } else { String::new() }
+            "{name}: what binds in the {failed} runs that did not connect (runs naming it; runs.csv's binds): {}",
+            words.join("; ")
         );
     }
     // The first policy against each other one on the same scenarios.

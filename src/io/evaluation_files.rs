@@ -89,8 +89,9 @@ const RESULT_COLUMNS: [&str; 12] = [
 
 /// Separates the names of `runs.csv`'s `binds` column.
 const BINDS_SEPARATOR: &str = "; ";
-/// Longest name `binds` may hold, characters: a row name of the bridge is
-/// under 40 (`clearance A_s1–A_s7`, `segment A_cc1[3] min`).
+/// Longest name `binds` may hold, characters: the longest a run can write
+/// is a clearance between two struts of ids at their
+/// [`crate::model::structure::MAX_ID_CHARS`] (75).
 const MAX_BIND_NAME_CHARS: usize = 80;
 
 /// Whether `status` is one a run of `runs.csv` may have: a deployment's
@@ -527,14 +528,22 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
             worst_utilisation: non_negative(at + 8)?,
             truth_violations: count(at + 9)?,
             approach_gap_m: optional_non_negative(at + 10)?,
-            binds: parse_binds(field(at + 11)).ok_or_else(|| {
-                bad(
-                    at + 11,
-                    &format!(
-                        "a `{BINDS_SEPARATOR}`-separated list of limit names (each printable, one line, 1 to {MAX_BIND_NAME_CHARS} characters)"
-                    ),
-                )
-            })?,
+            binds: parse_binds(field(at + 11))
+                .ok_or_else(|| {
+                    bad(
+                        at + 11,
+                        &format!(
+                            "a `{BINDS_SEPARATOR}`-separated list of limit names (each printable, one line, 1 to {MAX_BIND_NAME_CHARS} characters)"
+                        ),
+                    )
+                })
+                .and_then(|names| {
+                    if status == "connected" && !names.is_empty() {
+                        Err(bad(at + 11, "empty, as for every connected run"))
+                    } else {
+                        Ok(names)
+                    }
+                })?,
             planning_time_median_s: None,
         });
     }
@@ -630,7 +639,9 @@ mod tests {
     }
 
     /// `binds` reads back what `runs_table` writes, and refuses a name
-    /// that is empty, not one printable line, padded or overlong.
+    /// that is empty, not one printable line, padded or overlong (none of
+    /// which a structure's ids can make since they are checked,
+    /// `Structure::validate`).
     #[test]
     fn binds_read_back_and_refuse_what_no_run_writes() {
         let names = vec![

@@ -152,6 +152,36 @@ pub struct Structure {
     pub midspan_pairs: Vec<[NodeIndex; 2]>,
 }
 
+/// Longest id a node, member or cable may have, characters: every name
+/// a report or table builds from ids (a force row `segment A_cc1[3]
+/// min`, a clearance between two struts) then stays within the names
+/// `runs.csv` reads back.
+pub const MAX_ID_CHARS: usize = 32;
+
+/// Checks that `id` can name its entry in every report and table: 1 to
+/// [`MAX_ID_CHARS`] printable characters on one line, no `;` (the
+/// separator of `runs.csv`'s `binds`), no space at either end.
+fn check_id(entry: &str, id: &str) -> Result<(), StructureError> {
+    let bad = |reason: &str| {
+        Err(StructureError::BadId {
+            entry: entry.to_string(),
+            id: id.to_string(),
+            reason: reason.to_string(),
+        })
+    };
+    let chars = id.chars().count();
+    if chars == 0 || chars > MAX_ID_CHARS {
+        return bad(&format!("must have 1 to {MAX_ID_CHARS} characters"));
+    }
+    if id.chars().any(|c| c.is_control() || c == ';') {
+        return bad("must be printable text on one line without `;`");
+    }
+    if id.trim() != id {
+        return bad("must not start or end with a space");
+    }
+    Ok(())
+}
+
 /// A structure that a solver cannot be trusted with, naming the entry.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum StructureError {
@@ -162,6 +192,16 @@ pub enum StructureError {
         entry: String,
         /// The repeated id.
         id: String,
+    },
+    /// An id that cannot name its entry in reports and tables.
+    #[error("{entry}: id \"{id}\" {reason}")]
+    BadId {
+        /// Where, e.g. `members[3]`.
+        entry: String,
+        /// The id given.
+        id: String,
+        /// What is wrong with it.
+        reason: String,
     },
     /// A value is NaN or infinite.
     #[error("{entry}: field `{field}` is not a finite number")]
@@ -305,6 +345,7 @@ impl Structure {
         let mut ids = std::collections::HashSet::new();
         for (i, n) in self.nodes.iter().enumerate() {
             let entry = format!("nodes[{i}] (\"{}\")", n.id);
+            check_id(&entry, &n.id)?;
             if !ids.insert(n.id.as_str()) {
                 return Err(StructureError::DuplicateId {
                     entry,
@@ -354,6 +395,7 @@ impl Structure {
             let i = per_kind[slot];
             per_kind[slot] += 1;
             let entry = format!("{}s[{i}] (\"{}\")", m.kind.name(), m.id);
+            check_id(&entry, &m.id)?;
             if !member_ids.insert(m.id.as_str()) {
                 return Err(StructureError::DuplicateId {
                     entry,
@@ -378,6 +420,7 @@ impl Structure {
 
         for (i, c) in self.continuous_cables.iter().enumerate() {
             let entry = format!("continuous_cables[{i}] (\"{}\")", c.id);
+            check_id(&entry, &c.id)?;
             if !member_ids.insert(c.id.as_str()) {
                 return Err(StructureError::DuplicateId {
                     entry,
@@ -532,6 +575,21 @@ mod tests {
                 index: 7
             }
         );
+    }
+
+    /// Ids name rows in reports and in `runs.csv`'s `binds`: one printable
+    /// line of 1 to 32 characters, no `;`, no edge spaces (a review found
+    /// a 77-character cable id written by `evaluate` and refused by
+    /// `merge`, and an id with `; ` split in two).
+    #[test]
+    fn rejects_an_id_that_cannot_name_its_row() {
+        let long = "c".repeat(MAX_ID_CHARS + 1);
+        for bad in ["", " m0", "m0 ", "A_cc1; east", "m\n0", long.as_str()] {
+            let e = build(vec![cable(bad, 0, 1)], vec![]).unwrap_err();
+            assert!(matches!(e, StructureError::BadId { .. }), "{bad:?}: {e}");
+        }
+        let longest = "c".repeat(MAX_ID_CHARS);
+        assert!(build(vec![cable(&longest, 0, 1), cable("m1", 1, 2)], vec![]).is_ok());
     }
 
     #[test]

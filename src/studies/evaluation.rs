@@ -814,7 +814,10 @@ impl RunResult {
 /// What binds over policy `policy`'s runs that did not connect: each name
 /// of their [`RunResult::binds`] with the number of runs naming it, most
 /// frequent first (ties by name), and the number of those runs that name
-/// nothing (a spent budget, a solver failure, a run that did not start).
+/// nothing (a stop whose cause is no limit: a spent command budget or
+/// nominal sequence, a solver failure, no reducing move; a gap out of
+/// tolerance; `cycles_stopped` after a connected cycle; a run that did
+/// not start).
 pub fn binding_counts(results: &[RunResult], policy: usize) -> (Vec<(String, usize)>, usize) {
     let mut counts: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
     let mut unnamed = 0;
