@@ -138,6 +138,15 @@ impl CommandReport {
             max_friction_residual_n: 0.0,
         }
     }
+
+    /// Adds one solve's work and residuals (not an increment, nor its
+    /// status).
+    pub(super) fn add_solve(&mut self, r: &RelaxReport) {
+        self.iterations += r.iterations;
+        self.newton_iterations += r.newton_iterations;
+        self.max_residual_n = self.max_residual_n.max(r.max_residual_n);
+        self.max_friction_residual_n = self.max_friction_residual_n.max(r.max_friction_residual_n);
+    }
 }
 
 /// Shortest rest length a first segment may be reeled down to, m.
@@ -308,10 +317,7 @@ impl ForwardModel {
         if !newton.converged {
             ws.counters.dr_iterations_after_newton += r.iterations;
         }
-        out.iterations += r.iterations;
-        out.newton_iterations += r.newton_iterations;
-        out.max_residual_n = out.max_residual_n.max(r.max_residual_n);
-        out.max_friction_residual_n = out.max_friction_residual_n.max(r.max_friction_residual_n);
+        out.add_solve(&r);
         let Some(start) = start else { return r };
         let event = if locating {
             slip_event(&start.joint_slip, &state.joint_slip)

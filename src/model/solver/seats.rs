@@ -6,8 +6,9 @@
 //! wrap angles, the arcs take up or give back material, which the straight
 //! runs lose or gain. A model with seats ([`ForwardModel::with_cable_seats`])
 //! ends every command by moving the material the arcs took since they
-//! were last followed out of the segments and solving again (a zero-payout
-//! increment, friction-aware), until the arcs change by less than
+//! were last followed out of the segments and solving again (one
+//! friction-aware increment with no payout, the material change ramped by
+//! Newton continuation as a payout is), until the arcs change by less than
 //! [`SEAT_TOLERANCE_M`]: a fixed point between the arcs and the geometry.
 //! The state's [`DeploymentState::seat_material_m`] carries the arcs from
 //! one command to the next.
@@ -96,11 +97,7 @@ impl ForwardModel {
                 .collect();
             state.seat_material_m = now;
             let r = self.solve_material_change(state, ws, &taken);
-            out.iterations += r.iterations;
-            out.newton_iterations += r.newton_iterations;
-            out.max_residual_n = out.max_residual_n.max(r.max_residual_n);
-            out.max_friction_residual_n =
-                out.max_friction_residual_n.max(r.max_friction_residual_n);
+            out.add_solve(&r);
             if !r.status.is_converged() {
                 out.status = r.status;
                 return Ok(());
