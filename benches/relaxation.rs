@@ -7,7 +7,8 @@
 //!   and μ = 0.2 with slip-event sub-steps (issue 25 asks at most 1.2×);
 //! - the same deployment as eight 5 cm commands over cable seats of 2 cm
 //!   radius (joint eccentricity; every command ends with the seat arcs
-//!   followed), μ = 0.2;
+//!   followed), μ = 0.2, and the same with DR alone finishing what
+//!   Newton leaves (`dr_newton_restart_enable` off);
 //! - the 7×7 cable net from its initial geometry to 1e-6 m accuracy;
 //! - N×N cable nets (N = 5, 11, 21; the peer benchmark's nets) from flat
 //!   to a 1e-3 N force tolerance, default settings and pure DR;
@@ -128,39 +129,53 @@ fn whole_deployment(c: &mut Criterion) {
 /// The 40 cm deployment at μ = 0.2 as eight 5 cm commands over cable
 /// seats of 2 cm radius: each command ends with the seat arcs followed to
 /// their fixed point (the truth plant's work on every scenario of
-/// `scenarios/wide.toml`).
+/// `scenarios/wide.toml`). Also with `dr_newton_restart_enable` off (DR
+/// alone finishes what Newton leaves), the ratio in one run.
 fn deployment_over_seats(c: &mut Criterion) {
-    let model = bridge_model(0.2).with_cable_seats(0.02).unwrap();
-    let n = model.structure().continuous_cables.len();
-    let mut ws = Workspace::default();
-    let folded = folded_40cm(&model, &mut ws);
-    let deploy = |s: &mut DeploymentState, ws: &mut Workspace| {
-        let (mut newton, mut dr) = (0, 0);
-        for _ in 0..8 {
-            let r = model
-                .apply_payout(s, ws, &vec![-0.05; n], 0.01, &mut ())
-                .unwrap();
-            assert!(r.status.is_converged(), "{r:?}");
-            newton += r.newton_iterations;
-            dr += r.iterations;
-        }
-        (newton, dr)
-    };
-    ws.reset_newton_counters();
-    let (newton, dr) = deploy(&mut folded.clone(), &mut ws);
-    eprintln!(
-        "deploy 40 cm in 8 commands over 2 cm seats, μ = 0.2: {newton} Newton + {dr} DR iterations"
-    );
-    eprintln!("  {:?}", ws.newton_counters());
     let mut group = c.benchmark_group("bridge_deploy_40cm_1cm_steps");
     group.sample_size(10);
-    group.bench_function("mu0.2_seats_8_commands", |b| {
-        b.iter_batched(
-            || folded.clone(),
-            |mut s| deploy(&mut s, &mut ws),
-            BatchSize::SmallInput,
-        )
-    });
+    for restart in [true, false] {
+        let settings = RelaxSettings {
+            dr_newton_restart_enable: restart,
+            ..RelaxSettings::default()
+        };
+        let model = bridge_model_with(0.2, settings)
+            .with_cable_seats(0.02)
+            .unwrap();
+        let n = model.structure().continuous_cables.len();
+        let mut ws = Workspace::default();
+        let folded = folded_40cm(&model, &mut ws);
+        let deploy = |s: &mut DeploymentState, ws: &mut Workspace| {
+            let (mut newton, mut dr) = (0, 0);
+            for _ in 0..8 {
+                let r = model
+                    .apply_payout(s, ws, &vec![-0.05; n], 0.01, &mut ())
+                    .unwrap();
+                assert!(r.status.is_converged(), "{r:?}");
+                newton += r.newton_iterations;
+                dr += r.iterations;
+            }
+            (newton, dr)
+        };
+        ws.reset_newton_counters();
+        let (newton, dr) = deploy(&mut folded.clone(), &mut ws);
+        eprintln!(
+            "deploy 40 cm in 8 commands over 2 cm seats, μ = 0.2, Newton from DR iterates {restart}: {newton} Newton + {dr} DR iterations"
+        );
+        eprintln!("  {:?}", ws.newton_counters());
+        let name = if restart {
+            "mu0.2_seats_8_commands".to_string()
+        } else {
+            "mu0.2_seats_8_commands_dr_alone".to_string()
+        };
+        group.bench_function(name, |b| {
+            b.iter_batched(
+                || folded.clone(),
+                |mut s| deploy(&mut s, &mut ws),
+                BatchSize::SmallInput,
+            )
+        });
+    }
     group.finish();
 }
 

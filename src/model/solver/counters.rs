@@ -31,6 +31,13 @@ pub struct NewtonCounters {
     pub increments_to_dr: usize,
     /// DR iterations spent on the increments handed to DR.
     pub dr_iterations_after_newton: usize,
+    /// Newton solves tried from a DR iterate (see
+    /// `RelaxSettings::dr_newton_restart_enable`) that converged and ended
+    /// the solve.
+    pub restarts_from_dr_converged: usize,
+    /// Newton solves tried from a DR iterate that gave up (DR went on from
+    /// where it was; each is also counted by its reason below).
+    pub restarts_from_dr_failed: usize,
     /// Continuation steps that converged.
     pub steps_converged: usize,
     /// Continuation steps that failed (and were halved).

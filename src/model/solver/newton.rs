@@ -79,7 +79,7 @@ pub(super) struct NewtonOutcome {
 }
 
 impl ForwardModel {
-    fn newton_enabled(&self) -> bool {
+    pub(super) fn newton_enabled(&self) -> bool {
         let s = &self.settings;
         let free = self.free_dof_count();
         s.newton_max_iter > 0

@@ -80,6 +80,11 @@ impl ForwardModel {
         let mut restart = true;
         let mut ke_prev = 0.0;
         let mut resets_since_mass = 0;
+        // Newton from a DR iterate (`dr_newton_restart_enable`): when next,
+        // and the DR iterations to wait after a failed try.
+        let restart_newton = s.dr_newton_restart_enable && self.newton_enabled();
+        let mut wait = s.dr_newton_restart_after_iter;
+        let mut next_newton = wait;
         loop {
             let tol = self.tolerance(max_t);
             let max_r = self.max_free_residual(ws);
@@ -138,6 +143,23 @@ impl ForwardModel {
                 restart = true;
                 ke_prev = 0.0;
                 (max_t, friction_left) = self.residual(state, ws);
+                if restart_newton && report.iterations >= next_newton {
+                    let dr_iterate = state.clone();
+                    let tried =
+                        self.newton(state, ws, s.tol_force_rel, &mut max_t, &mut friction_left);
+                    report.newton_iterations += tried.iterations;
+                    if tried.converged {
+                        // Confirmed by the return mapping: the test at the
+                        // loop's top passes.
+                        ws.counters.restarts_from_dr_converged += 1;
+                        continue;
+                    }
+                    ws.counters.restarts_from_dr_failed += 1;
+                    *state = dr_iterate;
+                    (max_t, friction_left) = self.residual(state, ws);
+                    wait *= 2;
+                    next_newton = report.iterations + wait;
+                }
                 if resets_since_mass >= s.mass_update_resets {
                     self.update_masses(state, ws);
                     resets_since_mass = 0;
@@ -224,5 +246,100 @@ impl ForwardModel {
         for m in ws.mass.iter_mut() {
             *m = (dt2 * *m).map(|v| v.max(floor * dt2));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::design::{reference_bridge, BridgeParameters};
+    use crate::model::solver::NewtonCounters;
+    use crate::model::{DeploymentState, ForwardModel, JointFriction, RelaxSettings, Workspace};
+
+    /// The bridge at μ = 0.2 over 2 cm cable seats, folded 40 cm, then
+    /// reeled in by two 5 cm commands: the states after each command and
+    /// the solver's counters over the two.
+    fn seated_deployment(
+        settings: RelaxSettings,
+    ) -> (Vec<DeploymentState>, NewtonCounters) {
+        let model = ForwardModel::new(
+            reference_bridge(&BridgeParameters::default()).unwrap(),
+            JointFriction::constant(0.2).unwrap(),
+            settings,
+        )
+        .unwrap()
+        .with_cable_seats(0.02)
+        .unwrap();
+        let n = model.structure().continuous_cables.len();
+        let mut ws = Workspace::default();
+        let mut state = model.reference_state();
+        let fold = model
+            .apply_payout(&mut state, &mut ws, &vec![0.4; n], 0.01, &mut ())
+            .unwrap();
+        assert!(fold.status.is_converged(), "{fold:?}");
+        ws.reset_newton_counters();
+        let mut states = Vec::new();
+        for _ in 0..2 {
+            let r = model
+                .apply_payout(&mut state, &mut ws, &vec![-0.05; n], 0.01, &mut ())
+                .unwrap();
+            assert!(r.status.is_converged(), "{r:?}");
+            states.push(state.clone());
+        }
+        (states, ws.newton_counters())
+    }
+
+    /// Regression (twelfth session): where Newton gave up on an increment,
+    /// DR finished it alone at the slow rate of the bridge's stiff and soft
+    /// modes, thousands of iterations after its first few hundred had
+    /// settled the joints' slip states. Newton tried again from a DR
+    /// iterate finishes those solves, with the same answer to the solver's
+    /// tolerance.
+    #[test]
+    fn dr_hands_a_solve_back_to_newton_once_its_slip_states_settle() {
+        let on = RelaxSettings::default();
+        assert!(on.dr_newton_restart_enable);
+        let off = RelaxSettings {
+            dr_newton_restart_enable: false,
+            ..on.clone()
+        };
+        // The answers' own error: against a solve 1000× tighter.
+        let tight = RelaxSettings {
+            tol_force_rel: 1e-3 * on.tol_force_rel,
+            newton_tol_continuation_rel: 1e-3 * on.tol_force_rel,
+            ..off.clone()
+        };
+        let (with_restart, c_on) = seated_deployment(on);
+        let (dr_alone, c_off) = seated_deployment(off);
+        let (precise, _) = seated_deployment(tight);
+        let (mut worst, mut solver_error) = (0.0f64, 0.0f64);
+        for ((a, b), c) in with_restart.iter().zip(&dr_alone).zip(&precise) {
+            for ((p, q), r) in a.positions_m.iter().zip(&b.positions_m).zip(&c.positions_m) {
+                worst = worst.max((p - q).amax());
+                solver_error = solver_error.max((q - r).amax());
+            }
+        }
+        eprintln!(
+            "difference {worst:e} m, solver error {solver_error:e} m; DR after Newton {} -> {}",
+            c_off.dr_iterations_after_newton, c_on.dr_iterations_after_newton
+        );
+        // Both meet the same force test, so each lies within the solver's
+        // error of the exact answer and they within twice it of each other.
+        assert!(
+            worst <= 2.0 * solver_error,
+            "{worst:e} m vs solver error {solver_error:e} m"
+        );
+        assert!(solver_error < 1e-5, "{solver_error:e} m");
+        // The same increments went to DR; with the restart most of their
+        // DR iterations are saved.
+        assert!(c_off.increments_to_dr > 0, "{c_off:?}");
+        assert_eq!(c_on.increments_to_dr, c_off.increments_to_dr);
+        assert_eq!(c_off.restarts_from_dr_converged, 0);
+        assert!(c_on.restarts_from_dr_converged > 0, "{c_on:?}");
+        assert!(
+            2 * c_on.dr_iterations_after_newton < c_off.dr_iterations_after_newton,
+            "{} vs {} DR iterations",
+            c_on.dr_iterations_after_newton,
+            c_off.dr_iterations_after_newton
+        );
     }
 }
