@@ -164,3 +164,64 @@ fn the_wide_distribution_gives_the_same_bytes_at_1_and_2_threads() {
     }
     assert_eq!(rows.len(), 2);
 }
+
+/// Regression (issue 22, twelfth session): a drawn bridge that cannot
+/// stand as built (scenario 7 of seed 9090: supports of 3.0e-5 m/N,
+/// cables 24 % softer, one member 3.4 mm short) was `not_started` with
+/// nothing in `binds`; it now names why, and the plant's error says the
+/// bridge as built does not stand. The loss is the bridge's: on supports
+/// of half that compliance the same bridge stands.
+#[test]
+fn a_drawn_bridge_that_cannot_stand_as_built_says_so() {
+    use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+    use tensegrity_deploy::io::evaluation_files::read_distribution;
+    use tensegrity_deploy::model::effects::SupportFlexibilityEffect;
+    use tensegrity_deploy::model::RelaxStatus;
+    use tensegrity_deploy::sim::{Plant, PlantError};
+
+    let distribution = read_distribution(&common::repo_path("scenarios/wide.toml")).unwrap();
+    let scenario = distribution.draw(9090, 7);
+    let bridge = reference_bridge(&BridgeParameters::default()).unwrap();
+    let truth = scenario.truth(&bridge);
+    let e = Plant::new(&truth, None, scenario.temperature_c).err();
+    assert_eq!(
+        e,
+        Some(PlantError::AsBuilt {
+            status: RelaxStatus::ImplausibleStrain
+        })
+    );
+    let mut softer_half = truth.clone();
+    let c = truth
+        .effects
+        .support_flexibility
+        .unwrap()
+        .compliance_m_per_n;
+    softer_half.effects.support_flexibility = Some(SupportFlexibilityEffect {
+        compliance_m_per_n: 0.5 * c,
+    });
+    assert!(Plant::new(&softer_half, None, scenario.temperature_c).is_ok());
+
+    // `evaluate` of that scenario alone (shard 8 of 200 is scenario 7).
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let args = [
+        "evaluate",
+        "--distribution",
+        &repo_arg("scenarios/wide.toml"),
+        "--scenarios",
+        "200",
+        "--shard",
+        "8/200",
+        "--seed",
+        "9090",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    ran(&tdeploy_with(&args, tmp.path(), RunOptions::default()));
+    let (header, rows) = read_csv(&out.join("runs.csv"));
+    assert_eq!(rows.len(), 1);
+    let field = |name: &str| rows[0][column(&header, name)].clone();
+    assert_eq!(field("scenario"), "7");
+    assert_eq!(field("status"), "not_started");
+    assert_eq!(field("binds"), "truth as built: implausible_strain");
+}

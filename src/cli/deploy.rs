@@ -167,7 +167,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
         // The truth failing to fold is a solve that did not converge
         // (exit 1); everything else is input the deployment cannot use.
         Err(DeployError::TruthStart(
-            e @ (PlantError::Solver { .. } | PlantError::SeatsUnsettled { .. }),
+            e @ (PlantError::Solver { .. }
+            | PlantError::AsBuilt { .. }
+            | PlantError::SeatsUnsettled { .. }),
         )) => {
             return Ok(Outcome::GoalMissed(format!(
                 "the truth plant could not reach the folded start: {e}"

@@ -255,9 +255,9 @@ fn number_in(m: &ArgMatches, id: &str, range: NumberRange) -> Result<f64> {
 /// model cannot apply) is bad input (exit 2).
 fn replay_stopped(e: PlantError, context: String) -> Result<Outcome> {
     match e {
-        PlantError::Solver { .. } | PlantError::SeatsUnsettled { .. } => {
-            Ok(Outcome::GoalMissed(format!("{context}: {e}")))
-        }
+        PlantError::Solver { .. }
+        | PlantError::AsBuilt { .. }
+        | PlantError::SeatsUnsettled { .. } => Ok(Outcome::GoalMissed(format!("{context}: {e}"))),
         other => Err(anyhow::Error::new(other).context(context)),
     }
 }

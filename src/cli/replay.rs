@@ -219,7 +219,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let calibration = match calibrate_on_log(&base, &log, &o.calibration) {
         Ok(c) => Ok(c),
         Err(CalibrationError::Replay(
-            e @ (PlantError::Solver { .. } | PlantError::SeatsUnsettled { .. }),
+            e @ (PlantError::Solver { .. }
+            | PlantError::AsBuilt { .. }
+            | PlantError::SeatsUnsettled { .. }),
         )) => Err(format!("{context}: {e}")),
         Err(e) => return Err(anyhow::Error::new(e).context(context)),
     };

@@ -88,6 +88,28 @@ pub enum DeployError {
     Mismatch(BridgeMismatch),
 }
 
+impl DeployError {
+    /// What kept the deployment from starting, as `runs.csv`'s `binds`
+    /// names it for a run that did not start: one short line (the truth
+    /// as built, the truth's fold, the controller's model, or the two
+    /// bridges differing), with the solver status where one failed.
+    pub fn start_binds(&self) -> String {
+        match self {
+            DeployError::TruthStart(e) => match e {
+                PlantError::AsBuilt { status } => format!("truth as built: {}", status.as_str()),
+                PlantError::Solver { status, .. } => format!("truth fold: {}", status.as_str()),
+                PlantError::SeatsUnsettled { .. } => "truth fold: seats_unsettled".into(),
+                PlantError::Command { .. } => "truth fold: command_refused".into(),
+                PlantError::Structure(_) | PlantError::Settings(_) => {
+                    "truth effects: invalid".into()
+                }
+            },
+            DeployError::Plan(_) => "controller model start".into(),
+            DeployError::Mismatch(_) => "bridge mismatch".into(),
+        }
+    }
+}
+
 /// How the truth's bridge differs from the controller's model's.
 #[derive(Debug, Clone, PartialEq)]
 pub enum BridgeMismatch {

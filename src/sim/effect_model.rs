@@ -81,6 +81,18 @@ pub enum PlantError {
         /// Cause.
         source: CommandError,
     },
+    /// The bridge as built, with its effects, has no equilibrium the
+    /// solver can reach within the plausible strain: the effects do not
+    /// let it stand (e.g. supports so compliant that, with a member error
+    /// and one half's cables softer, the bridge loses stability before
+    /// any fold; following the compliance from stiff to the drawn value
+    /// reaches a limit point at 0.5–0.9 of it on the three such
+    /// scenarios measured), or it is a solver failure there.
+    #[error("the bridge as built does not stand with these effects: {}", .status.describe())]
+    AsBuilt {
+        /// How the as-built solve ended.
+        status: RelaxStatus,
+    },
     /// A solve did not converge.
     #[error("cycle {cycle}, step {step}: {}", .status.describe())]
     Solver {
@@ -113,7 +125,9 @@ impl PlantError {
                 step,
                 change_m,
             },
-            e @ (PlantError::Structure(_) | PlantError::Settings(_)) => e,
+            e @ (PlantError::Structure(_)
+            | PlantError::Settings(_)
+            | PlantError::AsBuilt { .. }) => e,
         }
     }
 }

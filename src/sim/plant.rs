@@ -106,7 +106,10 @@ impl Plant {
         // Effects that change the structure (mass, stiffness, supports)
         // move it off the nominal as-built equilibrium; a state already in
         // equilibrium relaxes in zero iterations and is left as it is.
-        plant.relax()?;
+        plant.relax().map_err(|e| match e {
+            PlantError::Solver { status, .. } => PlantError::AsBuilt { status },
+            e => e,
+        })?;
         plant.follow_seats()?;
         if let Some(payout) = start_payout_m {
             // The fold moves material over the seats like any command: the

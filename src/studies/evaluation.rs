@@ -38,7 +38,7 @@ use thiserror::Error;
 
 use super::cycles::{run_cycles, CycleObserver, CycleResult};
 use super::statistics::{mcnemar_exact_p, median, percentile, scenario_seed, wilson_interval};
-use crate::control::{deploy_closed_loop, ClosedLoopSetup, Deployment};
+use crate::control::{deploy_closed_loop, ClosedLoopSetup, DeployError, Deployment};
 use crate::learn::{Case, CaseMemory};
 use crate::model::faults::node_halves;
 use crate::model::parameter_spec::ParameterSpec;
@@ -688,6 +688,15 @@ pub struct RunResult {
 }
 
 impl RunResult {
+    /// A run that did not start, its `binds` naming why
+    /// ([`DeployError::start_binds`]).
+    pub fn not_started(scenario: usize, policy: usize, why: &DeployError) -> RunResult {
+        RunResult {
+            binds: vec![why.start_binds()],
+            ..RunResult::of(scenario, policy, None, 0.0)
+        }
+    }
+
     /// The numbers of `deployment` (`None`: it did not start).
     pub fn of(
         scenario: usize,
@@ -1037,8 +1046,10 @@ pub fn evaluate(
             let result =
                 scenario.with_setup(setup.bridge, setup.model, setup.problem, policy, |run| {
                     if setup.cycles <= 1 {
-                        let deployment = deploy_closed_loop(run, &mut ()).ok();
-                        RunResult::of(scenario.index, p, deployment.as_ref(), tolerance)
+                        match deploy_closed_loop(run, &mut ()) {
+                            Ok(d) => RunResult::of(scenario.index, p, Some(&d), tolerance),
+                            Err(e) => RunResult::not_started(scenario.index, p, &e),
+                        }
                     } else {
                         let mut each = CycleRuns {
                             scenario: scenario.index,
@@ -1046,16 +1057,23 @@ pub fn evaluate(
                             tolerance_m: tolerance,
                             results: Vec::new(),
                         };
-                        // A run that could not start, or stopped early, shows
-                        // in its cycles' results.
-                        let _ = run_cycles(
+                        // A run that stopped early shows in its cycles'
+                        // results; one that could not start, by its reason.
+                        let end = run_cycles(
                             run,
                             setup.cycles,
                             &mut CaseMemory::default(),
                             None,
                             &mut each,
                         );
-                        RunResult::of_cycles(scenario.index, p, each.results, setup.cycles)
+                        match end {
+                            Err(e) if each.results.is_empty() => {
+                                RunResult::not_started(scenario.index, p, &e)
+                            }
+                            _ => {
+                                RunResult::of_cycles(scenario.index, p, each.results, setup.cycles)
+                            }
+                        }
                     }
                 });
             run_done();

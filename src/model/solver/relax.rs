@@ -258,9 +258,7 @@ mod tests {
     /// The bridge at μ = 0.2 over 2 cm cable seats, folded 40 cm, then
     /// reeled in by two 5 cm commands: the states after each command and
     /// the solver's counters over the two.
-    fn seated_deployment(
-        settings: RelaxSettings,
-    ) -> (Vec<DeploymentState>, NewtonCounters) {
+    fn seated_deployment(settings: RelaxSettings) -> (Vec<DeploymentState>, NewtonCounters) {
         let model = ForwardModel::new(
             reference_bridge(&BridgeParameters::default()).unwrap(),
             JointFriction::constant(0.2).unwrap(),
