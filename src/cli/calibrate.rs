@@ -22,7 +22,7 @@ use tensegrity_deploy::measure::calibrate::{
 use tensegrity_deploy::model::EffectKind;
 
 use super::words::fitted_parameter;
-use super::{replay_stopped, value, Outcome};
+use super::{plant_stopped, value, Outcome};
 
 /// The `calibrate` subcommand's arguments.
 pub fn command() -> Command {
@@ -84,7 +84,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     let c = match calibrate_on_log(&model, &log, &method) {
         Ok(c) => c,
-        Err(CalibrationError::Replay(e)) => return replay_stopped(e, context()),
+        Err(CalibrationError::Replay(e)) => return plant_stopped(e, context()),
         Err(e) => return Err(anyhow::Error::new(e).context(context())),
     };
     let fitted = c

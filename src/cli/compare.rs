@@ -31,7 +31,7 @@ use tensegrity_deploy::report::comparison_figures::{
 };
 
 use super::words::{number, outliers_in_words, signed_number, where_it_fails_in_words};
-use super::{replay_stopped, value, Outcome};
+use super::{plant_stopped, value, Outcome};
 
 /// The `compare` subcommand's arguments.
 pub fn command() -> Command {
@@ -84,7 +84,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
                 o.log.display(),
                 o.model.display()
             );
-            return replay_stopped(e, context);
+            return plant_stopped(e, context);
         }
     };
     // Outliers are named and left out of the tests, not taken as structure;

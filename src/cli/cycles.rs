@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Result};
 use clap::{value_parser, Arg, ArgMatches, Command};
 
-use tensegrity_deploy::control::{ClosedLoopSetup, Deployment};
+use tensegrity_deploy::control::{ClosedLoopSetup, DeployError, Deployment};
 use tensegrity_deploy::io::cycles_files::write_cycles;
 use tensegrity_deploy::io::memory_file::{append_case, read_memory_or_empty};
 use tensegrity_deploy::io::output::ResultsFolder;
@@ -45,7 +45,7 @@ use super::inputs::{
     truth_or_default,
 };
 use super::words::mm;
-use super::{value, with_threads, Outcome};
+use super::{plant_stopped, value, with_threads, Outcome};
 
 /// The built-in default policy of `cycles`: `policies/memory.toml`.
 const MEMORY_POLICY: &str = include_str!("../../policies/memory.toml");
@@ -252,9 +252,17 @@ pub fn run(o: &Options) -> Result<Outcome> {
         path: &memory_path,
         failure: None,
     };
-    let end = with_threads(o.threads, || {
+    let end = match with_threads(o.threads, || {
         run_cycles(&setup, o.cycles, &mut memory, Some(&replayed), &mut writer)
-    })??;
+    })? {
+        Ok(end) => end,
+        // The truth failing to reach a start is a solve that did not
+        // converge (exit 1), as in `deploy`; the rest is input it cannot use.
+        Err(DeployError::TruthStart(e)) => {
+            return plant_stopped(e, "the truth plant, reaching the folded start".into())
+        }
+        Err(e) => return Err(e.into()),
+    };
     if let Some(e) = writer.failure {
         return Err(e.into());
     }

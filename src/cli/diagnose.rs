@@ -25,7 +25,7 @@ use tensegrity_deploy::model::EffectKind;
 use super::words::{
     fitted_parameter, number, outliers_in_words, signed_number, where_it_fails_in_words,
 };
-use super::{replay_stopped, value, Outcome};
+use super::{plant_stopped, value, Outcome};
 
 /// The `diagnose` subcommand's arguments.
 pub fn command() -> Command {
@@ -92,7 +92,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let d = match diagnose(&model, &log, &o.settings) {
         Ok(d) => d,
         Err(DiagnoseError::Replay(e)) => {
-            return replay_stopped(e, format!("diagnosing {}", o.log.display()))
+            return plant_stopped(e, format!("diagnosing {}", o.log.display()))
         }
         Err(DiagnoseError::Log(e)) => anyhow::bail!("{}: {e}", o.log.display()),
         Err(DiagnoseError::Settings(e)) => anyhow::bail!("{e}"),

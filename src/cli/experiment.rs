@@ -37,7 +37,7 @@ use tensegrity_deploy::studies::{friction_effect, FrictionEffectSettings};
 
 use super::evaluation_table::print_and_write;
 use super::progress::{Progress, Unit};
-use super::{replay_stopped, value, Outcome};
+use super::{plant_stopped, value, Outcome};
 
 /// The `experiment` subcommand's arguments.
 pub fn command() -> Command {
@@ -223,7 +223,7 @@ fn friction_vs_measurement_experiment(e: &FrictionVsMeasurementExperiment) -> Re
         },
     ) {
         Ok(study) => study,
-        Err(err) => return replay_stopped(err, "friction-vs-measurement study".into()),
+        Err(err) => return plant_stopped(err, "friction-vs-measurement study".into()),
     };
     say!(
         "friction vs measurement: {} cm deployment in {} steps, truth {:?}, simulation with μ = {}",

@@ -18,7 +18,7 @@ use tensegrity_deploy::measure::lab::{run_lab, standard_cycles};
 use tensegrity_deploy::numerics::NumberRange;
 use tensegrity_deploy::sim::standard_sensors;
 
-use super::{number_in, replay_stopped, value, Outcome};
+use super::{number_in, plant_stopped, value, Outcome};
 
 /// Most `--steps` each way per cycle: the limit on a cycle's work (the
 /// default is 5).
@@ -113,7 +113,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let folder = ResultsFolder::claim(&o.out, "lab", o.force)?;
     let log = match run_lab(&model, &sensors, &cycles, o.seed) {
         Ok(log) => log,
-        Err(e) => return replay_stopped(e, format!("truth model {}", o.truth.display())),
+        Err(e) => return plant_stopped(e, format!("truth model {}", o.truth.display())),
     };
     write_log(folder.path(), &log, &model.structure)?;
     folder.commit()?;

@@ -249,11 +249,12 @@ fn number_in(m: &ArgMatches, id: &str, range: NumberRange) -> Result<f64> {
     Ok(v)
 }
 
-/// A replay that stopped, classified: a solve that did not converge, or
+/// A plant (a replay, the truth of a run) that stopped, classified: a
+/// solve that did not converge, a bridge that does not stand as built, or
 /// seat arcs that did not settle, is a run that missed its goal (exit 1);
 /// any other failure (effects the structure cannot take, a command the
 /// model cannot apply) is bad input (exit 2).
-fn replay_stopped(e: PlantError, context: String) -> Result<Outcome> {
+fn plant_stopped(e: PlantError, context: String) -> Result<Outcome> {
     match e {
         PlantError::Solver { .. }
         | PlantError::AsBuilt { .. }

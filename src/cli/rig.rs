@@ -32,7 +32,7 @@ use tensegrity_deploy::plan::limits::Limits;
 use tensegrity_deploy::sim::{standard_sensors, Plant};
 
 use super::inputs::{deployment_temperature, problem_or_default, truth_or_default};
-use super::{value, Outcome};
+use super::{plant_stopped, value, Outcome};
 
 /// The `rig` subcommand's arguments.
 pub fn command() -> Command {
@@ -82,8 +82,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let problem = problem_or_default(o.problem.as_deref(), structure.continuous_cables.len())?;
     let motors = problem.motor_limits(structure.continuous_cables.len())?;
     let sensors = standard_sensors(&structure);
-    let mut plant = Plant::new(&truth, Some(&motors.start_payout_m), temperature_c)
-        .context("the truth, reaching the folded start")?;
+    let mut plant = match Plant::new(&truth, Some(&motors.start_payout_m), temperature_c) {
+        Ok(plant) => plant,
+        Err(e) => return plant_stopped(e, "the truth, reaching the folded start".into()),
+    };
     let truth_model = plant.model().clone();
     let limits = Limits::new(&truth_model, &problem, plant.state());
     let mut restored = vec![false; limits.required.len()];

@@ -533,7 +533,7 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
                     bad(
                         at + 11,
                         &format!(
-                            "a `{BINDS_SEPARATOR}`-separated list of limit names (each printable, one line, 1 to {MAX_BIND_NAME_CHARS} characters)"
+                            "a `{BINDS_SEPARATOR}`-separated list of names (limits, motors or why a run did not start; each printable, one line, 1 to {MAX_BIND_NAME_CHARS} characters)"
                         ),
                     )
                 })

@@ -85,11 +85,12 @@ pub enum PlantError {
     /// solver can reach within the plausible strain: the effects do not
     /// let it stand (e.g. supports so compliant that, with a member error
     /// and softer cables, the bridge gives way before any fold), or the
-    /// solver fails there. Measured on the three such scenarios of
-    /// `scenarios/wide.toml` seed 9090 (7, 67, 121): followed from stiff
-    /// supports in steps, the bridge stands up to 0.6, 0.85 and 0.25 of
-    /// the drawn compliance and the next step collapses (implausible
-    /// strain) or does not converge.
+    /// solver fails there (a seat-arc fixed point that does not settle
+    /// counts as its iteration limit). On 200 scenarios of
+    /// `scenarios/wide.toml`, seed 9090, four (7, 67, 121, 123); three
+    /// were followed from stiff supports in steps (7, 67, 121): they stand
+    /// up to 0.6, 0.85 and 0.25 of the drawn compliance, and the next step
+    /// collapses (implausible strain) or does not converge.
     #[error("the bridge as built does not stand with these effects: {}", .status.describe())]
     AsBuilt {
         /// How the as-built solve ended.

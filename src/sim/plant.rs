@@ -106,11 +106,17 @@ impl Plant {
         // Effects that change the structure (mass, stiffness, supports)
         // move it off the nominal as-built equilibrium; a state already in
         // equilibrium relaxes in zero iterations and is left as it is.
-        plant.relax().map_err(|e| match e {
+        // Before any fold, a solve that fails (the relax, or the seat
+        // arcs' re-solves and their fixed point) is the bridge as built.
+        let as_built = |e| match e {
             PlantError::Solver { status, .. } => PlantError::AsBuilt { status },
+            PlantError::SeatsUnsettled { .. } => PlantError::AsBuilt {
+                status: RelaxStatus::IterationLimit,
+            },
             e => e,
-        })?;
-        plant.follow_seats()?;
+        };
+        plant.relax().map_err(as_built)?;
+        plant.follow_seats().map_err(as_built)?;
         if let Some(payout) = start_payout_m {
             // The fold moves material over the seats like any command: the
             // folded start is the settled state.

@@ -679,7 +679,8 @@ pub struct RunResult {
     pub approach_gap_m: Option<f64>,
     /// What decided a run that did not connect
     /// ([`crate::plan::RunVerdict::binds`]: the limits broken, or the
-    /// limits and motors the controller stopped on), in run order; empty
+    /// limits and motors the controller stopped on), in run order; for a
+    /// run that did not start, why ([`DeployError::start_binds`]); empty
     /// for a connected run and where nothing is named.
     pub binds: Vec<String>,
     /// Median planning time per command, s (wall clock: the one value
@@ -825,8 +826,7 @@ impl RunResult {
 /// frequent first (ties by name), and the number of those runs that name
 /// nothing (a stop whose cause is no limit: a spent command budget or
 /// nominal sequence, a solver failure, no reducing move; a gap out of
-/// tolerance; `cycles_stopped` after a connected cycle; a run that did
-/// not start).
+/// tolerance; `cycles_stopped` after a connected cycle).
 pub fn binding_counts(results: &[RunResult], policy: usize) -> (Vec<(String, usize)>, usize) {
     let mut counts: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
     let mut unnamed = 0;

@@ -82,7 +82,8 @@ pub struct RelaxReport {
     pub status: RelaxStatus,
     /// DR iterations taken.
     pub iterations: usize,
-    /// Newton iterations taken before DR.
+    /// Newton iterations taken: before DR, and in the tries from DR
+    /// iterates (`RelaxSettings::dr_newton_restart_enable`).
     pub newton_iterations: usize,
     /// Kinetic-damping resets.
     pub resets: usize,
