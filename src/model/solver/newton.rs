@@ -6,7 +6,9 @@
 //! iterations. Newton's method on the same residual, with the tangent of
 //! [`super::stiffness`] in [`JointMode::AsMapped`] (the consistent tangent of
 //! the friction return mapping), takes a handful. Whatever Newton leaves, DR
-//! continues from, and convergence is judged by the same residual test.
+//! continues from (and hands back to Newton once its iterates have settled
+//! the slip states, [`super::relax`]), and convergence is judged by the
+//! same residual test.
 //!
 //! Each Newton step solves `K·Δx = R` on the free DOFs and is shortened to
 //! `newton_max_step_rel` of the structure size. The full step is taken

@@ -13,6 +13,14 @@
 //! over the attached members (axial stiffness `k`, unit direction `e`,
 //! tension `T`, length `L`), so `Δt²·λ_max(M⁻¹K) ≤ 2`, a margin of 2 on the
 //! central-difference limit of 4. The same mass serves all three axes.
+//!
+//! DR converges at the rate of the stiffest to the softest mode, but its
+//! return mapping settles the joints' slip states within its first
+//! hundred or so iterations, which is where Newton fails (slip states that
+//! cycle between its active-set rounds). So at a reset, once enough DR
+//! iterations have passed, Newton is tried from the DR iterate with the
+//! states DR holds (`RelaxSettings::dr_newton_restart_enable`); its answer
+//! meets the same test, and a failed try leaves DR where it was.
 
 use nalgebra::Vector3;
 
