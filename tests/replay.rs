@@ -119,6 +119,9 @@ fn a_deploy_log_replayed_with_its_policy_gives_its_commands_back_and_a_refuted_c
     assert_eq!(s["interval_ends"].as_array().unwrap().len(), 0);
     assert_eq!(s["start"]["layout"], "deploy");
     assert_eq!(s["same_as_policy"], deployed.len());
+    // The replay ran to the log's end: `replay_stopped` is there, empty
+    // (a rename of the code that classifies stops once renamed it too).
+    assert!(s.get("replay_stopped").is_some_and(|v| v.is_null()), "{s}");
     // The deployment ended connected: the policy would stop there.
     assert_eq!(s["policy_next_stop"]["status"], "connected");
     // The counterfactual still ran, and is reported for what it is.

@@ -192,6 +192,14 @@ impl Deployment {
         }
     }
 
+    /// Worst truth utilisation over the commands (0 without a command).
+    pub fn truth_worst_utilisation(&self) -> f64 {
+        self.records
+            .iter()
+            .map(|r| r.truth_worst_utilisation)
+            .fold(0.0, f64::max)
+    }
+
     /// Largest true gap at the end, m.
     pub fn final_true_gap_m(&self) -> Option<f64> {
         let gaps = match self.records.last() {

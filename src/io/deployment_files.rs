@@ -198,11 +198,7 @@ impl<'a> DeploymentSummary<'a> {
             final_true_gaps_m: last.map_or(&d.start.true_gaps_m, |r| &r.true_gaps_m),
             largest_final_measured_gap_m: d.final_measured_gap_m(),
             largest_final_true_gap_m: d.final_true_gap_m(),
-            truth_worst_utilisation: d
-                .records
-                .iter()
-                .map(|r| r.truth_worst_utilisation)
-                .fold(0.0, f64::max),
+            truth_worst_utilisation: d.truth_worst_utilisation(),
             truth_limit_violations: d.truth_limit_violations,
             truth_increments_checked: d.records.iter().map(|r| r.truth_increments_checked).sum(),
             first_command_below_60_mm: d.first_below_corrective_gap,

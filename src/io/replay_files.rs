@@ -79,7 +79,7 @@ pub struct ReplaySummary<'a> {
     /// Largest difference between a logged and a policy command, m.
     pub largest_difference_m: Option<f64>,
     /// Why the replay stopped before the log's end.
-    pub plant_stopped: &'a Option<ReplayStop>,
+    pub replay_stopped: &'a Option<ReplayStop>,
     /// The policy's command after the last logged one, m.
     pub policy_next_command_m: &'a Option<Vec<f64>>,
     /// Why the policy would send nothing after the last logged command.
@@ -146,7 +146,7 @@ impl<'a> ReplaySummary<'a> {
                 .filter(|s| s.policy_stop.is_some())
                 .count(),
             largest_difference_m: replay.largest_difference_m(),
-            plant_stopped: &replay.stopped,
+            replay_stopped: &replay.stopped,
             policy_next_command_m: &replay.next_command_m,
             policy_next_stop: &replay.next_stop,
             calibration_failed: calibration.as_ref().err().cloned(),

@@ -724,11 +724,7 @@ impl RunResult {
                         .flat_map(|r| r.command_m.iter())
                         .map(|u| u.abs())
                         .sum(),
-                    worst_utilisation: d
-                        .records
-                        .iter()
-                        .map(|r| r.truth_worst_utilisation)
-                        .fold(0.0, f64::max),
+                    worst_utilisation: d.truth_worst_utilisation(),
                     truth_violations: d.truth_limit_violations,
                     approach_gap_m: d.approach_gap_m(),
                     planning_time_median_s: median(

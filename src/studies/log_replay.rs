@@ -484,11 +484,7 @@ impl Margins {
             commands: d.records.len(),
             final_measured_gap_m: d.final_measured_gap_m(),
             final_true_gap_m: d.final_true_gap_m(),
-            worst_utilisation: d
-                .records
-                .iter()
-                .map(|r| r.truth_worst_utilisation)
-                .fold(0.0, f64::max),
+            worst_utilisation: d.truth_worst_utilisation(),
             min_tension_n: d
                 .records
                 .iter()
