@@ -206,24 +206,31 @@ fn a_learnt_command_the_model_refuses_whole_is_sent_in_parts_not_cut() {
 }
 
 /// A cycle that does not connect says why on its line, as `deploy`'s
-/// verdict does: before, `cycles` printed only the status label. On the
-/// held-out truth `experiments/truths/light-friction-stiff-cables.toml`
-/// the memoryless controller stops with an unmeasured axial cable's
-/// minimum binding. (Until the tenth session it connected in the first
-/// cycle and stopped "not reachable" in the second; since the truth's
-/// folded start and every command's end are settled on the cable seats,
-/// and judged there, both cycles stop, and the stop is seen to break the
-/// axial cables' minimum: `limits_broken`, with the reason on the line.)
+/// verdict does: before, `cycles` printed only the status label. On a
+/// truth with one drum zeroed 15 mm off (`A_cc1` slack at the start, μ =
+/// 0.2) no cycle ends connected within every limit, and each line gives
+/// the verdict's reason and names the cable. (Until the thirteenth
+/// session the test used the held-out truth
+/// `experiments/truths/light-friction-stiff-cables.toml`, whose stops
+/// came from the cable seats followed only at each command's end; with
+/// the arcs following the geometry increment by increment it connects in
+/// both cycles within every limit.)
 #[test]
 fn a_cycle_that_does_not_connect_says_what_binds() {
     let dir = tempfile::tempdir().unwrap();
+    let truth = dir.path().join("drum.toml");
+    std::fs::write(
+        &truth,
+        "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n\
+         [effects.joint_friction]\nmu = 0.2\n\
+         [faults.drum_zero_error]\nmotor = \"A_cc1\"\noffset_m = 0.015\n",
+    )
+    .unwrap();
     let out = tdeploy(
         &[
             "cycles",
             "--truth",
-            repo_path("experiments/truths/light-friction-stiff-cables.toml")
-                .to_str()
-                .unwrap(),
+            truth.to_str().unwrap(),
             "--policy",
             repo_path("policies/qp.toml").to_str().unwrap(),
             "--cycles",
@@ -235,16 +242,13 @@ fn a_cycle_that_does_not_connect_says_what_binds() {
     );
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     let text = common::cli::stdout(&out);
-    let stopped: Vec<&str> = text
-        .lines()
-        .filter(|l| l.starts_with("cycle ") && !l.contains(": connected after "))
-        .collect();
-    assert!(!stopped.is_empty(), "{text}");
-    for line in stopped {
+    let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("cycle ")).collect();
+    assert_eq!(lines.len(), 2, "{text}");
+    for line in lines {
+        assert!(!line.contains(": connected after "), "{line}");
         assert!(
-            line.contains(": limits_broken (not connected: not reachable safely: ")
-                && line.contains(" binds")
-                && line.contains("truth limits broken"),
+            (line.contains(" (not connected: ") || line.contains(" (connected, but "))
+                && line.contains("A_cc1"),
             "{line}"
         );
     }

@@ -158,13 +158,15 @@ impl ForwardModel {
     ///
     /// Stops at the first increment that does not converge and reports its
     /// status; the state is then that increment's last iterate. With
-    /// cable seats, a command whose increments all converged then follows
-    /// the seat arcs, and the state they settle into, where the command
-    /// ends, goes to `observer` as one more increment ([`super::seats`];
-    /// the report's `increments` counts the payout's, its work the
-    /// re-solves' too). A state that holds no arcs yet takes them as they
-    /// are before the payout, so the command's own wrap changes move
-    /// material.
+    /// cable seats, every increment that converged is followed by the seat
+    /// arcs ([`super::seats`]): the arcs take up or give back the material
+    /// its wrap changes moved, and the state they settle into is the
+    /// increment's, the one `observer` is shown (the report's work counts
+    /// the re-solves too). So the arcs follow the geometry as it moves, 1
+    /// increment behind at most, and a move ends where it ends however it
+    /// is split into commands. A state that holds no arcs yet takes them
+    /// as they are before the payout, so the command's own wrap changes
+    /// move material.
     pub fn apply_payout(
         &self,
         state: &mut DeploymentState,
@@ -175,15 +177,15 @@ impl ForwardModel {
     ) -> Result<CommandReport, CommandError> {
         self.wrap_missing_arcs(state);
         let mut out =
-            self.apply_payout_unseated(state, ws, delta_payout_m, max_increment_m, observer)?;
+            self.apply_payout_increments(state, ws, delta_payout_m, max_increment_m, observer)?;
         if out.status.is_converged() {
             self.follow_seats_observed(state, ws, observer, out.increments, &mut out)?;
         }
         Ok(out)
     }
 
-    /// [`Self::apply_payout`] without following the seats.
-    fn apply_payout_unseated(
+    /// [`Self::apply_payout`] once the state holds its arcs.
+    fn apply_payout_increments(
         &self,
         state: &mut DeploymentState,
         ws: &mut Workspace,
@@ -246,7 +248,14 @@ impl ForwardModel {
         ws.continuation_step = 0.0;
         ws.drop_kept_tangent();
         for k in 0..count {
-            let r = self.increment_locating_slip_events(state, ws, &increment, false, &mut out);
+            // With cable seats the arcs follow the geometry increment by
+            // increment: the material their wrap changes took since the
+            // increment before is moved with this increment's payout, in
+            // one solve (the arcs lag the geometry by one increment; the
+            // command's end settles them exactly).
+            let taken = self.arcs_taken_since_held(state);
+            let r =
+                self.increment_locating_slip_events(state, ws, &increment, &taken, false, &mut out);
             observer.on_increment(k, count, &r, state);
             out.increments += 1;
             if !r.status.is_converged() {
@@ -272,6 +281,7 @@ impl ForwardModel {
         state: &mut DeploymentState,
         ws: &mut Workspace,
         increment: &[f64],
+        material_m: &[f64],
         locating: bool,
         out: &mut CommandReport,
     ) -> RelaxReport {
@@ -282,7 +292,7 @@ impl ForwardModel {
             && !self.friction.static_mu.is_zero()
             && 0.5 * largest >= self.settings.slip_event_min_substep_m;
         let start = splittable.then(|| state.clone());
-        let newton = self.newton_increment(state, ws, increment);
+        let newton = self.newton_increment_with_material(state, ws, increment, material_m);
         out.newton_iterations += newton.iterations;
         let split = |state: &mut DeploymentState,
                      ws: &mut Workspace,
@@ -293,15 +303,17 @@ impl ForwardModel {
             ws.drop_kept_tangent();
             ws.counters.slip_event_splits += 1;
             let half: Vec<f64> = increment.iter().map(|d| 0.5 * d).collect();
+            let half_material: Vec<f64> = material_m.iter().map(|d| 0.5 * d).collect();
             // Newton's continuation step is a fraction of the increment: the
             // halves keep the payout per step that worked, not the fraction
             // (it would halve the step at every level of the splitting),
             // and the parent gets the halves' last step back in its own
             // terms (rescaled, not restored: the halves may have changed it).
             ws.continuation_step = (2.0 * ws.continuation_step).min(1.0);
-            let first = self.increment_locating_slip_events(state, ws, &half, true, out);
+            let first =
+                self.increment_locating_slip_events(state, ws, &half, &half_material, true, out);
             let last = if first.status.is_converged() {
-                self.increment_locating_slip_events(state, ws, &half, true, out)
+                self.increment_locating_slip_events(state, ws, &half, &half_material, true, out)
             } else {
                 first
             };

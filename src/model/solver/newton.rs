@@ -121,26 +121,14 @@ impl ForwardModel {
         self.tangent_layout().factorisation_cost_ns() / dr
     }
 
-    /// Solves one payout increment from the equilibrium `state` by Newton
-    /// with continuation, and leaves `state` with the increment applied
-    /// (payout added to the first segments, joints stuck): on success, with
-    /// the increment's solution; on failure, at the farthest partial
-    /// solution reached (the best start for DR, which solves the same
-    /// increment from there).
-    pub(super) fn newton_increment(
-        &self,
-        state: &mut DeploymentState,
-        ws: &mut Workspace,
-        delta_payout_m: &[f64],
-    ) -> NewtonOutcome {
-        self.newton_increment_with_material(state, ws, delta_payout_m, &[])
-    }
-
-    /// [`Self::newton_increment`] with the material of every segment also
-    /// changed by `delta_rest_m` (m, flat as the segments; empty: none),
-    /// ramped with the payout: what the cable seats move
-    /// ([`super::seats`]), so that continuation carries it as it carries a
-    /// payout.
+    /// Solves one increment from the equilibrium `state` by Newton with
+    /// continuation: the payout `delta_payout_m` and a change of every
+    /// segment's material `delta_rest_m` (m, flat as the segments; empty:
+    /// none; what the cable seats move, [`super::seats`]) ramped together.
+    /// Leaves `state` with the increment applied (payout added to the
+    /// first segments, joints stuck): on success, with the increment's
+    /// solution; on failure, at the farthest partial solution reached (the
+    /// best start for DR, which solves the same increment from there).
     pub(super) fn newton_increment_with_material(
         &self,
         state: &mut DeploymentState,
