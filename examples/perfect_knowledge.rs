@@ -9,16 +9,19 @@
 //! - `truth_model`: both, the truth's forward model (the motor, thermal
 //!   and sensor effects stay hidden: they act in the plant);
 //! - `truth_seats`: the frictionless reference bridge over the truth's
-//!   cable seats (its joint eccentricity, exactly).
+//!   cable seats (its joint eccentricity, exactly);
+//! - `truth_supports`: the frictionless reference bridge on the truth's
+//!   flexible supports (its compliance, exactly; a model over flexible
+//!   supports appends their nodes to the bridge's, see
+//!   `control::check_same_bridge`).
 //!
-//! Flexible supports stay out of both: they add nodes and members, and a
-//! controller's model must be the truth's bridge node for node
-//! (`control::BridgeMismatch`).
+//! Flexible supports stay out of `truth_structure` and `truth_model`, as
+//! they were measured before a model could have them.
 //!
 //! From the repository root:
 //! `cargo run --release --example perfect_knowledge -- D.toml SEED N [POLICY [CONTROLLERS]]`
 //! (POLICY default `policies/qp.toml`; CONTROLLERS a comma-separated
-//! subset of the five, default all) prints one CSV row per scenario: for each controller its status,
+//! subset of the six, default all) prints one CSV row per scenario: for each controller its status,
 //! whether it succeeded (connected, no truth limit broken), truth
 //! violations, commands, final true gap (m) and wall time (s), then the
 //! μ and fold the scenario drew. The truths, sensors and noise are the ones `tdeploy
@@ -35,12 +38,13 @@ use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::DeploymentProblem;
 use tensegrity_deploy::studies::evaluation::RunResult;
 
-const CONTROLLERS: [&str; 5] = [
+const CONTROLLERS: [&str; 6] = [
     "nominal",
     "truth_mu",
     "truth_structure",
     "truth_model",
     "truth_seats",
+    "truth_supports",
 ];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -108,6 +112,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .map_err(|e| e.to_string())?,
                 None => nominal.clone(),
             };
+            let truth_supports = {
+                let only = tensegrity_deploy::model::Effects {
+                    support_flexibility: truth.effects.support_flexibility,
+                    ..Default::default()
+                };
+                tensegrity_deploy::sim::EffectModel::for_measurement(bridge.clone(), only)
+                    .forward_model()
+                    .map_err(|e| e.to_string())?
+            };
             let mut row = format!("{i}");
             for (k, model) in [
                 &nominal,
@@ -115,6 +128,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &truth_structure,
                 &truth_model,
                 &truth_seats,
+                &truth_supports,
             ]
             .into_iter()
             .enumerate()

@@ -227,24 +227,22 @@ fn a_bad_distribution_file_exits_2_naming_file_line_and_field() {
     );
 }
 
-/// A controller's model with flexible supports has more nodes than the
-/// bridge the truths are drawn on: every run would stop unstarted, so the
-/// model file is refused up front, named, with nothing written.
+/// Known limitation 20: a model with flexible supports appends bearings
+/// and ground nodes to the bridge's own, and was refused as another
+/// bridge (exit 2, "nodes"). It is the truths' bridge (they are drawn on
+/// the bridge the model file names): every run starts on it.
 #[test]
-fn a_model_that_is_not_the_truths_bridge_node_for_node_exits_2_naming_it() {
+fn a_model_with_flexible_supports_plans_on_the_truths_bridge() {
     let supports =
-        format!("{REFERENCE_MODEL}[effects.support_flexibility]\ncompliance_m_per_n = 1e-6\n");
+        format!("{REFERENCE_MODEL}[effects.support_flexibility]\ncompliance_m_per_n = 3e-5\n");
     let tmp = dir_with(&[("supports.toml", &supports)]);
     let file = tmp.path().join("supports.toml");
     let o = tmp.path().join("o");
     let out = evaluate(&o, &["--model", file.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(2));
-    let err = stderr(&out);
-    assert!(
-        err.contains("supports.toml") && err.contains("nodes"),
-        "{err}"
-    );
-    assert!(!o.exists(), "nothing written");
+    ok(&out);
+    let runs = std::fs::read_to_string(o.join("runs.csv")).unwrap();
+    assert!(!runs.contains("not_started"), "{runs}");
+    assert!(runs.contains("connected"), "{runs}");
 }
 
 /// Issue 22: a run that does not connect names what binds. Folds of

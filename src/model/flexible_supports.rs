@@ -133,6 +133,12 @@ pub fn with_flexible_supports(
     )
 }
 
+/// Whether the node named `id` is one [`with_flexible_supports`] appended
+/// (a bearing or a ground node), not a node of the bridge itself.
+pub fn is_support_node(id: &str) -> bool {
+    id.ends_with("~bearing") || id.contains("~ground_")
+}
+
 /// The reaction the supports give each node's fixed DOFs in the as-built
 /// geometry, from the members only (the drums take the continuous cables'
 /// pull), N.
