@@ -6,8 +6,9 @@
 //!   from the folded state (every cable paid out 40 cm), μ = 0 and 0.2,
 //!   and μ = 0.2 with slip-event sub-steps (issue 25 asks at most 1.2×);
 //! - the same deployment as eight 5 cm commands over cable seats of 2 cm
-//!   radius (joint eccentricity; every command ends with the seat arcs
-//!   followed), μ = 0.2, and the same with DR alone finishing what
+//!   radius (joint eccentricity; the seat arcs move with every increment
+//!   and every command ends with them followed), μ = 0.2, and the same
+//!   with DR alone finishing what
 //!   Newton leaves (`dr_newton_restart_enable` off);
 //! - the 7×7 cable net from its initial geometry to 1e-6 m accuracy;
 //! - N×N cable nets (N = 5, 11, 21; the peer benchmark's nets) from flat
@@ -127,8 +128,9 @@ fn whole_deployment(c: &mut Criterion) {
 }
 
 /// The 40 cm deployment at μ = 0.2 as eight 5 cm commands over cable
-/// seats of 2 cm radius: each command ends with the seat arcs followed to
-/// their fixed point (the truth plant's work on every scenario of
+/// seats of 2 cm radius: the arcs' material moves with every increment and
+/// each command ends with the arcs followed to their fixed point (the
+/// truth plant's work on every scenario of
 /// `scenarios/wide.toml`). Also with `dr_newton_restart_enable` off (DR
 /// alone finishes what Newton leaves), the ratio in one run.
 fn deployment_over_seats(c: &mut Criterion) {
