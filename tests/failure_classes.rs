@@ -164,8 +164,7 @@ fn a_load_cell_bias_is_not_read_as_slack_cables() {
 /// supports model −1.5 % and −3.2 %, none.
 #[test]
 fn a_model_with_the_truths_flexible_supports_is_planned_on() {
-    use common::fixtures::reference_structure;
-    use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup};
+    use common::fixtures::{deploy_planning_on, reference_structure};
     let supports = "[effects.support_flexibility]\ncompliance_m_per_n = 5e-5\n";
     let truth_text = format!("{HEADER}[effects.joint_friction]\nmu = 0.2\n\n{supports}");
     let truth = parse_model(&truth_text, Path::new("truth.toml"))
@@ -181,16 +180,16 @@ fn a_model_with_the_truths_flexible_supports_is_planned_on() {
     assert!(model.structure().nodes.len() > reference_structure().nodes.len());
     let sensors = standard_sensors(&truth.structure);
     let (problem, policy) = (DeploymentProblem::default(), Policy::default());
-    let setup = ClosedLoopSetup {
-        model: &model,
-        problem: &problem,
-        policy: &policy,
-        truth: &truth,
-        sensors: &sensors,
-        temperature_c: None,
-        seed: 1,
-    };
-    let d = deploy_closed_loop(&setup, &mut ()).unwrap();
+    let d = deploy_planning_on(
+        &model,
+        &truth,
+        &sensors,
+        &problem,
+        &policy,
+        None,
+        1,
+        &mut (),
+    );
     let v = d.verdict(problem.connection_tolerance_m);
     assert!(v.is_connected(), "{}", v.describe());
     assert_eq!(v.violations, 0, "{}", v.describe());

@@ -94,8 +94,33 @@ pub fn deploy_frictionless_controller(
     observer: &mut dyn DeployObserver,
 ) -> Deployment {
     let model = frictionless_reference_model();
+    deploy_planning_on(
+        &model,
+        truth,
+        sensors,
+        problem,
+        policy,
+        temperature_c,
+        seed,
+        observer,
+    )
+}
+
+/// [`deploy_frictionless_controller`] with the controller planning on
+/// `model`.
+#[allow(clippy::too_many_arguments)]
+pub fn deploy_planning_on(
+    model: &ForwardModel,
+    truth: &EffectModel,
+    sensors: &[Sensor],
+    problem: &DeploymentProblem,
+    policy: &Policy,
+    temperature_c: Option<f64>,
+    seed: u64,
+    observer: &mut dyn DeployObserver,
+) -> Deployment {
     let setup = ClosedLoopSetup {
-        model: &model,
+        model,
         problem,
         policy,
         truth,
