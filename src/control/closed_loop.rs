@@ -114,12 +114,22 @@ impl DeployError {
 /// How the truth's bridge differs from the controller's model's.
 #[derive(Debug, Clone, PartialEq)]
 pub enum BridgeMismatch {
-    /// Different node counts.
+    /// Different node counts (of the bridge: nodes a structure over
+    /// flexible supports appends for them do not count).
     NodeCount {
         /// Nodes in the model.
         model: usize,
         /// Nodes in the truth.
         truth: usize,
+    },
+    /// The same count, another node at an index.
+    NodeId {
+        /// The first index where they differ.
+        index: usize,
+        /// The model's node there.
+        model: String,
+        /// The truth's node there.
+        truth: String,
     },
     /// Different continuous cables: ids or segment counts.
     ContinuousCables,
@@ -134,6 +144,11 @@ impl BridgeMismatch {
             BridgeMismatch::NodeCount { model, truth } => {
                 format!("{model} nodes in the model, {truth} in the truth")
             }
+            BridgeMismatch::NodeId {
+                index,
+                model,
+                truth,
+            } => format!("node {index} is {model} in the model, {truth} in the truth"),
             BridgeMismatch::ContinuousCables => {
                 "the continuous cables (ids or segment counts) differ".into()
             }
@@ -150,20 +165,35 @@ impl BridgeMismatch {
 /// bearings and ground nodes after them, which nothing reads by index.
 pub fn check_same_bridge(model: &Structure, truth: &Structure) -> Result<(), DeployError> {
     let mismatch = |what| Err(DeployError::Mismatch(what));
-    // A model with flexible supports appends its bearings and ground
-    // nodes after the bridge's own; the truth's bridge is before effects.
-    let bridge_nodes = model
-        .nodes
-        .iter()
-        .filter(|n| !is_support_node(&n.id))
-        .count();
-    let appended_last = model.nodes[..bridge_nodes.min(model.nodes.len())]
-        .iter()
-        .all(|n| !is_support_node(&n.id));
-    if bridge_nodes != truth.nodes.len() || !appended_last {
+    // A structure over flexible supports has the bridge's nodes first and
+    // its bearings and ground nodes after them: the bridge's node count,
+    // `None` where a support node comes before a bridge node.
+    let bridge_nodes = |s: &Structure| -> Option<usize> {
+        let n = s
+            .nodes
+            .iter()
+            .take_while(|node| !is_support_node(&node.id))
+            .count();
+        s.nodes[n..]
+            .iter()
+            .all(|node| is_support_node(&node.id))
+            .then_some(n)
+    };
+    let (m, t) = (bridge_nodes(model), bridge_nodes(truth));
+    let (Some(m), Some(t)) = (m, t) else {
         return mismatch(BridgeMismatch::NodeCount {
-            model: model.nodes.len(),
-            truth: truth.nodes.len(),
+            model: m.unwrap_or(model.nodes.len()),
+            truth: t.unwrap_or(truth.nodes.len()),
+        });
+    };
+    if m != t {
+        return mismatch(BridgeMismatch::NodeCount { model: m, truth: t });
+    }
+    if let Some(index) = (0..m).find(|&i| model.nodes[i].id != truth.nodes[i].id) {
+        return mismatch(BridgeMismatch::NodeId {
+            index,
+            model: model.nodes[index].id.clone(),
+            truth: truth.nodes[index].id.clone(),
         });
     }
     let cables = |s: &Structure| -> Vec<(String, usize)> {
@@ -383,6 +413,14 @@ mod tests {
                 "the continuous cables (ids or segment counts) differ",
             ),
             (BridgeMismatch::MidspanPairs, "the midspan pairs differ"),
+            (
+                BridgeMismatch::NodeId {
+                    index: 3,
+                    model: "A_r0_n3".into(),
+                    truth: "A_r0_n4".into(),
+                },
+                "node 3 is A_r0_n3 in the model, A_r0_n4 in the truth",
+            ),
         ];
         for (m, text) in cases {
             assert_eq!(m.describe(), text);
@@ -445,10 +483,21 @@ mod tests {
             check_same_bridge(&extra, &structure),
             Err(DeployError::Mismatch(BridgeMismatch::NodeCount { .. }))
         ));
-        let mut interleaved = supported;
+        let mut interleaved = supported.clone();
         let last = interleaved.nodes.len() - 1;
         interleaved.nodes.swap(0, last);
         assert!(check_same_bridge(&interleaved, &structure).is_err());
+        // Either side may be over supports; a node renamed is another bridge.
+        assert_eq!(check_same_bridge(&structure, &supported), Ok(()));
+        let mut renamed = supported;
+        renamed.nodes[2].id.push_str("_other");
+        assert!(matches!(
+            check_same_bridge(&renamed, &structure),
+            Err(DeployError::Mismatch(BridgeMismatch::NodeId {
+                index: 2,
+                ..
+            }))
+        ));
         let mut other = default_truth(structure);
         other.structure.midspan_pairs.swap(0, 1);
         let e = deploy_closed_loop(&setup(&other), &mut ()).unwrap_err();

@@ -158,15 +158,17 @@ impl ForwardModel {
     ///
     /// Stops at the first increment that does not converge and reports its
     /// status; the state is then that increment's last iterate. With
-    /// cable seats, every increment that converged is followed by the seat
-    /// arcs ([`super::seats`]): the arcs take up or give back the material
-    /// its wrap changes moved, and the state they settle into is the
-    /// increment's, the one `observer` is shown (the report's work counts
-    /// the re-solves too). So the arcs follow the geometry as it moves, 1
-    /// increment behind at most, and a move ends where it ends however it
-    /// is split into commands. A state that holds no arcs yet takes them
-    /// as they are before the payout, so the command's own wrap changes
-    /// move material.
+    /// cable seats ([`super::seats`]) each increment also moves the
+    /// material the arcs' wrap changes took since the increment before
+    /// (the arcs follow the geometry one increment behind), and a command
+    /// whose increments all converged then follows the arcs to their fixed
+    /// point: the state they settle into, where the command ends, goes to
+    /// `observer` as one more increment (the report's `increments` counts
+    /// the payout's, its work the re-solves' too). So a move ends where it
+    /// ends however it is split into commands, to the scheme's error of
+    /// one increment's arcs. A state that holds no arcs yet takes them as
+    /// they are before the payout, so the command's own wrap changes move
+    /// material.
     pub fn apply_payout(
         &self,
         state: &mut DeploymentState,
@@ -315,6 +317,11 @@ impl ForwardModel {
             let last = if first.status.is_converged() {
                 self.increment_locating_slip_events(state, ws, &half, &half_material, true, out)
             } else {
+                // Only the first half's share of the arcs' material reached
+                // the segments: the held arcs keep the rest back.
+                for (held, d) in state.seat_material_m.iter_mut().zip(&half_material) {
+                    *held += d;
+                }
                 first
             };
             ws.continuation_step *= 0.5;
@@ -334,7 +341,8 @@ impl ForwardModel {
         let event = if locating {
             slip_event(&start.joint_slip, &state.joint_slip)
         } else {
-            largest_reversal_transfer_m(&start, state) >= self.settings.slip_event_min_transfer_m
+            largest_reversal_transfer_m(&start, state, material_m)
+                >= self.settings.slip_event_min_transfer_m
                 && slip_reversal(&start.joint_slip, &state.joint_slip)
         };
         if !(r.status.is_converged() && event) {
@@ -348,13 +356,19 @@ impl ForwardModel {
 /// through a joint that slid one way at the start and the other way at the
 /// end (0 if none reversed). What passes a joint is what its downstream
 /// segments gained.
-fn largest_reversal_transfer_m(start: &DeploymentState, end: &DeploymentState) -> f64 {
+fn largest_reversal_transfer_m(
+    start: &DeploymentState,
+    end: &DeploymentState,
+    material_m: &[f64],
+) -> f64 {
     let mut largest = 0.0f64;
     for cable in start.segment_offsets.windows(2) {
         let mut passed = 0.0;
         // Joint `j` sits between segments `j − 1` and `j` (none at the motor).
         for j in (cable[0] + 1..cable[1]).rev() {
-            passed += end.segment_rest_lengths_m[j] - start.segment_rest_lengths_m[j];
+            // What the seat arcs gave or took is no material passing a joint.
+            let seats = material_m.get(j).copied().unwrap_or(0.0);
+            passed += end.segment_rest_lengths_m[j] - start.segment_rest_lengths_m[j] - seats;
             if slip_reversal(&start.joint_slip[j..=j], &end.joint_slip[j..=j]) {
                 largest = largest.max(passed.abs());
             }
@@ -469,18 +483,18 @@ mod tests {
         after.segment_rest_lengths_m[o + 3] += 1e-4;
         before.joint_slip[o + 2] = JointSlip::TowardsMotor;
         after.joint_slip[o + 2] = JointSlip::TowardsEnd;
-        let passed = largest_reversal_transfer_m(&before, &after);
+        let passed = largest_reversal_transfer_m(&before, &after, &[]);
         assert!((passed - 3e-4).abs() < 1e-12, "{passed}");
         // Joint o+3 reversing instead passed only 0.1 mm.
         before.joint_slip[o + 2] = JointSlip::TowardsMotor;
         after.joint_slip[o + 2] = JointSlip::TowardsMotor;
         before.joint_slip[o + 3] = JointSlip::TowardsEnd;
         after.joint_slip[o + 3] = JointSlip::TowardsMotor;
-        let passed = largest_reversal_transfer_m(&before, &after);
+        let passed = largest_reversal_transfer_m(&before, &after, &[]);
         assert!((passed - 1e-4).abs() < 1e-12, "{passed}");
         // Stopping is no reversal.
         after.joint_slip[o + 3] = JointSlip::Stuck;
-        assert_eq!(largest_reversal_transfer_m(&before, &after), 0.0);
+        assert_eq!(largest_reversal_transfer_m(&before, &after, &[]), 0.0);
     }
 
     /// Reversals that pass less than `slip_event_min_transfer_m` through

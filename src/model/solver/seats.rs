@@ -20,7 +20,7 @@
 //! out of the segments at once, after its payout. From a 40 cm fold (μ =
 //! 0.2, 20 mm seats) one 10 cm reel-in ended 4.6 mm and 37 N from the same
 //! move made in 1 mm commands, at any increment size; increment by
-//! increment it ends 0.3 mm and 2.5 N from it at 1 cm increments and
+//! increment it ends 0.3 mm and 2.0 N from it at 1 cm increments and
 //! under 0.01 mm at 1 mm, and as ten 1 cm commands end (test
 //! `a_move_over_seats_ends_where_it_ends_however_it_is_split_into_commands`;
 //! known limitations, item 8).
@@ -377,7 +377,7 @@ mod tests {
     /// same move in 1 mm commands, whatever its increments. The arcs now
     /// follow the geometry increment by increment: one command ends as
     /// ten commands of its increments do, and converges with the
-    /// increment (0.3 mm and 2.5 N from the 1 mm path at 1 cm increments,
+    /// increment (0.3 mm and 2.0 N from the 1 mm path at 1 cm increments,
     /// under 0.01 mm at 1 mm).
     #[test]
     fn a_move_over_seats_ends_where_it_ends_however_it_is_split_into_commands() {
@@ -438,7 +438,7 @@ mod tests {
             "one against ten commands: {dx} m, {df} N"
         );
         // The scheme's error is the increment's: 1 cm increments within a
-        // millimetre and 5 N of the 1 mm path (0.3 mm, 2.5 N measured),
+        // millimetre and 5 N of the 1 mm path (0.3 mm, 2.0 N measured),
         // 1 mm increments within 0.05 mm and 0.5 N.
         let (dx, df) = apart(&moved(1, 0.01), &converged);
         assert!(dx < 1e-3 && df < 5.0, "1 cm increments: {dx} m, {df} N");
