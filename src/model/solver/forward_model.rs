@@ -146,8 +146,10 @@ impl ForwardModel {
 
     /// This model with the continuous cables running over cable seats of
     /// radius `seat_radius_m` (m, finite, ≥ 0) around the joint centres
-    /// (joint eccentricity, [`crate::model::cable_seats`]): every command
-    /// ends with the seat arcs followed ([`Self::follow_seats`]).
+    /// (joint eccentricity, [`crate::model::cable_seats`]): every increment
+    /// of a command moves the material the seat arcs took, and every
+    /// command ends with the arcs followed to their fixed point
+    /// ([`Self::follow_seats`]).
     pub fn with_cable_seats(mut self, seat_radius_m: f64) -> Result<Self, SettingsError> {
         if !(seat_radius_m >= 0.0 && seat_radius_m.is_finite()) {
             return Err(SettingsError {

@@ -3,7 +3,7 @@
 //! `residual` with the friction return mapping, dynamic relaxation
 //! ([`relax`]), Newton with the consistent friction tangent (`newton`),
 //! commands applied in increments ([`command`]), the cable seats
-//! followed to the end of a command ([`seats`]), and the payout
+//! followed through a command ([`seats`]), and the payout
 //! sensitivities of an equilibrium ([`sensitivity`]).
 
 pub mod command;
