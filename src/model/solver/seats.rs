@@ -42,6 +42,17 @@ use crate::model::state::DeploymentState;
 /// The seat arcs are followed until they change by less than this between
 /// two solves, m: a thousandth of the 1 mm position noise.
 pub const SEAT_TOLERANCE_M: f64 = 1e-6;
+/// The seat arcs of a geometry against the arcs a state holds.
+struct ArcChange {
+    /// Material on each segment's arc at the geometry, m.
+    now_m: Vec<f64>,
+    /// Change of each segment's material that moving the arcs there
+    /// makes, m (held − now: negative where an arc takes material).
+    segment_change_m: Vec<f64>,
+    /// The largest |change|, m.
+    largest_m: f64,
+}
+
 /// Most re-solves per command for the seat arcs (each a warm, zero-payout
 /// increment; two or three are typical).
 const MAX_SEAT_SOLVES: usize = 20;
@@ -98,32 +109,22 @@ impl ForwardModel {
         ws: &mut Workspace,
         out: &mut CommandReport,
     ) -> Result<Option<RelaxReport>, CommandError> {
-        let Some(radius_m) = self.seat_radius_m else {
-            return Ok(None);
-        };
         let mut last: Option<RelaxReport> = None;
         let mut change_m = f64::INFINITY;
         // The arcs are measured after each re-solve, the last included.
         for solves in 0..=MAX_SEAT_SOLVES {
-            let now = seat_material_m(&self.structure, &state.positions_m, radius_m);
-            change_m = now
-                .iter()
-                .zip(&state.seat_material_m)
-                .map(|(after, before)| (after - before).abs())
-                .fold(0.0, f64::max);
+            let Some(arcs) = self.arc_change(state) else {
+                return Ok(None);
+            };
+            change_m = arcs.largest_m;
             if change_m < SEAT_TOLERANCE_M {
                 return Ok(last);
             }
             if solves == MAX_SEAT_SOLVES {
                 break;
             }
-            let taken: Vec<f64> = now
-                .iter()
-                .zip(&state.seat_material_m)
-                .map(|(after, before)| before - after)
-                .collect();
-            state.seat_material_m = now;
-            let r = self.solve_material_change(state, ws, &taken);
+            state.seat_material_m = arcs.now_m;
+            let r = self.solve_material_change(state, ws, &arcs.segment_change_m);
             out.add_solve(&r);
             if !r.status.is_converged() {
                 out.status = r.status;
@@ -141,24 +142,31 @@ impl ForwardModel {
     /// by [`SEAT_TOLERANCE_M`] (the state is then unchanged). The caller
     /// makes that change in its next solve.
     pub(super) fn arcs_taken_since_held(&self, state: &mut DeploymentState) -> Vec<f64> {
-        let Some(radius_m) = self.seat_radius_m else {
-            return Vec::new();
-        };
-        let now = seat_material_m(&self.structure, &state.positions_m, radius_m);
-        let moved = now
-            .iter()
-            .zip(&state.seat_material_m)
-            .any(|(after, before)| (after - before).abs() >= SEAT_TOLERANCE_M);
-        if !moved {
-            return Vec::new();
+        match self.arc_change(state) {
+            Some(arcs) if arcs.largest_m >= SEAT_TOLERANCE_M => {
+                state.seat_material_m = arcs.now_m;
+                arcs.segment_change_m
+            }
+            _ => Vec::new(),
         }
-        let taken = now
+    }
+
+    /// The arcs of `state`'s geometry measured against the arcs it holds;
+    /// `None` without seats.
+    fn arc_change(&self, state: &DeploymentState) -> Option<ArcChange> {
+        let radius_m = self.seat_radius_m?;
+        let now_m = seat_material_m(&self.structure, &state.positions_m, radius_m);
+        let segment_change_m: Vec<f64> = now_m
             .iter()
             .zip(&state.seat_material_m)
             .map(|(after, before)| before - after)
             .collect();
-        state.seat_material_m = now;
-        taken
+        let largest_m = segment_change_m.iter().fold(0.0f64, |a, d| a.max(d.abs()));
+        Some(ArcChange {
+            now_m,
+            segment_change_m,
+            largest_m,
+        })
     }
 
     /// Gives `state` the arcs of its geometry where it holds none (a state
