@@ -467,6 +467,7 @@ fn evaluate_with_cycles_reports_the_last_cycle_of_each_scenarios_cycles() {
         problem: &problem,
         seed: 1,
         cycles: 2,
+        truth_slip_event_substeps: false,
     };
     let (scenarios, results) = evaluate(&setup, &[0, 3], &|| {});
     assert_eq!(results.len(), 4);

@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::cli::{failed_with, stderr, stdout, tdeploy, tdeploy_with, RunOptions};
+use common::cli::{failed_with, stderr, stdout, succeeded, tdeploy, tdeploy_with, RunOptions};
 use common::files::{files, read_json};
 use common::fixtures::{
     deploy_frictionless_controller, frictionless_reference_model, reference_structure,
@@ -494,6 +494,7 @@ fn the_evaluation_is_the_same_at_any_thread_count_and_sharding() {
         problem: &problem,
         seed: 3,
         cycles: 1,
+        truth_slip_event_substeps: false,
     };
     // Planning times are wall clock: the one value allowed to differ.
     let timeless = |mut r: RunResult| {
@@ -751,6 +752,56 @@ fn an_uneven_fold_connects_without_breaking_a_limit() {
     let d = deploy_on(&truth, &sensors, &problem, &gaps_only, 1, &mut ());
     let v = d.verdict(problem.connection_tolerance_m);
     assert!(v.violations > 10, "gaps only: {}", v.describe());
+}
+
+/// Issue 25: `deploy --slip-event-substeps` judges the run on a truth that
+/// splits its increments at its joints' slip events, whose path does not
+/// depend on the 1 cm increment. On the uneven fold of the test above
+/// (seed 1) that truth shows what the 1 cm truth hides (known limitations,
+/// item 15): the first command reverses every joint of half A, the joints
+/// stick before they slide back, and reeling in tensions the segments next
+/// to the motor while those beyond fall: `A_cc1[2]`, below its 5 N minimum
+/// since the fold (4.8 N), to 4.3 N, and `A_cc1[3]` to 4.4 N, a dip the
+/// frictionless controller cannot see. The plain truth maps each reversal at its
+/// increment's end and the same run keeps every limit. The summary names
+/// the truth it was judged on.
+#[test]
+fn a_truth_split_at_slip_events_shows_the_reversal_dip_after_an_uneven_fold() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("uneven.toml"),
+        "format = \"tensegrity-deploy/problem/1\"\nstart_payout_m = [0.45, 0.45, 0.45, 0.45, 0.45, 0.33, 0.33, 0.33, 0.33, 0.33]\n",
+    )
+    .unwrap();
+    succeeded(&tdeploy(
+        &["deploy", "--problem", "uneven.toml", "-o", "plain"],
+        dir.path(),
+    ));
+    let e = failed_with(
+        &tdeploy(
+            &[
+                "deploy",
+                "--problem",
+                "uneven.toml",
+                "--slip-event-substeps",
+                "-o",
+                "split",
+            ],
+            dir.path(),
+        ),
+        1,
+    );
+    assert!(e.contains("A_cc1[2]") && e.contains("command 1"), "{e}");
+    let summary = read_json(&dir.path().join("split/summary.json"));
+    assert_eq!(summary["outcome"], "limits_broken");
+    assert!(
+        summary["truth"]
+            .as_str()
+            .unwrap()
+            .ends_with("increments split at slip events"),
+        "{}",
+        summary["truth"]
+    );
 }
 
 /// Issue 22, item 7: scenario 34 of `scenarios/wide.toml`, seed 777 (half

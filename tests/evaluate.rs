@@ -190,6 +190,43 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
     }
 }
 
+/// Issue 25: `--slip-event-substeps` splits each truth's increments at
+/// its joints' slip events. It changes what the runs are judged on, so
+/// `evaluation.toml` records it (only when set: earlier records read as
+/// without it) and a shard judged on split truths does not merge with
+/// shards judged on plain ones.
+#[test]
+fn truths_split_at_slip_events_are_recorded_and_do_not_merge_with_plain_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = |name: &str| -> PathBuf { tmp.path().join(name) };
+    let plain = |k: &str| evaluate(&dir(&format!("plain{k}")), &["--shard", &format!("{k}/2")]);
+    ok(&plain("1"));
+    ok(&evaluate(
+        &dir("split2"),
+        &["--shard", "2/2", "--slip-event-substeps"],
+    ));
+    let record = |d: &str| std::fs::read_to_string(dir(d).join("evaluation.toml")).unwrap();
+    assert!(
+        record("split2").contains("truth_slip_event_substeps = true"),
+        "{}",
+        record("split2")
+    );
+    assert!(!record("plain1").contains("truth_slip_event_substeps"));
+    let o = dir("merged");
+    let err = failed_with(
+        &tdeploy_in_repo(&[
+            "merge",
+            dir("plain1").to_str().unwrap(),
+            dir("split2").to_str().unwrap(),
+            "-o",
+            o.to_str().unwrap(),
+        ]),
+        2,
+    );
+    assert!(err.contains("truth_slip_event_substeps"), "{err}");
+    assert!(!o.exists());
+}
+
 #[test]
 fn cycles_out_of_range_exit_2_naming_the_flag() {
     let tmp = tempfile::tempdir().unwrap();

@@ -1,6 +1,6 @@
 //! `tdeploy cycles [--truth T] [--model M] [--policy P] [--problem F]
-//! [--cycles N] [--memory FILE] [--temperature °C] [--seed S] [--threads N]
-//! [-o DIR] [--force]`: repeated
+//! [--cycles N] [--memory FILE] [--temperature °C] [--seed S]
+//! [--slip-event-substeps] [--threads N] [-o DIR] [--force]`: repeated
 //! deployment-fold cycles on one truth, learning into a case memory
 //! ([`tensegrity_deploy::studies::cycles`]).
 //!
@@ -66,6 +66,7 @@ pub fn command() -> Command {
         .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature during the deployment, °C (held throughout); needed by a truth with a thermal effect, which expands its members from their reference temperature"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise (cycle k uses a seed derived from it)"))
         .arg(Arg::new("out").long("out").short('o').default_value("out/cycles").value_parser(value_parser!(PathBuf)).help("Folder for cycles.csv, cycles.svg, timing.csv (and memory.tdm without --memory)"))
+        .arg(super::truth_substeps_arg())
         .arg(super::threads_arg())
         .arg(super::force_arg())
 }
@@ -90,6 +91,8 @@ pub struct Options {
     pub temperature_c: Option<f64>,
     /// Seed of the sensor noise.
     pub seed: u64,
+    /// The truth splits its increments at slip events.
+    pub truth_slip_event_substeps: bool,
     /// Worker threads; `None`: rayon's default.
     pub threads: Option<usize>,
     /// Results folder.
@@ -114,6 +117,7 @@ impl Options {
             memory: m.get_one::<PathBuf>("memory").cloned(),
             temperature_c: m.get_one::<f64>("temperature").copied(),
             seed: value(m, "seed")?,
+            truth_slip_event_substeps: m.get_flag("slip-event-substeps"),
             threads: super::threads_option(m)?,
             out: value(m, "out")?,
             force: m.get_flag("force"),
@@ -203,7 +207,11 @@ pub fn run(o: &Options) -> Result<Outcome> {
     replayed.increment_m = policy.increment_m;
     // The default truth stands on the bridge the model file names, before
     // its effects: those are the controller's belief, not the bridge's.
-    let (_, truth, truth_words) = truth_or_default(o.truth.as_deref(), o.model.as_deref())?;
+    let (_, truth, truth_words) = truth_or_default(
+        o.truth.as_deref(),
+        o.model.as_deref(),
+        o.truth_slip_event_substeps,
+    )?;
     let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &truth_words)?;
     let problem = problem_or_default(
         o.problem.as_deref(),

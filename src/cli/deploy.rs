@@ -61,6 +61,7 @@ pub fn command() -> Command {
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (default: fold 0.40 m, 30 mm connection, documented limits)"))
         .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature during the deployment, °C (held throughout); needed by a truth with a thermal effect, which expands its members from their reference temperature"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
+        .arg(super::truth_substeps_arg())
         .arg(super::threads_arg())
         .arg(Arg::new("out").long("out").short('o').default_value("out/deploy").value_parser(value_parser!(PathBuf)).help("Folder for commands.csv, log/, deployment.csv, summary.json, deployment.svg, timing.csv, truth.toml and model.toml"))
         .arg(super::force_arg())
@@ -83,6 +84,8 @@ pub struct Options {
     pub temperature_c: Option<f64>,
     /// Seed of the sensor noise.
     pub seed: u64,
+    /// The truth splits its increments at slip events.
+    pub truth_slip_event_substeps: bool,
     /// Worker threads; `None`: rayon's default.
     pub threads: Option<usize>,
     /// Results folder.
@@ -104,6 +107,7 @@ impl Options {
             problem: m.get_one::<PathBuf>("problem").cloned(),
             temperature_c: m.get_one::<f64>("temperature").copied(),
             seed: value(m, "seed")?,
+            truth_slip_event_substeps: m.get_flag("slip-event-substeps"),
             threads,
             out: value(m, "out")?,
             json: m.get_flag("json"),
@@ -128,8 +132,11 @@ pub fn run(o: &Options) -> Result<Outcome> {
     // Claimed before the work, so that a refusal costs nothing; the set
     // is written whole (old or new, never a mix).
     let folder = ResultsFolder::claim(&o.out, "deploy", o.force)?;
-    let (truth_file, truth, truth_words) =
-        truth_or_default(o.truth.as_deref(), o.model.as_deref())?;
+    let (truth_file, truth, truth_words) = truth_or_default(
+        o.truth.as_deref(),
+        o.model.as_deref(),
+        o.truth_slip_event_substeps,
+    )?;
     let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &truth_words)?;
     let (model_file, model_words) = controller_model_file(o.model.as_deref())?;
     let model_file = absolute(model_file)?;

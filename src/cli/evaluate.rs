@@ -1,5 +1,6 @@
 //! `tdeploy evaluate [--policy P]… [--scenarios N] [--seed S]
-//! [--distribution F] [--model M] [--problem F] [--cycles K] [--shard k/n]
+//! [--distribution F] [--model M] [--problem F] [--cycles K]
+//! [--slip-event-substeps] [--shard k/n]
 //! [--threads N] [-o DIR] [--force]`: offline evaluation of policies on
 //! the same seeded scenarios ([`tensegrity_deploy::studies::evaluation`]).
 //!
@@ -58,6 +59,7 @@ pub fn command() -> Command {
         .arg(Arg::new("model").long("model").value_parser(value_parser!(PathBuf)).help("Model file the controller plans on. Default: the reference bridge without friction"))
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file (its start fold is replaced by each scenario's)"))
         .arg(Arg::new("cycles").long("cycles").default_value("1").value_parser(value_parser!(usize)).help("Deployment-fold cycles per scenario (1 to 100), each run from an empty case memory: how a policy with a [memory] section does after learning. Each run's row reports its last cycle; a limit broken in any cycle counts"))
+        .arg(super::truth_substeps_arg())
         .arg(Arg::new("shard").long("shard").default_value("1/1").help("Run shard k of n (scenarios i with i mod n = k − 1); `tdeploy merge` joins the shards"))
         .arg(super::threads_arg())
         .arg(Arg::new("out").long("out").short('o').default_value("out/evaluate").value_parser(value_parser!(PathBuf)).help("Folder for evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg, timing.csv"))
@@ -81,6 +83,8 @@ pub struct Options {
     pub problem: Option<PathBuf>,
     /// Deployment-fold cycles per scenario.
     pub cycles: usize,
+    /// The truths split their increments at slip events.
+    pub truth_slip_event_substeps: bool,
     /// This run's shard.
     pub shard: Shard,
     /// Worker threads; `None`: rayon's default.
@@ -117,6 +121,7 @@ impl Options {
             model: m.get_one::<PathBuf>("model").cloned(),
             problem: m.get_one::<PathBuf>("problem").cloned(),
             cycles,
+            truth_slip_event_substeps: m.get_flag("slip-event-substeps"),
             shard,
             threads,
             out: value(m, "out")?,
@@ -185,6 +190,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
             .as_ref()
             .map_or("reference".into(), |p| p.display().to_string()),
         o.cycles,
+        o.truth_slip_event_substeps,
         distribution.clone(),
     )?;
     // Claimed before the work, so that a refusal costs nothing.
@@ -192,7 +198,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
 
     let indices = o.shard.scenarios(o.scenarios);
     say!(
-        "evaluate: {} × {} scenarios × {} cycles (shard {}/{} of {}, seed {}); policies {}",
+        "evaluate: {} × {} scenarios × {} cycles (shard {}/{} of {}, seed {}); policies {}{}",
         indices.len(),
         policies.len(),
         o.cycles,
@@ -200,7 +206,12 @@ pub fn run(o: &Options) -> Result<Outcome> {
         o.shard.count,
         o.scenarios,
         o.seed,
-        names.join(", ")
+        names.join(", "),
+        if o.truth_slip_event_substeps {
+            "; truths split at slip events"
+        } else {
+            ""
+        }
     );
     let progress = Progress::new(
         Unit::Deployments,
@@ -215,6 +226,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         problem: &problem,
         seed: o.seed,
         cycles: o.cycles,
+        truth_slip_event_substeps: o.truth_slip_event_substeps,
     };
     let (scenarios, results) = with_threads(o.threads, || {
         evaluate(&setup, &indices, &|| progress.tick())

@@ -319,6 +319,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         problem: &problem,
         seed: e.seed,
         cycles: 1,
+        truth_slip_event_substeps: false,
     };
     let indices: Vec<usize> = (0..e.scenarios).collect();
     let (scenarios, results) = evaluate(&setup, &indices, &|| progress.tick());
@@ -331,6 +332,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         &policies,
         format!("reference, joint friction mu = {}", e.model_mu),
         1,
+        false,
         distribution.clone(),
     )?;
     let runs = EvaluationRuns::new(&distribution, names, &scenarios, results);

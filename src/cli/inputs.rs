@@ -145,12 +145,15 @@ pub fn problem_or_default(path: Option<&Path>, motors: usize) -> Result<Deployme
 /// The truth a simulated deployment runs on: its model file (structure
 /// made absolute), the model it loads as, and how summaries name it.
 /// Without a truth file, the controller's bridge (`model`'s structure, or
-/// the reference) with the default effects.
+/// the reference) with the default effects. With `slip_event_substeps`
+/// the truth splits its increments at its joints' slip events
+/// (`--slip-event-substeps`), and its name says so.
 pub fn truth_or_default(
     truth: Option<&Path>,
     model: Option<&Path>,
+    slip_event_substeps: bool,
 ) -> Result<(ModelFile, EffectModel, String)> {
-    Ok(match truth {
+    let (file, mut model, mut words) = match truth {
         Some(p) => {
             let file = absolute(read_model(p)?)?;
             let model = file.measurement_model()?;
@@ -172,5 +175,10 @@ pub fn truth_or_default(
                 "default (μ = 0.2 wrap angle, 3 mm backlash)".to_string(),
             )
         }
-    })
+    };
+    if slip_event_substeps {
+        model.settings.slip_event_substeps_enable = true;
+        words.push_str(", increments split at slip events");
+    }
+    Ok((file, model, words))
 }

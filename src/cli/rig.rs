@@ -1,5 +1,5 @@
 //! `tdeploy rig [--truth F] [--model M] [--problem F] [--temperature °C]
-//! [--seed S] --stdio`: a simulated bridge that speaks the session
+//! [--seed S] [--slip-event-substeps] --stdio`: a simulated bridge that speaks the session
 //! protocol ([`tensegrity_deploy::io::session_protocol`]), standing in
 //! for the motors and the data acquisition of a lab.
 //!
@@ -43,6 +43,7 @@ pub fn command() -> Command {
         .arg(Arg::new("problem").long("problem").value_parser(value_parser!(PathBuf)).help("Problem file: the fold the rig starts at (default: 0.40 m)"))
         .arg(Arg::new("temperature").long("temperature").value_parser(value_parser!(f64)).help("Air temperature, °C (needed by a thermal truth)"))
         .arg(Arg::new("seed").long("seed").default_value("1").value_parser(value_parser!(u64)).help("Seed of the sensor noise"))
+        .arg(super::truth_substeps_arg())
         .arg(Arg::new("stdio").long("stdio").action(ArgAction::SetTrue).help("Use standard input and output (the one transport; required)"))
 }
 
@@ -55,6 +56,7 @@ pub struct Options {
     problem: Option<PathBuf>,
     temperature_c: Option<f64>,
     seed: u64,
+    slip_event_substeps: bool,
 }
 
 impl Options {
@@ -67,6 +69,7 @@ impl Options {
             problem: m.get_one::<PathBuf>("problem").cloned(),
             temperature_c: m.get_one::<f64>("temperature").copied(),
             seed: value(m, "seed")?,
+            slip_event_substeps: m.get_flag("slip-event-substeps"),
         })
     }
 }
@@ -76,7 +79,11 @@ pub fn run(o: &Options) -> Result<Outcome> {
     if !o.stdio {
         anyhow::bail!("rig: --stdio is required (standard input and output are the one transport)");
     }
-    let (_, truth, words) = truth_or_default(o.truth.as_deref(), o.model.as_deref())?;
+    let (_, truth, words) = truth_or_default(
+        o.truth.as_deref(),
+        o.model.as_deref(),
+        o.slip_event_substeps,
+    )?;
     let temperature_c = deployment_temperature(o.temperature_c, &truth.effects, &words)?;
     let structure = truth.structure.clone();
     let problem = problem_or_default(o.problem.as_deref(), structure.continuous_cables.len())?;

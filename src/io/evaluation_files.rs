@@ -140,6 +140,11 @@ pub struct EvaluationRecord {
     /// Deployment-fold cycles per scenario and policy (each run reports
     /// its last cycle).
     pub cycles: usize,
+    /// Whether the truths split their increments at their joints' slip
+    /// events (`evaluate --slip-event-substeps`); written only when set,
+    /// absent (as in records before it) means not.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub truth_slip_event_substeps: bool,
     /// The scenario distribution.
     pub distribution: ScenarioDistribution,
 }
@@ -148,7 +153,9 @@ impl EvaluationRecord {
     /// The record of shard `shard` of a sweep of `scenarios` scenarios
     /// drawn from `distribution` with `seed`, `cycles` cycles each, for
     /// `policies` (their names and the fingerprints of their settings) on
-    /// the controller's model `model` (`reference` or its file).
+    /// the controller's model `model` (`reference` or its file), the
+    /// truths split at slip events when `truth_slip_event_substeps`.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         seed: u64,
         scenarios: usize,
@@ -156,6 +163,7 @@ impl EvaluationRecord {
         policies: &[Policy],
         model: String,
         cycles: usize,
+        truth_slip_event_substeps: bool,
         distribution: ScenarioDistribution,
     ) -> Result<Self, FileError> {
         Ok(EvaluationRecord {
@@ -170,6 +178,7 @@ impl EvaluationRecord {
                 .collect::<Result<_, _>>()?,
             model,
             cycles,
+            truth_slip_event_substeps,
             distribution,
         })
     }
@@ -193,6 +202,7 @@ impl EvaluationRecord {
             policy_fingerprints,
             model,
             cycles,
+            truth_slip_event_substeps,
             distribution,
         } = self;
         let mut fields = Vec::new();
@@ -211,6 +221,10 @@ impl EvaluationRecord {
         );
         differs("model", *model != other.model);
         differs("cycles", *cycles != other.cycles);
+        differs(
+            "truth_slip_event_substeps",
+            *truth_slip_event_substeps != other.truth_slip_event_substeps,
+        );
         differs("distribution", *distribution != other.distribution);
         fields
     }

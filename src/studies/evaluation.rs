@@ -576,7 +576,25 @@ impl Scenario {
         policy: &Policy,
         run: impl FnOnce(&ClosedLoopSetup) -> R,
     ) -> R {
-        let truth = self.truth(bridge);
+        self.with_truth_setup(bridge, false, model, base, policy, run)
+    }
+
+    /// [`Self::with_setup`], with the truth's increments split at its
+    /// joints' slip events when `truth_slip_event_substeps` is set
+    /// ([`crate::model::RelaxSettings::slip_event_substeps_enable`]: the truth's path no
+    /// longer depends on its 1 cm increment; the controller's model is
+    /// left as it is).
+    pub fn with_truth_setup<R>(
+        &self,
+        bridge: &Structure,
+        truth_slip_event_substeps: bool,
+        model: &ForwardModel,
+        base: &DeploymentProblem,
+        policy: &Policy,
+        run: impl FnOnce(&ClosedLoopSetup) -> R,
+    ) -> R {
+        let mut truth = self.truth(bridge);
+        truth.settings.slip_event_substeps_enable = truth_slip_event_substeps;
         let sensors = self.sensors(bridge);
         let problem = self.problem(base, bridge);
         run(&ClosedLoopSetup {
@@ -1016,6 +1034,10 @@ pub struct EvaluationSetup<'a> {
     /// and runs [`run_cycles`] on the scenario's truth; its result is
     /// [`RunResult::of_cycles`].
     pub cycles: usize,
+    /// Whether every truth splits its increments at its joints' slip
+    /// events ([`Scenario::with_truth_setup`]); `false` is the default
+    /// truth, one step per 1 cm increment.
+    pub truth_slip_event_substeps: bool,
 }
 
 /// Runs every policy on the scenarios `indices` in parallel; `run_done` is
@@ -1039,8 +1061,13 @@ pub fn evaluate(
         .map(|&(s, p)| {
             let scenario = &scenarios[s];
             let policy = &setup.policies[p];
-            let result =
-                scenario.with_setup(setup.bridge, setup.model, setup.problem, policy, |run| {
+            let result = scenario.with_truth_setup(
+                setup.bridge,
+                setup.truth_slip_event_substeps,
+                setup.model,
+                setup.problem,
+                policy,
+                |run| {
                     if setup.cycles <= 1 {
                         match deploy_closed_loop(run, &mut ()) {
                             Ok(d) => RunResult::of(scenario.index, p, Some(&d), tolerance),
@@ -1071,7 +1098,8 @@ pub fn evaluate(
                             }
                         }
                     }
-                });
+                },
+            );
             run_done();
             result
         })

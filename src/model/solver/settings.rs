@@ -155,16 +155,19 @@ pub struct RelaxSettings {
     /// cannot see. The first command after a fold reverses every sliding
     /// joint; located, the reversal shows the joints sticking first, so
     /// reeling in tensions the segments next to the motor while the ones
-    /// beyond them fall (the uneven 45/33 cm fold, seed 1: segments
-    /// `A_cc1[2]` and `A_cc1[3]`, at 4.8 N below their 5 N minimum since the start,
-    /// dip to 4.3–4.4 N in the first two increments, then recover). Once
+    /// beyond them fall (the uneven 45/33 cm fold, seed 1: segment
+    /// `A_cc1[2]`, at 4.8 N below its 5 N minimum since the start, dips to
+    /// 4.3 N and `A_cc1[3]` to 4.4 N in the first two increments, then
+    /// both recover). Once
     /// mapped at the end of a 1 cm increment, the reversal slides at once
     /// and hides the dip; the frictionless controller predicts equal
     /// tension along the cable and cannot see it either. The memory
     /// policy's learning on the default truth also slows on seed 1 (cycle-4
     /// true gap 2.1×, not 3×, below cycle 1's; the mean over seeds 1–4 of
     /// cycles 4–6 is 3.2× against 3.7× off). Planning on the friction-aware
-    /// model is what would see the dip (issue 22).
+    /// model is what would see the dip (issue 22). The commands that
+    /// deploy a truth (`deploy`, `cycles`, `evaluate`, `rig`) switch it on
+    /// in the truth alone with `--slip-event-substeps`.
     pub slip_event_substeps_enable: bool,
     /// Smallest sub-step of the splitting, m of the largest motor payout.
     /// Default 0.001 (the finest increment the tools use): a 1 cm increment
