@@ -169,11 +169,12 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let (model, bridge) =
         planning_model_and_bridge(o.model.as_deref(), JointFriction::frictionless())?;
     // Every truth is drawn on the bridge; a model that is not that bridge
-    // node for node (flexible supports add nodes) would leave every run
-    // unstarted, so it is refused once, here.
+    // node for node would leave every run unstarted, so it is refused
+    // once, here (flexible supports' bearing and ground nodes, after the
+    // bridge's, are accepted).
     if let (Some(path), Err(e)) = (&o.model, check_same_bridge(model.structure(), &bridge)) {
         bail!(
-            "{}: the controller cannot plan on this model against truths drawn on its bridge (effects.support_flexibility adds the support bars' nodes): {e}",
+            "{}: the controller cannot plan on this model against truths drawn on its bridge: {e}",
             path.display()
         );
     }
