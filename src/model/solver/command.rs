@@ -249,13 +249,16 @@ impl ForwardModel {
         // command, not between commands.
         ws.continuation_step = 0.0;
         ws.drop_kept_tangent();
+        // The seat arcs at the start of the increment before (none before
+        // the first).
+        let mut arcs_before: Option<Vec<f64>> = None;
         for k in 0..count {
             // With cable seats the arcs follow the geometry increment by
             // increment: the material their wrap changes took since the
-            // increment before is moved with this increment's payout, in
-            // one solve (the arcs lag the geometry by one increment; the
-            // command's end settles them exactly).
-            let taken = self.arcs_taken_since_held(state);
+            // increment before, and what they are predicted to take in
+            // this one, is moved with this increment's payout, in one
+            // solve (the command's end settles them exactly).
+            let taken = self.arcs_taken_and_predicted(state, &mut arcs_before);
             let r =
                 self.increment_locating_slip_events(state, ws, &increment, &taken, false, &mut out);
             observer.on_increment(k, count, &r, state);
