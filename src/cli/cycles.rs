@@ -233,7 +233,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     let sensors = standard_sensors(&truth.structure);
     say!(
-        "cycles: {} cycles, policy {}{}, seed {}; memory {} ({} cases stored)",
+        "cycles: {} cycles, policy {}{}, truth {truth_words}, seed {}; memory {} ({} cases stored)",
         o.cycles,
         policy.name,
         if policy.memory.is_some() {

@@ -1111,6 +1111,34 @@ pub fn evaluate(
 mod tests {
     use super::*;
 
+    /// `evaluate --slip-event-substeps` splits the truth's increments and
+    /// leaves the controller's model as it is.
+    #[test]
+    fn truth_slip_event_substeps_reach_the_truth_alone() {
+        use crate::design::reference_bridge::{reference_bridge, BridgeParameters};
+        use crate::model::{JointFriction, RelaxSettings};
+        let bridge = reference_bridge(&BridgeParameters::default()).unwrap();
+        let model = ForwardModel::new(
+            bridge.clone(),
+            JointFriction::frictionless(),
+            RelaxSettings::default(),
+        )
+        .unwrap();
+        let scenario = ScenarioDistribution::default().draw(1, 0);
+        let problem = DeploymentProblem::default();
+        let policy = Policy::default();
+        for split in [false, true] {
+            let (truth, planner) =
+                scenario.with_truth_setup(&bridge, split, &model, &problem, &policy, |run| {
+                    (
+                        run.truth.settings.slip_event_substeps_enable,
+                        run.model.settings().slip_event_substeps_enable,
+                    )
+                });
+            assert_eq!((truth, planner), (split, false));
+        }
+    }
+
     /// Regression (issue 22, sixth session): `evaluate --model M` drew
     /// every scenario's truth on M's structure, so a model file with a
     /// stiffness error (a calibrated model) had that error applied to the

@@ -158,17 +158,17 @@ impl ForwardModel {
     ///
     /// Stops at the first increment that does not converge and reports its
     /// status; the state is then that increment's last iterate. With
-    /// cable seats ([`super::seats`]) each increment also moves the
-    /// material the arcs' wrap changes took since the increment before
-    /// (the arcs follow the geometry one increment behind), and a command
-    /// whose increments all converged then follows the arcs to their fixed
+    /// cable seats ([`super::seats`]) a command takes at least two
+    /// increments, each also moves the material the arcs' wrap changes
+    /// took since the increment before and their predicted change in it
+    /// (their change over the increment before), and a command whose
+    /// increments all converged then follows the arcs to their fixed
     /// point: the state they settle into, where the command ends, goes to
     /// `observer` as one more increment (the report's `increments` counts
     /// the payout's, its work the re-solves' too). So a move ends where it
-    /// ends however it is split into commands, to the scheme's error of
-    /// one increment's arcs. A state that holds no arcs yet takes them as
-    /// they are before the payout, so the command's own wrap changes move
-    /// material.
+    /// ends however it is split into commands, to within a few µm at 1 cm
+    /// increments. A state that holds no arcs yet takes them as they are
+    /// before the payout, so the command's own wrap changes move material.
     pub fn apply_payout(
         &self,
         state: &mut DeploymentState,
@@ -231,7 +231,15 @@ impl ForwardModel {
                 increment_m: max_increment_m,
             });
         }
-        let count = count as usize;
+        // With cable seats a command's first increment has no increment
+        // before it to predict its arcs' change from, and lags by it; the
+        // second increment's prediction takes that lag up, so a command
+        // over seats takes at least two.
+        let count = if self.seat_radius_m.is_some() && largest > 0.0 {
+            (count as usize).max(2)
+        } else {
+            count as usize
+        };
         let mut out = CommandReport::empty();
         // An empty command on a balanced state has nothing to solve: no
         // tangent to assemble or factorise for a zero load (issue 12).

@@ -312,8 +312,9 @@ mod tests {
     /// settled the joints' slip states. Newton tried again from a DR
     /// iterate finishes those solves, with the same answer to the solver's
     /// tolerance. (Since the seat arcs are predicted inside increments,
-    /// fourteenth session, the two commands need no DR; the fold's
-    /// increments still do, so the path checked includes it.)
+    /// fourteenth session, the two commands need no DR, where one of their
+    /// increments did; three increments of the fold now do, where none
+    /// did, so the path checked includes the fold.)
     #[test]
     fn dr_hands_a_solve_back_to_newton_once_its_slip_states_settle() {
         let on = RelaxSettings::default();
