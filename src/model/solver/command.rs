@@ -234,8 +234,10 @@ impl ForwardModel {
         // With cable seats a command's first increment has no increment
         // before it to predict its arcs' change from, and lags by it; the
         // second increment's prediction takes that lag up, so a command
-        // over seats takes at least two.
-        let count = if self.seat_radius_m.is_some() && largest > 0.0 {
+        // over seats takes at least two. Seats of radius 0 hold no
+        // material and leave the increments as they are (a diagnosis
+        // candidate at its neutral value replays the model's own path).
+        let count = if self.seat_radius_m.is_some_and(|r| r > 0.0) && largest > 0.0 {
             (count as usize).max(2)
         } else {
             count as usize
