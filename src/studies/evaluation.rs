@@ -1111,10 +1111,9 @@ pub fn evaluate(
 mod tests {
     use super::*;
 
-    /// `evaluate --slip-event-substeps` splits the truth's increments and
-    /// leaves the controller's model as it is.
-    #[test]
-    fn truth_slip_event_substeps_reach_the_truth_alone() {
+    /// The reference bridge and the controller's default model on it
+    /// (frictionless).
+    fn bridge_and_frictionless_model() -> (Structure, ForwardModel) {
         use crate::design::reference_bridge::{reference_bridge, BridgeParameters};
         use crate::model::{JointFriction, RelaxSettings};
         let bridge = reference_bridge(&BridgeParameters::default()).unwrap();
@@ -1124,6 +1123,14 @@ mod tests {
             RelaxSettings::default(),
         )
         .unwrap();
+        (bridge, model)
+    }
+
+    /// `evaluate --slip-event-substeps` splits the truth's increments and
+    /// leaves the controller's model as it is.
+    #[test]
+    fn truth_slip_event_substeps_reach_the_truth_alone() {
+        let (bridge, model) = bridge_and_frictionless_model();
         let scenario = ScenarioDistribution::default().draw(1, 0);
         let problem = DeploymentProblem::default();
         let policy = Policy::default();
@@ -1146,16 +1153,8 @@ mod tests {
     /// distribution never drew. The truth must not depend on the model.
     #[test]
     fn a_controller_model_with_effects_leaves_the_truths_as_drawn() {
-        use crate::design::reference_bridge::{reference_bridge, BridgeParameters};
         use crate::model::effects::StiffnessErrorEffect;
-        use crate::model::{JointFriction, RelaxSettings};
-        let bridge = reference_bridge(&BridgeParameters::default()).unwrap();
-        let nominal = ForwardModel::new(
-            bridge.clone(),
-            JointFriction::frictionless(),
-            RelaxSettings::default(),
-        )
-        .unwrap();
+        let (bridge, nominal) = bridge_and_frictionless_model();
         let calibrated = EffectModel::for_measurement(
             bridge.clone(),
             Effects {
