@@ -6,6 +6,7 @@ pub mod cycles;
 pub mod deployment_log;
 pub mod evaluation;
 pub mod friction_effect;
+pub mod friction_grading;
 pub mod friction_vs_measurement;
 pub mod log_replay;
 pub mod model_learning;

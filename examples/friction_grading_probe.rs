@@ -1,0 +1,193 @@
+//! How well a frictionless model's path, graded by friction
+//! ([`FrictionGrading`]), predicts the segment tensions of a model with
+//! joint friction (slip events located): after a fold, and at the
+//! smallest and at the end of three first commands after it. Prints
+//! `A_cc1`'s four segments by each and the worst error over every
+//! segment (known limitations, item 18).
+//!
+//! `cargo run --release --example friction_grading_probe -- [--detail] [MU FOLD_A_M FOLD_B_M]`
+//! (default μ 0.2 and the uneven fold 0.45 0.33; `--detail` prints every
+//! cable after the fold and at each command's end).
+
+use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::model::{
+    DeploymentState, ForwardModel, IncrementObserver, JointFriction, RelaxReport, RelaxSettings,
+    Workspace,
+};
+use tensegrity_deploy::plan::limits::force_rows;
+use tensegrity_deploy::studies::friction_grading::{graded_fold, FrictionGrading};
+
+struct Path<'a> {
+    model: &'a ForwardModel,
+    grading: Option<FrictionGrading>,
+    out: Vec<(Vec<f64>, Vec<f64>)>,
+}
+impl IncrementObserver for Path<'_> {
+    fn on_increment(&mut self, _: usize, _: usize, r: &RelaxReport, s: &DeploymentState) {
+        if !r.status.is_converged() {
+            return;
+        }
+        let n = self.model.structure().members.len();
+        let model_t = force_rows(self.model, s)[n..].to_vec();
+        let graded = match &mut self.grading {
+            Some(g) => {
+                g.advance(self.model.structure(), s);
+                g.segment_tensions_n(self.model.structure(), s)
+            }
+            None => model_t.clone(),
+        };
+        self.out.push((model_t, graded));
+    }
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let detail = args.first().is_some_and(|a| a == "--detail");
+    if detail {
+        args.remove(0);
+    }
+    let mu: f64 = args.first().map_or(Ok(0.2), |a| a.parse())?;
+    let fold_a: f64 = args.get(1).map_or(Ok(0.45), |a| a.parse())?;
+    let fold_b: f64 = args.get(2).map_or(Ok(0.33), |a| a.parse())?;
+    let bridge = reference_bridge(&BridgeParameters::default())?;
+    let settings = RelaxSettings {
+        slip_event_substeps_enable: true,
+        ..RelaxSettings::default()
+    };
+    let truth = ForwardModel::new(
+        bridge.clone(),
+        JointFriction::constant(mu)?,
+        settings.clone(),
+    )?;
+    let free = ForwardModel::new(bridge.clone(), JointFriction::frictionless(), settings)?;
+    let mut fold = vec![fold_a; 5];
+    fold.extend([fold_b; 5]);
+    let inc = 0.01;
+    let (free_fold, grading) = graded_fold(&free, JointFriction::constant(mu)?, &fold, inc)?;
+    let mut ws = Workspace::default();
+    let mut truth_fold = truth.reference_state();
+    truth.relax(&mut truth_fold, &mut ws);
+    truth.apply_payout(&mut truth_fold, &mut ws, &fold, inc, &mut ())?;
+    let n = bridge.members.len();
+    let segs = bridge.segment_count();
+    let cmds: Vec<(&str, Vec<f64>)> = vec![
+        ("all -5 cm", vec![-0.05; 10]),
+        (
+            "cc1 -8, others -5 cm",
+            (0..10)
+                .map(|m| if m % 5 == 1 { -0.08 } else { -0.05 })
+                .collect(),
+        ),
+        (
+            "cc1 held, others -5 cm",
+            (0..10)
+                .map(|m| if m % 5 == 1 { 0.0 } else { -0.05 })
+                .collect(),
+        ),
+    ];
+    let report = |name: &str, t: &[f64], f: &[f64], g: &[f64]| {
+        let (mut ef, mut eg) = (0.0f64, 0.0f64);
+        for k in 0..segs {
+            ef = ef.max((f[k] - t[k]).abs());
+            eg = eg.max((g[k] - t[k]).abs());
+        }
+        let o = free_fold.segment_offsets[1];
+        let show = |v: &[f64]| {
+            (0..4)
+                .map(|k| format!("{:6.2}", v[o + k]))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        println!(
+            "{name:28} A_cc1 truth [{}] frictionless [{}] graded [{}]  worst segment error: frictionless {ef:.2} N, graded {eg:.2} N",
+            show(t),
+            show(f),
+            show(g)
+        );
+    };
+    let t0 = force_rows(&truth, &truth_fold)[n..].to_vec();
+    let f0 = force_rows(&free, &free_fold)[n..].to_vec();
+    let g0 = grading.segment_tensions_n(free.structure(), &free_fold);
+    report("after the fold", &t0, &f0, &g0);
+    if detail {
+        for (c, cable) in bridge.continuous_cables.iter().enumerate() {
+            let (a, b) = (
+                free_fold.segment_offsets[c],
+                free_fold.segment_offsets[c + 1],
+            );
+            let f = |v: &[f64]| {
+                v[a..b]
+                    .iter()
+                    .map(|x| format!("{x:7.1}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            println!(
+                "  {:8} truth [{}] free [{}] graded [{}]",
+                cable.id,
+                f(&t0),
+                f(&f0),
+                f(&g0)
+            );
+        }
+    }
+    for (name, cmd) in &cmds {
+        let mut ts = truth_fold.clone();
+        let mut tp = Path {
+            model: &truth,
+            grading: None,
+            out: Vec::new(),
+        };
+        truth.apply_payout(&mut ts, &mut ws, cmd, inc, &mut tp)?;
+        let mut fs = free_fold.clone();
+        let mut fp = Path {
+            model: &free,
+            grading: Some(grading.clone()),
+            out: Vec::new(),
+        };
+        free.apply_payout(&mut fs, &mut ws, cmd, inc, &mut fp)?;
+        // Smallest tension of each segment over the command.
+        let min_of = |p: &Path, graded: bool| -> Vec<f64> {
+            (0..segs)
+                .map(|k| {
+                    p.out
+                        .iter()
+                        .map(|(m, g)| if graded { g[k] } else { m[k] })
+                        .fold(f64::INFINITY, f64::min)
+                })
+                .collect()
+        };
+        report(
+            &format!("{name}: smallest"),
+            &min_of(&tp, false),
+            &min_of(&fp, false),
+            &min_of(&fp, true),
+        );
+        let (te, _) = tp.out.last().unwrap();
+        let (fe, ge) = fp.out.last().unwrap();
+        report(&format!("{name}: end"), te, fe, ge);
+        if detail {
+            for (c, cable) in bridge.continuous_cables.iter().enumerate() {
+                let (a, b) = (
+                    free_fold.segment_offsets[c],
+                    free_fold.segment_offsets[c + 1],
+                );
+                let f = |v: &[f64]| {
+                    v[a..b]
+                        .iter()
+                        .map(|x| format!("{x:7.1}"))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                };
+                println!(
+                    "  {:8} truth [{}] free [{}] graded [{}]",
+                    cable.id,
+                    f(te),
+                    f(fe),
+                    f(ge)
+                );
+            }
+        }
+    }
+    Ok(())
+}
