@@ -71,11 +71,6 @@ impl FrictionGrading {
         }
     }
 
-    /// The friction law the grading applies.
-    pub fn friction(&self) -> &JointFriction {
-        &self.friction
-    }
-
     /// Carries the grading to `state` (the model's next increment): each
     /// motor's payout since the last one enters its cable's motor segment,
     /// and the joints slide or stick on `state`'s geometry. Returns the
@@ -126,12 +121,6 @@ impl FrictionGrading {
             );
         }
         out
-    }
-
-    /// Each joint's slip state (flat as the segments; entry 0 of each
-    /// cable unused).
-    pub fn joint_slip(&self) -> &[JointSlip] {
-        &self.slip
     }
 }
 
