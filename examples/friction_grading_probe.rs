@@ -110,26 +110,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let g0 = grading.segment_tensions_n(free.structure(), &free_fold);
     report("after the fold", &t0, &f0, &g0);
     if detail {
-        for (c, cable) in bridge.continuous_cables.iter().enumerate() {
-            let (a, b) = (
-                free_fold.segment_offsets[c],
-                free_fold.segment_offsets[c + 1],
-            );
-            let f = |v: &[f64]| {
-                v[a..b]
-                    .iter()
-                    .map(|x| format!("{x:7.1}"))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            };
-            println!(
-                "  {:8} truth [{}] free [{}] graded [{}]",
-                cable.id,
-                f(&t0),
-                f(&f0),
-                f(&g0)
-            );
-        }
+        print_cables(&bridge, &free_fold.segment_offsets, &t0, &f0, &g0);
     }
     for (name, cmd) in &cmds {
         let mut ts = truth_fold.clone();
@@ -163,31 +144,41 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &min_of(&fp, false),
             &min_of(&fp, true),
         );
-        let (te, _) = tp.out.last().unwrap();
-        let (fe, ge) = fp.out.last().unwrap();
+        let ((te, _), (fe, ge)) = match (tp.out.last(), fp.out.last()) {
+            (Some(t), Some(f)) => (t, f),
+            _ => return Err(format!("{name}: a model solved no increment").into()),
+        };
         report(&format!("{name}: end"), te, fe, ge);
         if detail {
-            for (c, cable) in bridge.continuous_cables.iter().enumerate() {
-                let (a, b) = (
-                    free_fold.segment_offsets[c],
-                    free_fold.segment_offsets[c + 1],
-                );
-                let f = |v: &[f64]| {
-                    v[a..b]
-                        .iter()
-                        .map(|x| format!("{x:7.1}"))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                };
-                println!(
-                    "  {:8} truth [{}] free [{}] graded [{}]",
-                    cable.id,
-                    f(te),
-                    f(fe),
-                    f(ge)
-                );
-            }
+            print_cables(&bridge, &free_fold.segment_offsets, te, fe, ge);
         }
     }
     Ok(())
+}
+
+/// Every cable's segment tensions by the model with friction (`t`), the
+/// frictionless model (`f`) and the grading (`g`), N.
+fn print_cables(
+    bridge: &tensegrity_deploy::model::Structure,
+    offsets: &[usize],
+    t: &[f64],
+    f: &[f64],
+    g: &[f64],
+) {
+    for (c, cable) in bridge.continuous_cables.iter().enumerate() {
+        let row = |v: &[f64]| {
+            v[offsets[c]..offsets[c + 1]]
+                .iter()
+                .map(|x| format!("{x:7.1}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        println!(
+            "  {:8} truth [{}] free [{}] graded [{}]",
+            cable.id,
+            row(t),
+            row(f),
+            row(g)
+        );
+    }
 }
