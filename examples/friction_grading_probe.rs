@@ -1,9 +1,14 @@
 //! How well a frictionless model's path, graded by friction
 //! ([`FrictionGrading`]), predicts the segment tensions of a model with
-//! joint friction (slip events located): after a fold, and at the
-//! smallest and at the end of three first commands after it. Prints
-//! `A_cc1`'s four segments by each and the worst error over every
-//! segment (known limitations, item 18).
+//! joint friction alone (constant μ, wrap angle, slip events located; no
+//! backlash, unlike the default truth of `reversal_dip_probe`): after a
+//! fold, then for three alternative first commands, each from the fold,
+//! each segment's smallest tension over the command and its tension at
+//! the end. Each line gives `A_cc1`'s four segments by the model with
+//! friction, the frictionless model and the grading, and the worst error
+//! of each prediction over every segment of every cable (known
+//! limitations, item 18). Exits with an error if a solve does not
+//! converge or the grading cannot follow.
 //!
 //! `cargo run --release --example friction_grading_probe -- [--detail] [MU FOLD_A_M FOLD_B_M]`
 //! (default μ 0.2 and the uneven fold 0.45 0.33; `--detail` prints every
@@ -21,19 +26,27 @@ struct Path<'a> {
     model: &'a ForwardModel,
     grading: Option<FrictionGrading>,
     out: Vec<(Vec<f64>, Vec<f64>)>,
+    failed: Option<String>,
 }
 impl IncrementObserver for Path<'_> {
     fn on_increment(&mut self, _: usize, _: usize, r: &RelaxReport, s: &DeploymentState) {
+        if self.failed.is_some() {
+            return;
+        }
         if !r.status.is_converged() {
+            self.failed = Some(r.status.describe().to_string());
             return;
         }
         let n = self.model.structure().members.len();
         let model_t = force_rows(self.model, s)[n..].to_vec();
         let graded = match &mut self.grading {
-            Some(g) => {
-                g.advance(self.model.structure(), s);
-                g.segment_tensions_n(self.model.structure(), s)
-            }
+            Some(g) => match g.advance(self.model.structure(), s) {
+                Ok(_) => g.segment_tensions_n(self.model.structure(), s),
+                Err(e) => {
+                    self.failed = Some(e.to_string());
+                    return;
+                }
+            },
             None => model_t.clone(),
         };
         self.out.push((model_t, graded));
@@ -66,8 +79,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (free_fold, grading) = graded_fold(&free, JointFriction::constant(mu)?, &fold, inc)?;
     let mut ws = Workspace::default();
     let mut truth_fold = truth.reference_state();
-    truth.relax(&mut truth_fold, &mut ws);
-    truth.apply_payout(&mut truth_fold, &mut ws, &fold, inc, &mut ())?;
+    let relaxed = truth.relax(&mut truth_fold, &mut ws).status;
+    let folded = truth
+        .apply_payout(&mut truth_fold, &mut ws, &fold, inc, &mut ())?
+        .status;
+    if !relaxed.is_converged() || !folded.is_converged() {
+        return Err("the model with friction does not reach the fold".into());
+    }
     let n = bridge.members.len();
     let segs = bridge.segment_count();
     let cmds: Vec<(&str, Vec<f64>)> = vec![
@@ -118,6 +136,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             model: &truth,
             grading: None,
             out: Vec::new(),
+            failed: None,
         };
         truth.apply_payout(&mut ts, &mut ws, cmd, inc, &mut tp)?;
         let mut fs = free_fold.clone();
@@ -125,8 +144,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             model: &free,
             grading: Some(grading.clone()),
             out: Vec::new(),
+            failed: None,
         };
         free.apply_payout(&mut fs, &mut ws, cmd, inc, &mut fp)?;
+        if let Some(why) = tp.failed.as_ref().or(fp.failed.as_ref()) {
+            return Err(format!("{name}: {why}").into());
+        }
         // Smallest tension of each segment over the command.
         let min_of = |p: &Path, graded: bool| -> Vec<f64> {
             (0..segs)
