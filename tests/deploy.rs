@@ -804,6 +804,43 @@ fn a_truth_split_at_slip_events_shows_the_reversal_dip_after_an_uneven_fold() {
     );
 }
 
+/// A deploy's `truth.toml` is the truth it ran: with
+/// `--slip-event-substeps` it records `[solver] slip_event_substeps`, so
+/// deploying that file again (no flag) splits the increments again and
+/// gives the same deployment, limits broken and all. Before the `[solver]`
+/// table the file left the split out and the rerun deployed the plain
+/// truth, which connects on this fold.
+#[test]
+fn a_deploys_truth_file_records_the_split_and_reruns_the_same_deployment() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("uneven.toml"),
+        "format = \"tensegrity-deploy/problem/1\"\nstart_payout_m = [0.45, 0.45, 0.45, 0.45, 0.45, 0.33, 0.33, 0.33, 0.33, 0.33]\n",
+    )
+    .unwrap();
+    let split = |extra: &[&str], out: &str| {
+        let mut args = vec!["deploy", "--problem", "uneven.toml", "-o", out];
+        args.extend_from_slice(extra);
+        failed_with(&tdeploy(&args, dir.path()), 1)
+    };
+    split(&["--slip-event-substeps"], "split");
+    let truth = std::fs::read_to_string(dir.path().join("split/truth.toml")).unwrap();
+    assert!(
+        truth.contains("[solver]\nslip_event_substeps = true"),
+        "{truth}"
+    );
+    split(&["--truth", "split/truth.toml"], "again");
+    for file in ["deployment.csv", "commands.csv"] {
+        assert_eq!(
+            std::fs::read(dir.path().join("split").join(file)).unwrap(),
+            std::fs::read(dir.path().join("again").join(file)).unwrap(),
+            "{file}"
+        );
+    }
+    let summary = read_json(&dir.path().join("again/summary.json"));
+    assert_eq!(summary["outcome"], "limits_broken");
+}
+
 /// Issue 22, item 7: scenario 34 of `scenarios/wide.toml`, seed 777 (half
 /// A folded 46 cm, half B 57 cm, μ 0.08, the halves' stiffnesses and
 /// joint masses apart). Half B's fold leaves `B_cc0` slack in the

@@ -98,8 +98,8 @@ pub fn run(o: &Options) -> Result<Outcome> {
         )));
     }
     let new = ModelFile {
-        structure: model_file.structure.clone(),
         effects: c.effects,
+        ..model_file.clone()
     };
     write_new_model(&o.out, &new)?;
     for (p, (v, se)) in o

@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::model_file::{
-    read_model, ModelFile, StructureSource, REFERENCE_TEMPERATURE_RANGE_C,
+    read_model, ModelFile, ModelSolver, StructureSource, REFERENCE_TEMPERATURE_RANGE_C,
 };
 use tensegrity_deploy::io::policy_file::read_policy;
 use tensegrity_deploy::io::problem_file::read_problem_for;
@@ -39,7 +39,8 @@ pub fn planning_model_and_bridge(
         Some(p) => {
             let file = read_model(p)?;
             let bridge = file.load_structure()?;
-            let model = EffectModel::for_measurement(bridge.clone(), file.effects)
+            let model = file
+                .measurement_model_on(bridge.clone())
                 .forward_model()
                 .with_context(|| format!("{}: applying its effects", p.display()))?;
             (model, bridge)
@@ -54,14 +55,11 @@ pub fn planning_model_and_bridge(
 }
 
 /// The controller's model as the measurement tools replay it: the model
-/// file's bridge with its effects, or the reference bridge with none (the
-/// frictionless default of [`planning_model`]).
+/// file's bridge with its effects and solver settings, or the reference
+/// bridge with none (the frictionless default of [`planning_model`]).
 pub fn planning_effect_model(path: Option<&Path>) -> Result<EffectModel> {
     Ok(match path {
-        Some(p) => {
-            let file = read_model(p)?;
-            EffectModel::for_measurement(file.load_structure()?, file.effects)
-        }
+        Some(p) => read_model(p)?.measurement_model()?,
         None => EffectModel::for_measurement(
             reference_bridge(&BridgeParameters::default())?,
             Effects::default(),
@@ -78,6 +76,7 @@ pub fn controller_model_file(path: Option<&Path>) -> Result<(ModelFile, String)>
             ModelFile {
                 structure: StructureSource::Reference,
                 effects: Effects::default(),
+                solver: ModelSolver::default(),
             },
             "the reference bridge without friction".to_string(),
         ),
@@ -146,14 +145,15 @@ pub fn problem_or_default(path: Option<&Path>, motors: usize) -> Result<Deployme
 /// made absolute), the model it loads as, and how summaries name it.
 /// Without a truth file, the controller's bridge (`model`'s structure, or
 /// the reference) with the default effects. With `slip_event_substeps`
-/// the truth splits its increments at its joints' slip events
-/// (`--slip-event-substeps`), and its name says so.
+/// (`--slip-event-substeps`) the truth splits its increments at its
+/// joints' slip events, as a truth file's `[solver] slip_event_substeps`
+/// does; the returned file records it, and the name says so either way.
 pub fn truth_or_default(
     truth: Option<&Path>,
     model: Option<&Path>,
     slip_event_substeps: bool,
 ) -> Result<(ModelFile, EffectModel, String)> {
-    let (file, mut model, mut words) = match truth {
+    let (mut file, mut model, mut words) = match truth {
         Some(p) => {
             let file = absolute(read_model(p)?)?;
             let model = file.measurement_model()?;
@@ -167,6 +167,7 @@ pub fn truth_or_default(
             let file = ModelFile {
                 structure,
                 effects: default_truth_effects(),
+                solver: ModelSolver::default(),
             };
             let model = default_truth(file.load_structure()?);
             (
@@ -177,7 +178,10 @@ pub fn truth_or_default(
         }
     };
     if slip_event_substeps {
-        model.settings.slip_event_substeps_enable = true;
+        file.solver.slip_event_substeps = true;
+        file.solver.apply_to(&mut model.settings);
+    }
+    if file.solver.slip_event_substeps {
         words.push_str(", increments split at slip events");
     }
     Ok((file, model, words))

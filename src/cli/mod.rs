@@ -297,7 +297,7 @@ fn truth_substeps_arg() -> Arg {
     Arg::new("slip-event-substeps")
         .long("slip-event-substeps")
         .action(clap::ArgAction::SetTrue)
-        .help("The truth (the simulated bridge) splits each increment in which a joint reverses or stops, in halves down to about 1 mm, so its path no longer depends on its 1 cm increment (62 µm between 1 cm and 1 mm over a 5 cm reel-in and pay-out at μ 0.2, against 1.7 mm); about 1.1× the time. It judges the controller on the more exact path; the controller's model is unchanged. Not recorded in a deploy's truth.toml: rerun with the flag")
+        .help("The truth (the simulated bridge) splits each increment in which a joint reverses or stops, in halves down to about 1 mm, so its path no longer depends on its 1 cm increment (62 µm between 1 cm and 1 mm over a 5 cm reel-in and pay-out at μ 0.2, against 1.7 mm); about 1.1× the time. It judges the controller on the more exact path; the controller's model is unchanged (a model file asks for the same with `[solver] slip_event_substeps = true`, a truth file too). Recorded in the truth.toml a deploy writes and in evaluate's evaluation.toml")
 }
 
 /// Runs `work` on `threads` worker threads (`None`: rayon's default, one
