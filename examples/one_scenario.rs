@@ -6,9 +6,12 @@
 //! violations, this shows them.
 //!
 //! From the repository root:
-//! `cargo run --release --example one_scenario -- scenarios/wide.toml SEED INDEX [SEAT_RADIUS_M]`
+//! `cargo run --release --example one_scenario -- scenarios/wide.toml SEED INDEX [SEAT_RADIUS_M] [--truth-model]`
 //! (with `SEAT_RADIUS_M`, the controller's model runs over cable seats of
-//! that radius, [`ForwardModel::with_cable_seats`]).
+//! that radius, [`ForwardModel::with_cable_seats`]; with `--truth-model`
+//! the controller plans on the truth's own forward model instead, its
+//! friction, structure, faults and seats, without its flexible supports:
+//! `perfect_knowledge`'s `truth_model` controller, run by run).
 //!
 //! Each command line gives the truth's checked and total increments (with
 //! cable seats, the settled state is the last), the command per motor in
@@ -22,11 +25,13 @@ use tensegrity_deploy::model::{ForwardModel, JointFriction, RelaxSettings};
 use tensegrity_deploy::plan::{DeploymentProblem, Policy};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let truth_model = args.iter().any(|a| a == "--truth-model");
+    args.retain(|a| a != "--truth-model");
     let (distribution, seed, index, seat_radius_m) = match args.as_slice() {
         [d, s, i] => (d, s, i, None),
         [d, s, i, r] => (d, s, i, Some(r.parse::<f64>()?)),
-        _ => return Err("usage: DISTRIBUTION.toml SEED INDEX [SEAT_RADIUS_M]".into()),
+        _ => return Err("usage: DISTRIBUTION.toml SEED INDEX [SEAT_RADIUS_M] [--truth-model]".into()),
     };
     let scenario =
         read_distribution(std::path::Path::new(distribution))?.draw(seed.parse()?, index.parse()?);
@@ -43,6 +48,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let problem = DeploymentProblem::default();
     let policy = Policy::default();
+    let nominal = if truth_model {
+        let mut known = scenario.truth(&bridge);
+        known.effects.support_flexibility = None;
+        known.forward_model()?
+    } else {
+        nominal
+    };
     let deployment = scenario.with_setup(&bridge, &nominal, &problem, &policy, |setup| {
         deploy_closed_loop(setup, &mut ())
     })?;
@@ -67,6 +79,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!("   increment {increment}: {}", v.describe());
         }
     }
+    // The status in full: a stop names the trial refused last.
     println!("status: {:?}", deployment.status);
     for l in &deployment.truth_start_broken {
         println!(

@@ -167,7 +167,9 @@ pub struct RelaxSettings {
     /// cycles 4–6 is 3.2× against 3.7× off). Planning on the friction-aware
     /// model is what would see the dip (issue 22). The commands that
     /// deploy a truth (`deploy`, `cycles`, `evaluate`, `rig`) switch it on
-    /// in the truth alone with `--slip-event-substeps`.
+    /// in the truth alone with `--slip-event-substeps`; a model file (a
+    /// truth's or the controller's) asks for it with `[solver]
+    /// slip_event_substeps = true` (`io::model_file::ModelSolver`).
     pub slip_event_substeps_enable: bool,
     /// Smallest sub-step of the splitting, m of the largest motor payout.
     /// Default 0.001 (the finest increment the tools use): a 1 cm increment
