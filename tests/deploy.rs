@@ -768,11 +768,7 @@ fn an_uneven_fold_connects_without_breaking_a_limit() {
 #[test]
 fn a_truth_split_at_slip_events_shows_the_reversal_dip_after_an_uneven_fold() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("uneven.toml"),
-        "format = \"tensegrity-deploy/problem/1\"\nstart_payout_m = [0.45, 0.45, 0.45, 0.45, 0.45, 0.33, 0.33, 0.33, 0.33, 0.33]\n",
-    )
-    .unwrap();
+    write_uneven_fold_problem(dir.path());
     succeeded(&tdeploy(
         &["deploy", "--problem", "uneven.toml", "-o", "plain"],
         dir.path(),
@@ -804,6 +800,16 @@ fn a_truth_split_at_slip_events_shows_the_reversal_dip_after_an_uneven_fold() {
     );
 }
 
+/// Writes `uneven.toml` into `dir`: a problem file with half A folded
+/// 45 cm and half B 33 cm (the uneven fold of issue 22).
+fn write_uneven_fold_problem(dir: &std::path::Path) {
+    std::fs::write(
+        dir.join("uneven.toml"),
+        "format = \"tensegrity-deploy/problem/1\"\nstart_payout_m = [0.45, 0.45, 0.45, 0.45, 0.45, 0.33, 0.33, 0.33, 0.33, 0.33]\n",
+    )
+    .unwrap();
+}
+
 /// A deploy's `truth.toml` is the truth it ran: with
 /// `--slip-event-substeps` it records `[solver] slip_event_substeps`, so
 /// deploying that file again (no flag) splits the increments again and
@@ -813,11 +819,7 @@ fn a_truth_split_at_slip_events_shows_the_reversal_dip_after_an_uneven_fold() {
 #[test]
 fn a_deploys_truth_file_records_the_split_and_reruns_the_same_deployment() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("uneven.toml"),
-        "format = \"tensegrity-deploy/problem/1\"\nstart_payout_m = [0.45, 0.45, 0.45, 0.45, 0.45, 0.33, 0.33, 0.33, 0.33, 0.33]\n",
-    )
-    .unwrap();
+    write_uneven_fold_problem(dir.path());
     let split = |extra: &[&str], out: &str| {
         let mut args = vec!["deploy", "--problem", "uneven.toml", "-o", out];
         args.extend_from_slice(extra);
