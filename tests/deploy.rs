@@ -843,6 +843,47 @@ fn a_deploys_truth_file_records_the_split_and_reruns_the_same_deployment() {
     assert_eq!(summary["outcome"], "limits_broken");
 }
 
+/// A controller's model file with `[solver] slip_event_substeps` is
+/// planned on with its increments split (known limitations 19): on the
+/// uneven fold and the split truth, a μ = 0.2 model whose trials are split
+/// sees the reversal dip and stops safely, naming `A_cc1[3]`, where the
+/// same model stepping whole 1 cm increments misses it and its first
+/// command breaks `A_cc1[2]` and `A_cc1[3]`. The deploy's `model.toml`
+/// keeps the table.
+#[test]
+fn a_controller_model_asking_for_slip_event_substeps_sees_the_reversal_dip() {
+    let dir = tempfile::tempdir().unwrap();
+    write_uneven_fold_problem(dir.path());
+    let model = "format = \"tensegrity-deploy/model/1\"\nstructure = \"reference\"\n\n[effects.joint_friction]\nmu = 0.2\n";
+    std::fs::write(dir.path().join("plain.toml"), model).unwrap();
+    std::fs::write(
+        dir.path().join("split.toml"),
+        format!("{model}\n[solver]\nslip_event_substeps = true\n"),
+    )
+    .unwrap();
+    let deploy = |model: &str, out: &str| {
+        let args = [
+            "deploy",
+            "--problem",
+            "uneven.toml",
+            "--slip-event-substeps",
+            "--model",
+            model,
+            "-o",
+            out,
+        ];
+        failed_with(&tdeploy(&args, dir.path()), 1);
+        read_json(&dir.path().join(out).join("summary.json"))
+    };
+    let plain = deploy("plain.toml", "plain");
+    assert_eq!(plain["outcome"], "limits_broken");
+    let split = deploy("split.toml", "split");
+    assert_eq!(split["outcome"], "not_reachable", "{split}");
+    assert_eq!(split["truth_limit_violations"], 0, "{split}");
+    let kept = std::fs::read_to_string(dir.path().join("split/model.toml")).unwrap();
+    assert!(kept.contains("[solver]\nslip_event_substeps = true"), "{kept}");
+}
+
 /// Issue 22, item 7: scenario 34 of `scenarios/wide.toml`, seed 777 (half
 /// A folded 46 cm, half B 57 cm, μ 0.08, the halves' stiffnesses and
 /// joint masses apart). Half B's fold leaves `B_cc0` slack in the

@@ -227,7 +227,11 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     let cf = match &calibration {
         Ok(c) => {
-            let truth = EffectModel::for_measurement(base.structure.clone(), c.effects.clone());
+            // The model file's solver settings stay: the calibration ran on them.
+            let truth = EffectModel {
+                effects: c.effects.clone(),
+                ..base.clone()
+            };
             match counterfactual(&model, &problem, &policy, &truth, &log, &start, o.seed) {
                 Ok(d) => Ok(d),
                 Err(DeployError::TruthStart(e)) => Err(format!(
@@ -247,7 +251,10 @@ pub fn run(o: &Options) -> Result<Outcome> {
     if let (Ok(c), Some(s)) = (&calibration, &standing) {
         if s.explains() && margins.is_some() {
             for end in c.interval_ends() {
-                let truth = EffectModel::for_measurement(base.structure.clone(), end.effects);
+                let truth = EffectModel {
+                    effects: end.effects,
+                    ..base.clone()
+                };
                 let run =
                     match counterfactual(&model, &problem, &policy, &truth, &log, &start, o.seed) {
                         Ok(d) => Ok(Margins::of(&d, tolerance_m)),
