@@ -227,6 +227,53 @@ fn truths_split_at_slip_events_are_recorded_and_do_not_merge_with_plain_ones() {
     assert!(!o.exists());
 }
 
+/// Shards run on model files of one name are one sweep only if the files
+/// say the same: a comment changes nothing, a `[solver]` table (or any
+/// effect) does, and `merge` names the field. Before the record carried
+/// the model's fingerprint, only its path was compared.
+#[test]
+fn shards_on_model_files_of_one_name_but_other_contents_do_not_merge() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = |name: &str| -> PathBuf { tmp.path().join(name) };
+    let model = tmp.path().join("m.toml");
+    let run = |text: &str, out: &str, shard: &str| {
+        std::fs::write(&model, text).unwrap();
+        ok(&tdeploy_in_repo(&[
+            "evaluate",
+            "--scenarios",
+            "2",
+            "--seed",
+            "5",
+            "--model",
+            model.to_str().unwrap(),
+            "--shard",
+            shard,
+            "-o",
+            dir(out).to_str().unwrap(),
+        ]));
+    };
+    run(REFERENCE_MODEL, "a1", "1/2");
+    run(&format!("# the same model\n{REFERENCE_MODEL}"), "a2", "2/2");
+    run(
+        &format!("{REFERENCE_MODEL}[solver]\nslip_event_substeps = true\n"),
+        "b2",
+        "2/2",
+    );
+    let merge = |second: &str, out: &str| {
+        tdeploy_in_repo(&[
+            "merge",
+            dir("a1").to_str().unwrap(),
+            dir(second).to_str().unwrap(),
+            "-o",
+            dir(out).to_str().unwrap(),
+        ])
+    };
+    ok(&merge("a2", "merged"));
+    let err = failed_with(&merge("b2", "refused"), 2);
+    assert!(err.contains("model_fingerprint"), "{err}");
+    assert!(!dir("refused").exists());
+}
+
 #[test]
 fn cycles_out_of_range_exit_2_naming_the_flag() {
     let tmp = tempfile::tempdir().unwrap();

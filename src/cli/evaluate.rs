@@ -36,7 +36,9 @@ use tensegrity_deploy::studies::evaluation::{
 };
 
 use super::evaluation_table::{all_policies, print_and_write};
-use super::inputs::{planning_model_and_bridge, policy_or_default, problem_or_default};
+use super::inputs::{
+    model_fingerprint, planning_model_and_bridge, policy_or_default, problem_or_default,
+};
 use super::progress::{Progress, Unit};
 use super::{value, with_threads, Outcome};
 
@@ -190,6 +192,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
         o.model
             .as_ref()
             .map_or("reference".into(), |p| p.display().to_string()),
+        o.model.as_deref().map(model_fingerprint).transpose()?,
         o.cycles,
         o.truth_slip_event_substeps,
         distribution.clone(),

@@ -331,6 +331,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         Shard::ALL,
         &policies,
         format!("reference, joint friction mu = {}", e.model_mu),
+        None,
         1,
         false,
         distribution.clone(),

@@ -8,6 +8,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 
 use tensegrity_deploy::design::{reference_bridge, BridgeParameters};
+use tensegrity_deploy::io::evaluation_files::fingerprint;
 use tensegrity_deploy::io::model_file::{
     read_model, ModelFile, ModelSolver, StructureSource, REFERENCE_TEMPERATURE_RANGE_C,
 };
@@ -81,6 +82,16 @@ pub fn controller_model_file(path: Option<&Path>) -> Result<(ModelFile, String)>
             "the reference bridge without friction".to_string(),
         ),
     })
+}
+
+/// The fingerprint of the model file at `path` as it reads: of its
+/// canonical text (structure as the file names it, effects, faults and
+/// `[solver]` settings), so that comments and layout do not change it
+/// and any setting does.
+pub fn model_fingerprint(path: &Path) -> Result<String> {
+    let file = read_model(path)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    Ok(fingerprint(file.to_toml(dir).as_bytes()))
 }
 
 /// A model file's structure source made independent of the working

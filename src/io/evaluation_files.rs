@@ -25,8 +25,9 @@
 //! **`evaluation.toml`**: what was run (format
 //! `tensegrity-deploy/evaluation/3`): seed, scenario count, cycles per
 //! scenario, shard, policy names and fingerprints, the controller model's
-//! source and the distribution itself. Shards merge only if everything but the shard
-//! agrees.
+//! source (with the fingerprint of a model file's contents), whether the
+//! truths were split at slip events, and the distribution itself. Shards
+//! merge only if everything but the shard agrees.
 //!
 //! **`runs.csv`**: one row per scenario and policy, in scenario then
 //! policy order: `scenario,seed`, every drawn value (named as
@@ -137,6 +138,14 @@ pub struct EvaluationRecord {
     pub policy_fingerprints: Vec<String>,
     /// The controller's model: `reference` or the model file given.
     pub model: String,
+    /// [`fingerprint`] of the controller's model file as it was read (its
+    /// canonical text, [`super::model_file::ModelFile::to_toml`]: its
+    /// structure, effects, faults and `[solver]` settings, not its
+    /// comments or layout), so that two shards run on model files of one
+    /// name but other contents are not merged as one sweep. Absent for the
+    /// reference model (and in records written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_fingerprint: Option<String>,
     /// Deployment-fold cycles per scenario and policy (each run reports
     /// its last cycle).
     pub cycles: usize,
@@ -153,8 +162,9 @@ impl EvaluationRecord {
     /// The record of shard `shard` of a sweep of `scenarios` scenarios
     /// drawn from `distribution` with `seed`, `cycles` cycles each, for
     /// `policies` (their names and the fingerprints of their settings) on
-    /// the controller's model `model` (`reference` or its file), the
-    /// truths split at slip events when `truth_slip_event_substeps`.
+    /// the controller's model `model` (`reference` or its file, with the
+    /// file's `model_fingerprint`), the truths split at slip events when
+    /// `truth_slip_event_substeps`.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         seed: u64,
@@ -162,6 +172,7 @@ impl EvaluationRecord {
         shard: Shard,
         policies: &[Policy],
         model: String,
+        model_fingerprint: Option<String>,
         cycles: usize,
         truth_slip_event_substeps: bool,
         distribution: ScenarioDistribution,
@@ -177,6 +188,7 @@ impl EvaluationRecord {
                 .map(policy_fingerprint)
                 .collect::<Result<_, _>>()?,
             model,
+            model_fingerprint,
             cycles,
             truth_slip_event_substeps,
             distribution,
@@ -201,6 +213,7 @@ impl EvaluationRecord {
             policies,
             policy_fingerprints,
             model,
+            model_fingerprint,
             cycles,
             truth_slip_event_substeps,
             distribution,
@@ -220,6 +233,10 @@ impl EvaluationRecord {
             *policy_fingerprints != other.policy_fingerprints,
         );
         differs("model", *model != other.model);
+        differs(
+            "model_fingerprint",
+            *model_fingerprint != other.model_fingerprint,
+        );
         differs("cycles", *cycles != other.cycles);
         differs(
             "truth_slip_event_substeps",
