@@ -31,7 +31,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (distribution, seed, index, seat_radius_m) = match args.as_slice() {
         [d, s, i] => (d, s, i, None),
         [d, s, i, r] => (d, s, i, Some(r.parse::<f64>()?)),
-        _ => return Err("usage: DISTRIBUTION.toml SEED INDEX [SEAT_RADIUS_M] [--truth-model]".into()),
+        _ => {
+            return Err(
+                "usage: DISTRIBUTION.toml SEED INDEX [SEAT_RADIUS_M] [--truth-model]".into(),
+            )
+        }
     };
     let scenario =
         read_distribution(std::path::Path::new(distribution))?.draw(seed.parse()?, index.parse()?);

@@ -881,7 +881,10 @@ fn a_controller_model_asking_for_slip_event_substeps_sees_the_reversal_dip() {
     assert_eq!(split["outcome"], "not_reachable", "{split}");
     assert_eq!(split["truth_limit_violations"], 0, "{split}");
     let kept = std::fs::read_to_string(dir.path().join("split/model.toml")).unwrap();
-    assert!(kept.contains("[solver]\nslip_event_substeps = true"), "{kept}");
+    assert!(
+        kept.contains("[solver]\nslip_event_substeps = true"),
+        "{kept}"
+    );
 }
 
 /// Issue 22, item 7: scenario 34 of `scenarios/wide.toml`, seed 777 (half

@@ -567,15 +567,29 @@ backlash_m = 0.002
         );
         let m = parse_model(&text, Path::new("m.toml")).unwrap();
         assert!(m.solver.slip_event_substeps);
-        assert!(m.measurement_model().unwrap().settings.slip_event_substeps_enable);
-        assert!(!plain.measurement_model().unwrap().settings.slip_event_substeps_enable);
+        assert!(
+            m.measurement_model()
+                .unwrap()
+                .settings
+                .slip_event_substeps_enable
+        );
+        assert!(
+            !plain
+                .measurement_model()
+                .unwrap()
+                .settings
+                .slip_event_substeps_enable
+        );
         let again = parse_model(&m.to_toml(Path::new(".")), Path::new("m.toml")).unwrap();
         assert_eq!(m, again);
         let typo = text.replace("slip_event_substeps =", "slip_events =");
         let e = parse_model(&typo, Path::new("m.toml"))
             .unwrap_err()
             .to_string();
-        assert!(e.starts_with("m.toml:6:") && e.contains("slip_events"), "{e}");
+        assert!(
+            e.starts_with("m.toml:6:") && e.contains("slip_events"),
+            "{e}"
+        );
         let not_a_flag = text.replace("= true", "= 1");
         let e = parse_model(&not_a_flag, Path::new("m.toml"))
             .unwrap_err()
