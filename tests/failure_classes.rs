@@ -206,3 +206,44 @@ fn a_model_with_the_truths_flexible_supports_is_planned_on() {
         nominal.final_payout_scale
     );
 }
+
+/// A member cut off its length can put the truth outside its limits in
+/// its own as-built state (wide seed 7072: 9 of the 13 runs that broke
+/// limits were on such truths, `docs/controller.md`). One ring cable of
+/// half B cut 4.6 mm short (scenario 158's fault alone, with μ = 0.2):
+/// `B_ring0_1` carries 5 826 N against its 3 000 N maximum as built, and
+/// the fold does not relieve it. The verdict names that as well as the
+/// unrestored start, in words and in `binds`; a truth within its limits
+/// as built (the default truth) has nothing to name.
+#[test]
+fn a_ring_cable_cut_short_is_named_as_out_of_its_limits_as_built() {
+    use tensegrity_deploy::control::as_built_breaches;
+    let text = format!(
+        "{HEADER}[effects.joint_friction]\nmu = 0.2\n\n\
+         [faults.member_error]\nmember = \"B_ring0_1\"\n\
+         rest_length_error_m = -0.0046\nstiffness_scale = 1.0\n"
+    );
+    let problem = DeploymentProblem::default();
+    for seed in [1, 2] {
+        let (d, v) = deploy(&text, None, seed);
+        let words = format!("seed {seed}: {}", v.describe());
+        assert!(!v.is_connected(), "{words}");
+        assert_eq!(d.truth_as_built_broken.len(), 1, "{words}");
+        let b = &d.truth_as_built_broken[0];
+        assert_eq!(b.limit(), "cable B_ring0_1 max", "{words}");
+        assert_eq!(b.limit_n, problem.max_tension_n, "{words}");
+        assert!(b.force_n > b.limit_n, "{words}");
+        assert!(words.contains("in its own as-built state"), "{words}");
+        assert!(
+            v.binds()
+                .contains(&"truth as built: cable B_ring0_1 max".to_string()),
+            "{words}"
+        );
+    }
+    let default_truth =
+        tensegrity_deploy::sim::default_truth(common::fixtures::reference_structure());
+    assert_eq!(
+        as_built_breaches(&default_truth, &problem, None).unwrap(),
+        Vec::new()
+    );
+}

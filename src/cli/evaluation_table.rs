@@ -11,10 +11,11 @@ use anyhow::Result;
 use tensegrity_deploy::io::evaluation_files::{EvaluationRecord, EvaluationRuns};
 use tensegrity_deploy::io::evaluation_summary::write_evaluation;
 use tensegrity_deploy::io::write_atomically;
+use tensegrity_deploy::plan::verdict::AS_BUILT_PREFIX;
 use tensegrity_deploy::plan::RunOutcome;
 use tensegrity_deploy::report::evaluation_figure::evaluation_svg;
 use tensegrity_deploy::studies::evaluation::{
-    binding_counts, first_against_others, summarise_results, PolicySummary,
+    as_built_counts, binding_counts, first_against_others, summarise_results, PolicySummary,
 };
 
 /// How many of the names that bind most often the table prints.
@@ -133,6 +134,13 @@ pub fn print_and_write(
             "{name}: what binds in the {failed} runs that did not connect (runs naming it; runs.csv's binds): {}",
             words.join("; ")
         );
+        let (broke, out_as_built) = as_built_counts(&runs.results, p);
+        if broke > 0 {
+            say!(
+                "{name}: {out_as_built} of the {broke} runs that broke limits are on truths that break limits in their own as-built state, before any fold (binds `{}…`)",
+                AS_BUILT_PREFIX
+            );
+        }
     }
     // The first policy against each other one on the same scenarios.
     let pairs = first_against_others(&runs.results, names.len());

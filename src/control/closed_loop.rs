@@ -47,10 +47,11 @@ use super::deployment::{
 };
 use super::guidance::Guidance;
 use super::measured_offsets::measured_gap_vectors;
-use super::truth_watch::TruthWatch;
+use super::truth_watch::{as_built_breaches, TruthWatch};
 use crate::model::flexible_supports::is_support_node;
 use crate::model::{ForwardModel, Structure};
 use crate::plan::limits::{force_rows, LimitCheck, Limits};
+use crate::plan::verdict::AS_BUILT_PREFIX;
 use crate::plan::{DeploymentProblem, PlanError, PlanStatus, Policy, SolverFailure};
 use crate::sim::{EffectModel, Plant, PlantError, Sensor};
 
@@ -97,7 +98,7 @@ impl DeployError {
     pub fn start_binds(&self) -> String {
         match self {
             DeployError::TruthStart(e) => match e {
-                PlantError::AsBuilt { status } => format!("truth as built: {}", status.as_str()),
+                PlantError::AsBuilt { status } => format!("{AS_BUILT_PREFIX}{}", status.as_str()),
                 PlantError::Solver { status, .. } => format!("truth fold: {}", status.as_str()),
                 PlantError::SeatsUnsettled { .. } => "truth fold: seats_unsettled".into(),
                 PlantError::Command { .. } => "truth fold: command_refused".into(),
@@ -369,6 +370,18 @@ pub fn deploy_guided(
                 })
                 .map(|r| r.index)
         };
+    let truth_limit_violations = records.iter().map(|r| r.truth_violations.len()).sum();
+    let truth_start_broken =
+        truth_limits.start_broken_limits(truth_structure, &end_rows.0, end_rows.1);
+    // Only where the run broke a limit or left one broken: it costs a
+    // relaxation of the truth. It cannot fail: this deployment's fold
+    // started from the same as-built state.
+    let truth_as_built_broken =
+        if truth_limit_violations > 0 || truth_start_broken.iter().any(|l| !l.restored) {
+            as_built_breaches(setup.truth, setup.problem, setup.temperature_c).unwrap_or_default()
+        } else {
+            Vec::new()
+        };
     Ok(Deployment {
         // A command counts into the approach when it is decided; one the
         // truth could not take was never recorded.
@@ -377,12 +390,9 @@ pub fn deploy_guided(
         final_payout_scale: controller.part_payout_scale(),
         final_load_cell_bias_n: controller.load_cell_bias_n(),
         status,
-        truth_limit_violations: records.iter().map(|r| r.truth_violations.len()).sum(),
-        truth_start_broken: truth_limits.start_broken_limits(
-            truth_structure,
-            &end_rows.0,
-            end_rows.1,
-        ),
+        truth_limit_violations,
+        truth_as_built_broken,
+        truth_start_broken,
         corrective_commands: first_below_corrective_gap.map(|k| records.len() - k),
         first_below_corrective_gap,
         start,

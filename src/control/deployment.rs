@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use crate::model::DeploymentState;
-use crate::plan::limits::StartBrokenLimit;
+use crate::plan::limits::{StartBrokenLimit, StateBreach};
 use crate::plan::{Breach, LimitViolation, PlanStatus, QpStepStatus, RunVerdict};
 
 /// The largest measured gap below which the deployment is in its last,
@@ -124,6 +124,10 @@ pub struct Deployment {
     /// The truth's limits that its folded start already broke, with
     /// whether the end meets them (see [`crate::plan::limits`]).
     pub truth_start_broken: Vec<StartBrokenLimit>,
+    /// Where the truth broke a limit during the run, the limits its own
+    /// as-built state breaks by itself ([`RunVerdict::as_built_broken`]);
+    /// empty otherwise (not computed: it costs a relaxation of the truth).
+    pub truth_as_built_broken: Vec<StateBreach>,
     /// The number of the first command after which the largest measured
     /// gap is below [`CORRECTIVE_PHASE_GAP_M`] (0: already at the start).
     pub first_below_corrective_gap: Option<usize>,
@@ -166,6 +170,7 @@ impl Deployment {
             })),
             violations: self.truth_limit_violations,
             start_broken: self.truth_start_broken.clone(),
+            as_built_broken: self.truth_as_built_broken.clone(),
         }
     }
 

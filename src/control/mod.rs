@@ -53,7 +53,7 @@ pub use session::{
     Interlocks, Session, SessionError, SessionEvent, SessionPhase, SessionRefusal, SessionSetup,
     StepReadings,
 };
-pub use truth_watch::TruthWatch;
+pub use truth_watch::{as_built_breaches, TruthWatch};
 
 /// Fixtures shared by the control layer's unit tests.
 #[cfg(test)]

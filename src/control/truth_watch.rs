@@ -11,8 +11,27 @@
 
 use crate::model::{DeploymentState, ForwardModel, IncrementObserver, RelaxReport};
 use crate::plan::limits::force_rows;
-use crate::plan::limits::{ForceBounds, LimitCheck, LimitViolation, Limits};
-use crate::plan::worst_along_path;
+use crate::plan::limits::{ForceBounds, LimitCheck, LimitViolation, Limits, StateBreach};
+use crate::plan::{worst_along_path, DeploymentProblem};
+use crate::sim::{EffectModel, Plant, PlantError};
+
+/// The limits of `problem` that `truth` breaks in its own as-built state
+/// (zero payout, at `temperature_c`, before any fold: the state the
+/// halves are built to meet at), on its own structure (effects may append
+/// foundation members), against the required bounds. A truth with a
+/// member cut off its length can be outside its limits there, where
+/// every deployment is meant to end; the verdict of a run that broke
+/// limits names them ([`crate::plan::RunVerdict::as_built_broken`]).
+/// Errors where the as-built state does not stand.
+pub fn as_built_breaches(
+    truth: &EffectModel,
+    problem: &DeploymentProblem,
+    temperature_c: Option<f64>,
+) -> Result<Vec<StateBreach>, PlantError> {
+    let built = Plant::new(truth, None, temperature_c)?;
+    Ok(Limits::new(built.model(), problem, built.state())
+        .broken_at_construction(built.model().structure()))
+}
 
 /// Checks every increment of the truth against limits built on the
 /// truth's own structure (its force rows may differ from the model's:

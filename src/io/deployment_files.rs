@@ -52,7 +52,7 @@ use super::problem_file::problem_to_toml;
 use super::{write_atomically, write_json, CsvTable, FileError};
 use crate::control::Deployment;
 use crate::model::Structure;
-use crate::plan::limits::StartBrokenLimit;
+use crate::plan::limits::{StartBrokenLimit, StateBreach};
 use crate::plan::{Breach, DeploymentProblem, PlanStatus, Policy, RunVerdict};
 use crate::sim::{EffectModel, Sensor};
 use crate::studies::deployment_log::deployment_log;
@@ -100,6 +100,10 @@ pub struct DeploymentSummary<'a> {
     /// The truth's limits its folded start already broke, with whether
     /// the end meets them.
     pub truth_start_broken: &'a [StartBrokenLimit],
+    /// Where the truth broke a limit, the limits its own as-built state
+    /// (before any fold) breaks by itself; empty otherwise
+    /// ([`crate::plan::RunVerdict::as_built_broken`]).
+    pub truth_as_built_broken: &'a [StateBreach],
     /// Seed of the sensor noise.
     pub seed: u64,
     /// The policy's name.
@@ -182,6 +186,7 @@ impl<'a> DeploymentSummary<'a> {
             status: &d.status,
             truth_limits_broken: run.broken.clone(),
             truth_start_broken: &d.truth_start_broken,
+            truth_as_built_broken: &d.truth_as_built_broken,
             seed: sources.seed,
             policy: &policy.name,
             planner: policy.planner.as_str(),

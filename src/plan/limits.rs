@@ -400,6 +400,45 @@ impl StartBrokenLimit {
     }
 }
 
+/// A limit a state breaks by itself, before any command: what
+/// [`Limits::broken_at_construction`] reports of the state its limits were
+/// built on. Used for the truth's as-built (designed) state, where a
+/// drawn truth with a member cut short or long can already be outside
+/// its limits: the state the deployment is meant to end near.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StateBreach {
+    /// The force row's name ([`force_row_name`]).
+    pub member: String,
+    /// `true` for a lower bound (a slack member), `false` for an upper.
+    pub lower: bool,
+    /// The required bound, N.
+    pub limit_n: f64,
+    /// The force in that state, N.
+    pub force_n: f64,
+}
+
+impl StateBreach {
+    /// The limit's name as a run's `binds` and breaches name it
+    /// (`cable B_ring0_1 max`).
+    pub fn limit(&self) -> String {
+        format!("{} {}", self.member, if self.lower { "min" } else { "max" })
+    }
+
+    /// Plain words, e.g. `cable B_ring0_1 at 4765.1 N, above its
+    /// 3000.0 N maximum`.
+    pub fn describe(&self) -> String {
+        let (dir, bound) = if self.lower {
+            ("below", "minimum")
+        } else {
+            ("above", "maximum")
+        };
+        format!(
+            "{} at {:.1} N, {dir} its {:.1} N {bound}",
+            self.member, self.force_n, self.limit_n
+        )
+    }
+}
+
 /// Closest distance between segments `p0–p1` and `q0–q1`, m, with the
 /// parameters `(s, t)` ∈ [0, 1]² of the closest points (Ericson,
 /// Real-Time Collision Detection, §5.1.9).
@@ -652,6 +691,24 @@ impl Limits {
             .iter()
             .zip(&self.required)
             .map(|(&f, b)| f >= b.lower_n - tolerance_n && f <= b.upper_n + tolerance_n)
+            .collect()
+    }
+
+    /// The limits the state these limits were built on breaks by itself
+    /// (the rows [`Self::new`] widened), against the required bounds.
+    pub fn broken_at_construction(&self, structure: &Structure) -> Vec<StateBreach> {
+        (0..self.required.len())
+            .filter(|&r| self.start_broken[r])
+            .map(|r| {
+                let (b, f) = (self.required[r], self.start_n[r]);
+                let lower = f < b.lower_n;
+                StateBreach {
+                    member: force_row_name(structure, r),
+                    lower,
+                    limit_n: if lower { b.lower_n } else { b.upper_n },
+                    force_n: f,
+                }
+            })
             .collect()
     }
 

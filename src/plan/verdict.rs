@@ -22,13 +22,18 @@
 
 use serde::Serialize;
 
-use super::limits::{force_rows, LimitViolation, Limits, StartBrokenLimit};
+use super::limits::{force_rows, LimitViolation, Limits, StartBrokenLimit, StateBreach};
 use super::outcome::{Plan, PlanStatus};
 use super::problem::DeploymentProblem;
 use crate::model::{DeploymentState, ForwardModel, Workspace};
 
 /// How many broken limits a verdict's words name before "and N more".
 const NAMED_IN_WORDS: usize = 5;
+
+/// What [`RunVerdict::binds`] puts before a limit the truth's as-built
+/// state breaks by itself (the prefix a run that did not start names its
+/// as-built failure with, too: `truth as built: implausible_strain`).
+pub const AS_BUILT_PREFIX: &str = "truth as built: ";
 
 /// One limit broken during a run: its first breach and how often.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -131,6 +136,16 @@ pub struct RunVerdict {
     /// The limits the start already broke, with whether they were
     /// restored.
     pub start_broken: Vec<StartBrokenLimit>,
+    /// For a deployment that broke a truth limit or left one its start
+    /// broke unrestored, the limits the truth breaks in its own as-built
+    /// state (the designed state the halves
+    /// are built to meet at, before any fold): a truth with a member cut
+    /// off its length can be outside its limits there, where every
+    /// deployment is meant to end. Context for the breach, not an excuse:
+    /// the run still broke limits. Empty for plans, for runs that keep
+    /// every limit, and for truths within every limit as built; named in
+    /// [`Self::describe`] and [`Self::binds`] whatever the outcome.
+    pub as_built_broken: Vec<StateBreach>,
 }
 
 impl RunVerdict {
@@ -182,12 +197,15 @@ impl RunVerdict {
     /// any; else, for a stop, what binds ([`NotReachable::binding`]:
     /// the limits the controller would not break; empty where the stop
     /// names none, e.g. a spent command budget or a solver failure); the
-    /// start-broken limits left unrestored. Empty for a connected run and
-    /// for a gap out of tolerance (no limit decided it).
+    /// start-broken limits left unrestored; nothing for a gap out of
+    /// tolerance (no limit decided it). Then, whatever the outcome, the
+    /// limits the truth's as-built state breaks by itself
+    /// ([`Self::as_built_broken`]), each after [`AS_BUILT_PREFIX`]
+    /// (`truth as built: cable B_ring0_1 max`). Empty for a connected run.
     ///
     /// [`NotReachable::binding`]: super::causes::NotReachable::binding
     pub fn binds(&self) -> Vec<String> {
-        match self.outcome() {
+        let mut names = match self.outcome() {
             RunOutcome::LimitsBroken => self.broken.iter().map(|b| b.violation.limit()).collect(),
             RunOutcome::Stopped => match &self.status {
                 PlanStatus::NotReachable { cause } => cause.binding(),
@@ -199,7 +217,9 @@ impl RunVerdict {
                 .map(|l| format!("{} {}", l.member, if l.lower { "min" } else { "max" }))
                 .collect(),
             RunOutcome::Connected | RunOutcome::GapOutOfTolerance => Vec::new(),
-        }
+        };
+        names.extend(self.as_built_names());
+        names
     }
 
     /// The `status` the tables write: `connected`, `limits_broken`, the
@@ -285,7 +305,32 @@ impl RunVerdict {
                 if n == 1 { "" } else { "s" }
             ));
         }
+        let k = self.as_built_broken.len();
+        if k > 0 {
+            let mut named: Vec<String> = self
+                .as_built_broken
+                .iter()
+                .take(NAMED_IN_WORDS)
+                .map(StateBreach::describe)
+                .collect();
+            if k > NAMED_IN_WORDS {
+                named.push(format!("and {} more", k - NAMED_IN_WORDS));
+            }
+            text.push_str(&format!(
+                "; the truth breaks {k} limit{} in its own as-built state, before any fold: {}",
+                if k == 1 { "" } else { "s" },
+                named.join("; ")
+            ));
+        }
         text
+    }
+
+    /// The names [`Self::binds`] gives the limits of
+    /// [`Self::as_built_broken`] (`truth as built: cable B_ring0_1 max`).
+    fn as_built_names(&self) -> impl Iterator<Item = String> + '_ {
+        self.as_built_broken
+            .iter()
+            .map(|b| format!("{AS_BUILT_PREFIX}{}", b.limit()))
     }
 }
 
@@ -317,6 +362,7 @@ impl Plan {
             broken: Vec::new(),
             violations: 0,
             start_broken: limits.start_broken_limits(model.structure(), &rows, tolerance_n),
+            as_built_broken: Vec::new(),
         }
     }
 }
@@ -370,6 +416,7 @@ mod tests {
             broken: Vec::new(),
             violations: 0,
             start_broken: Vec::new(),
+            as_built_broken: Vec::new(),
         }
     }
 
@@ -398,6 +445,50 @@ mod tests {
             v.describe().starts_with("not connected: command limit"),
             "{}",
             v.describe()
+        );
+    }
+
+    /// A truth that breaks a limit in its own as-built state (a member
+    /// cut short overloading its ring) is named after what the run did,
+    /// in words and in `binds`, without changing the outcome.
+    #[test]
+    fn a_truth_out_of_its_limits_as_built_is_named_after_the_breach() {
+        let mut v = verdict(PlanStatus::Connected, 0.010);
+        v.broken = Breach::first_per_limit([(4, 2, &slack("cable B_axial_m0_4", 0.0))]);
+        v.violations = 1;
+        v.as_built_broken = vec![StateBreach {
+            member: "cable B_ring0_1".into(),
+            lower: false,
+            limit_n: 3000.0,
+            force_n: 4765.14,
+        }];
+        assert_eq!(v.label(), "limits_broken");
+        assert_eq!(
+            v.describe(),
+            "connected, but 1 truth limit broken (1 violation): cable B_axial_m0_4 at 0.0 N, below 5.0 N in command 4 (increment 2; 1 increment); the truth breaks 1 limit in its own as-built state, before any fold: cable B_ring0_1 at 4765.1 N, above its 3000.0 N maximum"
+        );
+        assert_eq!(
+            v.binds(),
+            vec![
+                "cable B_axial_m0_4 min",
+                "truth as built: cable B_ring0_1 max"
+            ]
+        );
+        // A stop names it after what binds.
+        v.broken.clear();
+        v.violations = 0;
+        v.status = PlanStatus::NotReachable {
+            cause: NotReachable::QpInfeasible {
+                binding: vec!["segment A_cc1[2] min".into()],
+            },
+        };
+        assert_eq!(v.label(), "not_reachable");
+        assert_eq!(
+            v.binds(),
+            vec![
+                "segment A_cc1[2] min",
+                "truth as built: cable B_ring0_1 max"
+            ]
         );
     }
 

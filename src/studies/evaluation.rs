@@ -44,6 +44,7 @@ use crate::model::faults::node_halves;
 use crate::model::parameter_spec::ParameterSpec;
 use crate::model::{EffectKind, Effects, FaultKind, Faults, ForwardModel, Half, Structure};
 use crate::numerics::NumberRange;
+use crate::plan::verdict::AS_BUILT_PREFIX;
 use crate::plan::{DeploymentProblem, PerMotor, Policy};
 use crate::sim::{standard_sensors, EffectModel, Sensor, SensorTarget};
 
@@ -864,6 +865,22 @@ pub fn binding_counts(results: &[RunResult], policy: usize) -> (Vec<(String, usi
     (out, unnamed)
 }
 
+/// Of the runs of `policy` that broke truth limits (status
+/// `limits_broken`), how many there are and how many name a limit their
+/// truth breaks in its own as-built state (a bind after
+/// [`AS_BUILT_PREFIX`], [`crate::plan::RunVerdict::binds`]).
+pub fn as_built_counts(results: &[RunResult], policy: usize) -> (usize, usize) {
+    let broke: Vec<&RunResult> = results
+        .iter()
+        .filter(|r| r.policy == policy && r.status == "limits_broken")
+        .collect();
+    let out_as_built = broke
+        .iter()
+        .filter(|r| r.binds.iter().any(|b| b.starts_with(AS_BUILT_PREFIX)))
+        .count();
+    (broke.len(), out_as_built)
+}
+
 /// What one policy did over all scenarios.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PolicySummary {
@@ -1208,6 +1225,34 @@ mod tests {
             },
             planning_time_median_s: None,
         }
+    }
+
+    /// Of the runs that broke limits, those whose truth is out of its
+    /// limits as built are counted by their `truth as built:` bind; a
+    /// run that did not start names its as-built failure the same way
+    /// and is not counted (it broke nothing).
+    #[test]
+    fn runs_that_broke_limits_on_truths_out_of_limits_as_built_are_counted() {
+        let mut runs = vec![
+            cycle(9, 0, 0.4),
+            cycle(7, 1, 0.9),
+            cycle(7, 2, 0.9),
+            cycle(7, 3, 0.9),
+        ];
+        for r in &mut runs {
+            r.policy = 0;
+            r.succeeded = false;
+            r.status = "limits_broken".into();
+        }
+        runs[1]
+            .binds
+            .push(format!("{AS_BUILT_PREFIX}cable B_ring0_1 max"));
+        runs[2].status = "not_started".into();
+        runs[2].binds = vec![format!("{AS_BUILT_PREFIX}implausible_strain")];
+        runs[3].status = "connected".into();
+        runs[3].succeeded = true;
+        assert_eq!(as_built_counts(&runs, 0), (2, 1));
+        assert_eq!(as_built_counts(&runs, 1), (0, 0));
     }
 
     /// What binds, over the runs that did not connect: each name with its
