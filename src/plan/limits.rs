@@ -721,19 +721,15 @@ impl Limits {
         tolerance_n: f64,
     ) -> Vec<StartBrokenLimit> {
         let meets = self.meets_required(end_rows_n, tolerance_n);
-        (0..self.required.len())
-            .filter(|&r| self.start_broken[r])
-            .map(|r| {
-                let (b, f0) = (self.required[r], self.start_n[r]);
-                let lower = f0 < b.lower_n;
-                StartBrokenLimit {
-                    member: force_row_name(structure, r),
-                    lower,
-                    limit_n: if lower { b.lower_n } else { b.upper_n },
-                    start_n: f0,
-                    end_n: end_rows_n.get(r).copied().unwrap_or(f64::NAN),
-                    restored: meets.get(r).copied().unwrap_or(false),
-                }
+        let rows = (0..self.required.len()).filter(|&r| self.start_broken[r]);
+        rows.zip(self.broken_at_construction(structure))
+            .map(|(r, b)| StartBrokenLimit {
+                member: b.member,
+                lower: b.lower,
+                limit_n: b.limit_n,
+                start_n: b.force_n,
+                end_n: end_rows_n.get(r).copied().unwrap_or(f64::NAN),
+                restored: meets.get(r).copied().unwrap_or(false),
             })
             .collect()
     }

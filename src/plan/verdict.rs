@@ -30,6 +30,17 @@ use crate::model::{DeploymentState, ForwardModel, Workspace};
 /// How many broken limits a verdict's words name before "and N more".
 const NAMED_IN_WORDS: usize = 5;
 
+/// `words` of at most [`NAMED_IN_WORDS`] items joined by `; `, with
+/// "and N more" for the rest.
+fn named_in_words(words: impl ExactSizeIterator<Item = String>) -> String {
+    let n = words.len();
+    let mut named: Vec<String> = words.take(NAMED_IN_WORDS).collect();
+    if n > NAMED_IN_WORDS {
+        named.push(format!("and {} more", n - NAMED_IN_WORDS));
+    }
+    named.join("; ")
+}
+
 /// What [`RunVerdict::binds`] puts before a limit the truth's as-built
 /// state breaks by itself (the prefix a run that did not start names its
 /// as-built failure with, too: `truth as built: implausible_strain`).
@@ -252,21 +263,12 @@ impl RunVerdict {
                     )
                 };
                 let n = self.broken.len();
-                let mut named: Vec<String> = self
-                    .broken
-                    .iter()
-                    .take(NAMED_IN_WORDS)
-                    .map(Breach::describe)
-                    .collect();
-                if n > NAMED_IN_WORDS {
-                    named.push(format!("and {} more", n - NAMED_IN_WORDS));
-                }
                 format!(
                     "{head} {n} truth limit{} broken ({} violation{}): {}",
                     if n == 1 { "" } else { "s" },
                     self.violations,
                     if self.violations == 1 { "" } else { "s" },
-                    named.join("; ")
+                    named_in_words(self.broken.iter().map(Breach::describe))
                 )
             }
             RunOutcome::Stopped => format!("not connected: {}", self.status.describe()),
@@ -280,14 +282,6 @@ impl RunVerdict {
         let not_restored = self.not_restored();
         if !not_restored.is_empty() {
             let n = not_restored.len();
-            let mut named: Vec<String> = not_restored
-                .iter()
-                .take(NAMED_IN_WORDS)
-                .map(|l| l.describe())
-                .collect();
-            if n > NAMED_IN_WORDS {
-                named.push(format!("and {} more", n - NAMED_IN_WORDS));
-            }
             let sep = if self.outcome() == RunOutcome::LimitsNotRestored {
                 " "
             } else {
@@ -296,7 +290,7 @@ impl RunVerdict {
             text.push_str(&format!(
                 "{sep}{n} limit{} broken at the start not restored: {}",
                 if n == 1 { "" } else { "s" },
-                named.join("; ")
+                named_in_words(not_restored.iter().map(|l| l.describe()))
             ));
         } else if !self.start_broken.is_empty() {
             let n = self.start_broken.len();
@@ -307,19 +301,10 @@ impl RunVerdict {
         }
         let k = self.as_built_broken.len();
         if k > 0 {
-            let mut named: Vec<String> = self
-                .as_built_broken
-                .iter()
-                .take(NAMED_IN_WORDS)
-                .map(StateBreach::describe)
-                .collect();
-            if k > NAMED_IN_WORDS {
-                named.push(format!("and {} more", k - NAMED_IN_WORDS));
-            }
             text.push_str(&format!(
                 "; the truth breaks {k} limit{} in its own as-built state, before any fold: {}",
                 if k == 1 { "" } else { "s" },
-                named.join("; ")
+                named_in_words(self.as_built_broken.iter().map(StateBreach::describe))
             ));
         }
         text
