@@ -15,6 +15,7 @@ use tensegrity_deploy::control::as_built_breaches;
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::evaluation_files::read_distribution;
 use tensegrity_deploy::plan::DeploymentProblem;
+use tensegrity_deploy::sim::Plant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -29,8 +30,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for index in 0..count {
         let scenario = distribution.draw(seed, index);
         let truth = scenario.truth(&bridge);
-        match as_built_breaches(&truth, &problem, scenario.temperature_c) {
-            Ok(broken) => {
+        match Plant::new(&truth, None, scenario.temperature_c) {
+            Ok(built) => {
+                let broken = as_built_breaches(&built, &problem);
                 out_of_limits += usize::from(!broken.is_empty());
                 let names: Vec<String> = broken.iter().map(|b| b.describe()).collect();
                 println!(

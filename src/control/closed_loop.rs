@@ -373,12 +373,11 @@ pub fn deploy_guided(
     let truth_limit_violations = records.iter().map(|r| r.truth_violations.len()).sum();
     let truth_start_broken =
         truth_limits.start_broken_limits(truth_structure, &end_rows.0, end_rows.1);
-    // Only where the run broke a limit or left one broken: it costs a
-    // relaxation of the truth. It cannot fail: this deployment's fold
-    // started from the same as-built state.
+    // Context for a run that broke a limit or left one broken; the others
+    // have nothing to explain.
     let truth_as_built_broken =
         if truth_limit_violations > 0 || truth_start_broken.iter().any(|l| !l.restored) {
-            as_built_breaches(setup.truth, setup.problem, setup.temperature_c).unwrap_or_default()
+            as_built_breaches(plant, setup.problem)
         } else {
             Vec::new()
         };

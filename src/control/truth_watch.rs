@@ -13,24 +13,20 @@ use crate::model::{DeploymentState, ForwardModel, IncrementObserver, RelaxReport
 use crate::plan::limits::force_rows;
 use crate::plan::limits::{ForceBounds, LimitCheck, LimitViolation, Limits, StateBreach};
 use crate::plan::{worst_along_path, DeploymentProblem};
-use crate::sim::{EffectModel, Plant, PlantError};
+use crate::sim::Plant;
 
-/// The limits of `problem` that `truth` breaks in its own as-built state
-/// (zero payout, at `temperature_c`, before any fold: the state the
-/// halves are built to meet at), on its own structure (effects may append
-/// foundation members), against the required bounds. A truth with a
-/// member cut off its length can be outside its limits there, where
-/// every deployment is meant to end; the verdict of a run that broke
-/// limits names them ([`crate::plan::RunVerdict::as_built_broken`]).
-/// Errors where the as-built state does not stand.
-pub fn as_built_breaches(
-    truth: &EffectModel,
-    problem: &DeploymentProblem,
-    temperature_c: Option<f64>,
-) -> Result<Vec<StateBreach>, PlantError> {
-    let built = Plant::new(truth, None, temperature_c)?;
-    Ok(Limits::new(built.model(), problem, built.state())
-        .broken_at_construction(built.model().structure()))
+/// The limits of `problem` that the truth of `plant` breaks in its own
+/// as-built state ([`Plant::as_built_state`]: zero payout, before any
+/// fold, the state the halves are built to meet at), on its own structure
+/// (effects may append foundation members), against the required
+/// bounds. A truth with a member cut off its length can be outside its
+/// limits there, where every deployment is meant to end; the verdict of a
+/// run that broke limits names them
+/// ([`crate::plan::RunVerdict::as_built_broken`]). The model is the
+/// plant's as it is now: the same as built while the temperature holds.
+pub fn as_built_breaches(plant: &Plant, problem: &DeploymentProblem) -> Vec<StateBreach> {
+    let model = plant.model();
+    Limits::new(model, problem, plant.as_built_state()).broken_at_construction(model.structure())
 }
 
 /// Checks every increment of the truth against limits built on the

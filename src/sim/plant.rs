@@ -52,6 +52,10 @@ pub struct Plant {
     /// The truth model at the current thermal strain.
     model: ForwardModel,
     state: DeploymentState,
+    /// The state as built (zero payout, settled at the start's
+    /// temperature, before any fold): kept for checks of the truth's own
+    /// design ([`Self::as_built_state`]).
+    as_built: DeploymentState,
     ws: Workspace,
     motor: MotorModel,
     /// Thermal strain the model's and state's rest lengths are at.
@@ -89,6 +93,7 @@ impl Plant {
         // The as-built state has its arcs wrapped already.
         let state = forward.reference_state();
         let mut plant = Plant {
+            as_built: state.clone(),
             effects: model.effects.clone(),
             bridge_members: model.structure.members.len(),
             settings: model.settings.clone(),
@@ -117,6 +122,7 @@ impl Plant {
         };
         plant.relax().map_err(as_built)?;
         plant.follow_seats().map_err(as_built)?;
+        plant.as_built = plant.state.clone();
         if let Some(payout) = start_payout_m {
             // The fold moves material over the seats like any command: the
             // folded start is the settled state.
@@ -173,6 +179,14 @@ impl Plant {
     /// — it reads [`Self::measure`]).
     pub fn state(&self) -> &DeploymentState {
         &self.state
+    }
+
+    /// The true state as built: zero payout, settled at the temperature
+    /// [`Self::new`] was given, before any fold (the designed state the
+    /// halves are built to meet at, with the truth's effects). Not read by
+    /// a controller; a check of the truth's own design reads it.
+    pub fn as_built_state(&self) -> &DeploymentState {
+        &self.as_built
     }
 
     /// The truth forward model as it is now (effects applied; changes with
