@@ -268,3 +268,44 @@ fn a_truth_that_does_not_stand_as_built_is_a_missed_goal() {
         assert_eq!(said, 1, "{command:?}: {e}");
     }
 }
+
+/// A run that breaks a limit on a truth out of that limit as built (wide
+/// seed 7072, scenario 120, held out of all tuning: `B_axial_m0_4` drawn
+/// 2.4 mm long and half as stiff leaves it slack at the design; the run
+/// takes it to 0 N near the connection, 2 violations) names both in
+/// `runs.csv`'s `binds`: the limit broken, then the same limit as built,
+/// after `truth as built: `. The status stays `limits_broken`.
+#[test]
+fn a_run_that_breaks_a_limit_its_truth_breaks_as_built_names_both() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let args = [
+        "evaluate",
+        "--distribution",
+        &repo_arg("scenarios/wide.toml"),
+        "--scenarios",
+        "200",
+        "--shard",
+        "121/200",
+        "--seed",
+        "7072",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    let run = tdeploy_with(&args, tmp.path(), RunOptions::default());
+    assert_eq!(run.status.code(), Some(1), "{}", stderr(&run));
+    let (header, rows) = read_csv(&out.join("runs.csv"));
+    assert_eq!(rows.len(), 1);
+    let field = |name: &str| rows[0][column(&header, name)].clone();
+    assert_eq!(field("scenario"), "120");
+    assert_eq!(field("status"), "limits_broken");
+    assert_eq!(
+        field("binds"),
+        "cable B_axial_m0_4 min; truth as built: cable B_axial_m0_4 min"
+    );
+    let printed = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        printed.contains("1 of the 1 runs that broke limits are on truths that break limits in their own as-built state"),
+        "{printed}"
+    );
+}

@@ -15,9 +15,11 @@ use crate::plan::limits::{ForceBounds, LimitCheck, LimitViolation, Limits, State
 use crate::plan::{worst_along_path, DeploymentProblem};
 use crate::sim::Plant;
 
-/// The limits of `problem` that the truth of `plant` breaks in its own
-/// as-built state ([`Plant::as_built_state`]: zero payout, before any
-/// fold, the state the halves are built to meet at), on its own structure
+/// The force limits of `problem` (not the clearances) that the truth of
+/// `plant` breaks in its own as-built state ([`Plant::as_built_state`]:
+/// zero commanded payout, before any fold, the state the halves are built
+/// to meet at; with a drum zeroed off, its cable that much off the
+/// design), on its own structure
 /// (effects may append foundation members), against the required
 /// bounds. A truth with a member cut off its length can be outside its
 /// limits there, where every deployment is meant to end; the verdict of a

@@ -841,7 +841,11 @@ impl RunResult {
 /// frequent first (ties by name), and the number of those runs that name
 /// nothing (a stop whose cause is no limit: a spent command budget or
 /// nominal sequence, a solver failure, no reducing move; a gap out of
-/// tolerance; `cycles_stopped` after a connected cycle).
+/// tolerance; `cycles_stopped` after a connected cycle). The limits a
+/// run's truth breaks as built (`truth as built: LIMIT`) are context, not
+/// what decided the run, and are left out ([`as_built_counts`] counts
+/// them); a run that did not start keeps its reason
+/// (`truth as built: implausible_strain`).
 pub fn binding_counts(results: &[RunResult], policy: usize) -> (Vec<(String, usize)>, usize) {
     let mut counts: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
     let mut unnamed = 0;
@@ -849,10 +853,15 @@ pub fn binding_counts(results: &[RunResult], policy: usize) -> (Vec<(String, usi
         .iter()
         .filter(|r| r.policy == policy && !r.succeeded)
     {
-        if r.binds.is_empty() {
+        let decided: Vec<&String> = r
+            .binds
+            .iter()
+            .filter(|b| r.status == NOT_STARTED || !b.starts_with(AS_BUILT_PREFIX))
+            .collect();
+        if decided.is_empty() {
             unnamed += 1;
         }
-        for name in &r.binds {
+        for name in decided {
             *counts.entry(name.as_str()).or_default() += 1;
         }
     }
@@ -1253,6 +1262,17 @@ mod tests {
         runs[3].succeeded = true;
         assert_eq!(as_built_counts(&runs, 0), (2, 1));
         assert_eq!(as_built_counts(&runs, 1), (0, 0));
+        // What binds leaves the as-built context out, not a run's reason
+        // for not starting.
+        let (counts, unnamed) = binding_counts(&runs, 0);
+        assert_eq!(
+            counts,
+            vec![
+                ("cable A_axial_m0_7 min".to_string(), 1),
+                (format!("{AS_BUILT_PREFIX}implausible_strain"), 1),
+            ]
+        );
+        assert_eq!(unnamed, 1);
     }
 
     /// What binds, over the runs that did not connect: each name with its
