@@ -308,4 +308,10 @@ fn a_run_that_breaks_a_limit_its_truth_breaks_as_built_names_both() {
         printed.contains("1 of the 1 runs that broke limits are on truths that break limits in their own as-built state"),
         "{printed}"
     );
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    assert_eq!(rows[0][column(&header, "runs_breaking_limits")], "1");
+    assert_eq!(
+        rows[0][column(&header, "runs_breaking_limits_as_built")],
+        "1"
+    );
 }

@@ -15,7 +15,7 @@ use tensegrity_deploy::plan::verdict::AS_BUILT_PREFIX;
 use tensegrity_deploy::plan::RunOutcome;
 use tensegrity_deploy::report::evaluation_figure::evaluation_svg;
 use tensegrity_deploy::studies::evaluation::{
-    as_built_counts, binding_counts, first_against_others, summarise_results, PolicySummary,
+    binding_counts, first_against_others, summarise_results, PolicySummary,
 };
 
 /// How many of the names that bind most often the table prints.
@@ -134,7 +134,7 @@ pub fn print_and_write(
             "{name}: what binds in the {failed} runs that did not connect (runs naming it; runs.csv's binds): {}",
             words.join("; ")
         );
-        let (broke, out_as_built) = as_built_counts(&runs.results, p);
+        let (broke, out_as_built) = (s.runs_breaking_limits, s.runs_breaking_limits_as_built);
         if broke > 0 {
             say!(
                 "{name}: {out_as_built} of the {broke} runs that broke limits are on truths that break limits in their own as-built state, before any fold (binds `{}…`)",

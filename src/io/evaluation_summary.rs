@@ -12,7 +12,11 @@
 //!   `approach_gap_median_m` (largest measured gap after the first
 //!   approach), `final_gap_median_m`, `final_gap_p95_m` (largest true gap
 //!   at the end), `cable_travel_median_m` (over started runs),
-//!   `worst_utilisation` and `violations` (of the truth, over all runs).
+//!   `worst_utilisation` and `violations` (of the truth, over all runs),
+//!   `runs_breaking_limits` (runs whose truth broke a limit) and
+//!   `runs_breaking_limits_as_built` (of those, the runs whose truth
+//!   breaks a limit in its own as-built state; both since the seventeenth
+//!   session).
 //! - `paired.csv`: the first policy against each other one on the same
 //!   scenarios. Columns: `policy_a`, `policy_b`, `both`, `only_a`,
 //!   `only_b`, `neither` (scenarios each succeeded on) and
@@ -63,6 +67,8 @@ fn summary_table(names: &[String], summaries: &[PolicySummary]) -> CsvTable {
         "cable_travel_median_m",
         "worst_utilisation",
         "violations",
+        "runs_breaking_limits",
+        "runs_breaking_limits_as_built",
     ]);
     let opt = |v: Option<f64>| v.map_or(String::new(), |x| x.to_string());
     for (name, s) in names.iter().zip(summaries) {
@@ -82,6 +88,8 @@ fn summary_table(names: &[String], summaries: &[PolicySummary]) -> CsvTable {
             opt(s.travel_median_m),
             s.worst_utilisation.to_string(),
             s.violations.to_string(),
+            s.runs_breaking_limits.to_string(),
+            s.runs_breaking_limits_as_built.to_string(),
         ]);
     }
     summary

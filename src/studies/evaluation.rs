@@ -918,6 +918,11 @@ pub struct PolicySummary {
     pub worst_utilisation: f64,
     /// Truth limit violations over all runs.
     pub violations: usize,
+    /// Runs that broke a truth limit (status `limits_broken`).
+    pub runs_breaking_limits: usize,
+    /// Of those, the runs whose truth breaks a limit in its own as-built
+    /// state ([`as_built_counts`]).
+    pub runs_breaking_limits_as_built: usize,
     /// Median over runs of the median planning time per command, s.
     pub planning_time_median_s: Option<f64>,
 }
@@ -945,6 +950,7 @@ pub fn summarise_results(results: &[RunResult], policy: usize) -> PolicySummary 
             .filter_map(|r| r.final_true_gap_m)
             .collect::<Vec<_>>()
     };
+    let (runs_breaking_limits, runs_breaking_limits_as_built) = as_built_counts(results, policy);
     PolicySummary {
         runs: mine.len(),
         successes: ok.len(),
@@ -962,6 +968,8 @@ pub fn summarise_results(results: &[RunResult], policy: usize) -> PolicySummary 
         travel_median_m: median(started.iter().map(|r| r.cable_travel_m).collect()),
         worst_utilisation: mine.iter().map(|r| r.worst_utilisation).fold(0.0, f64::max),
         violations: mine.iter().map(|r| r.truth_violations).sum(),
+        runs_breaking_limits,
+        runs_breaking_limits_as_built,
         planning_time_median_s: median(
             mine.iter()
                 .filter_map(|r| r.planning_time_median_s)
