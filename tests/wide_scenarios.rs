@@ -29,6 +29,29 @@ fn read(dir: &Path, file: &str) -> String {
     std::fs::read_to_string(dir.join(file)).unwrap()
 }
 
+/// `tdeploy evaluate` of scenario `index` of 200 drawn from
+/// `scenarios/wide.toml` at `seed`, alone (shard `index + 1` of 200), into
+/// `out` with `extra` arguments, run from `dir`: its output, checked to
+/// have run to its end ([`ran`]).
+fn evaluate_one_wide_scenario(
+    seed: u64,
+    index: usize,
+    out: &Path,
+    extra: &[&str],
+    dir: &Path,
+) -> std::process::Output {
+    let (seed, shard) = (seed.to_string(), format!("{}/200", index + 1));
+    let mut args = vec!["evaluate", "--distribution"];
+    let distribution = repo_arg("scenarios/wide.toml");
+    args.push(&distribution);
+    args.extend(["--scenarios", "200", "--shard", &shard, "--seed", &seed]);
+    args.extend(["-o", out.to_str().unwrap()]);
+    args.extend(extra);
+    let output = tdeploy_with(&args, dir, RunOptions::default());
+    ran(&output);
+    output
+}
+
 /// Without `--temperature` a thermal truth is refused (exit 2, one line
 /// naming the flag), in `deploy` and `cycles` alike; at 40 °C it acts:
 /// the truth's members are longer than at its 20 °C reference, so the
@@ -201,43 +224,19 @@ fn a_drawn_bridge_that_cannot_stand_as_built_says_so() {
     });
     assert!(Plant::new(&softer_half, None, scenario.temperature_c).is_ok());
 
-    // `evaluate` of that scenario alone (shard 8 of 200 is scenario 7).
+    // `evaluate` of that scenario alone, then with cycles (`run_cycles`'
+    // path): the same.
     let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("out");
-    let args = [
-        "evaluate",
-        "--distribution",
-        &repo_arg("scenarios/wide.toml"),
-        "--scenarios",
-        "200",
-        "--shard",
-        "8/200",
-        "--seed",
-        "9090",
-        "-o",
-        out.to_str().unwrap(),
-    ];
-    ran(&tdeploy_with(&args, tmp.path(), RunOptions::default()));
-    let (header, rows) = read_csv(&out.join("runs.csv"));
-    assert_eq!(rows.len(), 1);
-    let field = |name: &str| rows[0][column(&header, name)].clone();
-    assert_eq!(field("scenario"), "7");
-    assert_eq!(field("status"), "not_started");
-    assert_eq!(field("binds"), "truth as built: implausible_strain");
-
-    // With cycles (`run_cycles`' path) the same.
-    let cycled = tmp.path().join("cycled");
-    let mut args = args.to_vec();
-    let o = args.len() - 1;
-    args[o] = cycled.to_str().unwrap();
-    args.extend(["--cycles", "2"]);
-    ran(&tdeploy_with(&args, tmp.path(), RunOptions::default()));
-    let (header, rows) = read_csv(&cycled.join("runs.csv"));
-    assert_eq!(rows[0][column(&header, "status")], "not_started");
-    assert_eq!(
-        rows[0][column(&header, "binds")],
-        "truth as built: implausible_strain"
-    );
+    for (folder, extra) in [("out", vec![]), ("cycled", vec!["--cycles", "2"])] {
+        let out = tmp.path().join(folder);
+        evaluate_one_wide_scenario(9090, 7, &out, &extra, tmp.path());
+        let (header, rows) = read_csv(&out.join("runs.csv"));
+        assert_eq!(rows.len(), 1);
+        let field = |name: &str| rows[0][column(&header, name)].clone();
+        assert_eq!(field("scenario"), "7");
+        assert_eq!(field("status"), "not_started");
+        assert_eq!(field("binds"), "truth as built: implausible_strain");
+    }
 }
 
 /// The bridge of scenario 7 above, reduced to what makes it give way
@@ -279,20 +278,7 @@ fn a_truth_that_does_not_stand_as_built_is_a_missed_goal() {
 fn a_run_that_breaks_a_limit_its_truth_breaks_as_built_names_both() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
-    let args = [
-        "evaluate",
-        "--distribution",
-        &repo_arg("scenarios/wide.toml"),
-        "--scenarios",
-        "200",
-        "--shard",
-        "121/200",
-        "--seed",
-        "7072",
-        "-o",
-        out.to_str().unwrap(),
-    ];
-    let run = tdeploy_with(&args, tmp.path(), RunOptions::default());
+    let run = evaluate_one_wide_scenario(7072, 120, &out, &[], tmp.path());
     assert_eq!(run.status.code(), Some(1), "{}", stderr(&run));
     let (header, rows) = read_csv(&out.join("runs.csv"));
     assert_eq!(rows.len(), 1);
