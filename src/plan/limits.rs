@@ -290,11 +290,9 @@ impl LimitViolation {
     pub fn limit(&self) -> String {
         match self {
             LimitViolation::BelowLower { member, .. }
-            | LimitViolation::UnmeasuredFall { member, .. } => format!("{member} min"),
-            LimitViolation::AboveUpper { member, .. } => format!("{member} max"),
-            LimitViolation::WorseThanStart { member, lower, .. } => {
-                format!("{member} {}", if *lower { "min" } else { "max" })
-            }
+            | LimitViolation::UnmeasuredFall { member, .. } => limit_name(member, true),
+            LimitViolation::AboveUpper { member, .. } => limit_name(member, false),
+            LimitViolation::WorseThanStart { member, lower, .. } => limit_name(member, *lower),
             LimitViolation::StrutsTooClose {
                 strut_a, strut_b, ..
             } => format!("clearance {strut_a}–{strut_b}"),
@@ -356,6 +354,19 @@ impl LimitCheck {
             min_clearance_m: f64::INFINITY,
             violations: Vec::new(),
         }
+    }
+}
+
+/// The name of a force row's lower (`min`) or upper (`max`) limit, as
+/// breaches, `binds` and the QP's rows name it: `cable B_ring0_1 max`.
+pub fn limit_name(member: &str, lower: bool) -> String {
+    format!("{member} {}", if lower { "min" } else { "max" })
+}
+
+impl StartBrokenLimit {
+    /// The limit's name ([`limit_name`]).
+    pub fn limit(&self) -> String {
+        limit_name(&self.member, self.lower)
     }
 }
 
@@ -421,7 +432,7 @@ impl StateBreach {
     /// The limit's name as a run's `binds` and breaches name it
     /// (`cable B_ring0_1 max`).
     pub fn limit(&self) -> String {
-        format!("{} {}", self.member, if self.lower { "min" } else { "max" })
+        limit_name(&self.member, self.lower)
     }
 
     /// Plain words, e.g. `cable B_ring0_1 at 4765.1 N, above its

@@ -222,11 +222,9 @@ impl RunVerdict {
                 PlanStatus::NotReachable { cause } => cause.binding(),
                 _ => Vec::new(),
             },
-            RunOutcome::LimitsNotRestored => self
-                .not_restored()
-                .iter()
-                .map(|l| format!("{} {}", l.member, if l.lower { "min" } else { "max" }))
-                .collect(),
+            RunOutcome::LimitsNotRestored => {
+                self.not_restored().iter().map(|l| l.limit()).collect()
+            }
             RunOutcome::Connected | RunOutcome::GapOutOfTolerance => Vec::new(),
         };
         names.extend(self.as_built_names());
