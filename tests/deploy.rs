@@ -236,6 +236,9 @@ fn the_same_seed_gives_the_same_bytes_at_any_thread_count() {
     assert_eq!(summary["connected"], true);
     assert_eq!(summary["outcome"], "connected");
     assert_eq!(summary["truth_limit_violations"], 0);
+    // A run that kept every limit did not check the truth as built: null,
+    // not an empty list that would read as "within its limits".
+    assert!(summary["truth_as_built_broken"].is_null(), "{summary}");
     // --json prints summary.json itself.
     let printed: serde_json::Value = serde_json::from_slice(&other.stdout).unwrap();
     let written = read_json(&dir.path().join("other/summary.json"));

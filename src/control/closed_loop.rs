@@ -374,13 +374,10 @@ pub fn deploy_guided(
     let truth_start_broken =
         truth_limits.start_broken_limits(truth_structure, &end_rows.0, end_rows.1);
     // Context for a run that broke a limit or left one broken; the others
-    // have nothing to explain.
-    let truth_as_built_broken =
-        if truth_limit_violations > 0 || truth_start_broken.iter().any(|l| !l.restored) {
-            as_built_breaches(plant, setup.problem)
-        } else {
-            Vec::new()
-        };
+    // have nothing to explain, and say they were not checked.
+    let truth_as_built_broken = (truth_limit_violations > 0
+        || truth_start_broken.iter().any(|l| !l.restored))
+    .then(|| as_built_breaches(plant, setup.problem));
     Ok(Deployment {
         // A command counts into the approach when it is decided; one the
         // truth could not take was never recorded.

@@ -124,10 +124,11 @@ pub struct Deployment {
     /// The truth's limits that its folded start already broke, with
     /// whether the end meets them (see [`crate::plan::limits`]).
     pub truth_start_broken: Vec<StartBrokenLimit>,
-    /// Where the truth broke a limit during the run, the limits its own
-    /// as-built state breaks by itself ([`RunVerdict::as_built_broken`]);
-    /// empty otherwise (not computed: it costs a relaxation of the truth).
-    pub truth_as_built_broken: Vec<StateBreach>,
+    /// Where the truth broke a limit during the run or left one its start
+    /// broke unrestored, the limits its own as-built state breaks by itself
+    /// ([`RunVerdict::as_built_broken`]; empty: none); `None` where the run
+    /// kept every limit, so nothing was checked.
+    pub truth_as_built_broken: Option<Vec<StateBreach>>,
     /// The number of the first command after which the largest measured
     /// gap is below [`CORRECTIVE_PHASE_GAP_M`] (0: already at the start).
     pub first_below_corrective_gap: Option<usize>,
@@ -170,7 +171,7 @@ impl Deployment {
             })),
             violations: self.truth_limit_violations,
             start_broken: self.truth_start_broken.clone(),
-            as_built_broken: self.truth_as_built_broken.clone(),
+            as_built_broken: self.truth_as_built_broken.clone().unwrap_or_default(),
         }
     }
 

@@ -100,10 +100,11 @@ pub struct DeploymentSummary<'a> {
     /// The truth's limits its folded start already broke, with whether
     /// the end meets them.
     pub truth_start_broken: &'a [StartBrokenLimit],
-    /// Where the truth broke a limit, the limits its own as-built state
-    /// (before any fold) breaks by itself; empty otherwise
-    /// ([`crate::plan::RunVerdict::as_built_broken`]).
-    pub truth_as_built_broken: &'a [StateBreach],
+    /// Where the truth broke a limit or left one unrestored, the limits
+    /// its own as-built state (before any fold) breaks by itself (empty:
+    /// none); `null` where the run kept every limit and nothing was
+    /// checked ([`crate::plan::RunVerdict::as_built_broken`]).
+    pub truth_as_built_broken: Option<&'a [StateBreach]>,
     /// Seed of the sensor noise.
     pub seed: u64,
     /// The policy's name.
@@ -186,7 +187,7 @@ impl<'a> DeploymentSummary<'a> {
             status: &d.status,
             truth_limits_broken: run.broken.clone(),
             truth_start_broken: &d.truth_start_broken,
-            truth_as_built_broken: &d.truth_as_built_broken,
+            truth_as_built_broken: d.truth_as_built_broken.as_deref(),
             seed: sources.seed,
             policy: &policy.name,
             planner: policy.planner.as_str(),
