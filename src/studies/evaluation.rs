@@ -38,7 +38,10 @@ use thiserror::Error;
 
 use super::cycles::{run_cycles, CycleObserver, CycleResult};
 use super::statistics::{mcnemar_exact_p, median, percentile, scenario_seed, wilson_interval};
-use crate::control::{deploy_closed_loop, ClosedLoopSetup, DeployError, Deployment};
+use crate::control::{
+    check_same_bridge, deploy_closed_loop, deploy_guided, ClosedLoopSetup, DeployError, Deployment,
+    Guidance,
+};
 use crate::learn::{Case, CaseMemory};
 use crate::model::faults::node_halves;
 use crate::model::parameter_spec::ParameterSpec;
@@ -46,7 +49,7 @@ use crate::model::{EffectKind, Effects, FaultKind, Faults, ForwardModel, Half, S
 use crate::numerics::NumberRange;
 use crate::plan::verdict::AS_BUILT_PREFIX;
 use crate::plan::{DeploymentProblem, PerMotor, Policy};
-use crate::sim::{standard_sensors, EffectModel, Sensor, SensorTarget};
+use crate::sim::{standard_sensors, EffectModel, Plant, Sensor, SensorTarget};
 
 /// Where the scenarios come from: a range per drawn quantity.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -609,6 +612,27 @@ impl Scenario {
         })
     }
 
+    /// The truth of [`Self::with_truth_setup`] folded to this scenario's
+    /// start, as [`deploy_closed_loop`] folds it; `None` where the fold
+    /// fails, or the problem or the bridges do not check, so that the
+    /// run's own fold reports why, in the order it checks.
+    pub fn folded_truth(
+        &self,
+        bridge: &Structure,
+        truth_slip_event_substeps: bool,
+        model: &ForwardModel,
+        base: &DeploymentProblem,
+    ) -> Option<Plant> {
+        let mut truth = self.truth(bridge);
+        truth.settings.slip_event_substeps_enable = truth_slip_event_substeps;
+        check_same_bridge(model.structure(), &truth.structure).ok()?;
+        let motors = self
+            .problem(base, bridge)
+            .motor_limits(model.structure().continuous_cables.len())
+            .ok()?;
+        Plant::new(&truth, Some(&motors.start_payout_m), self.temperature_c).ok()
+    }
+
     /// The drawn values in the order of
     /// [`ScenarioDistribution::drawn_names`].
     pub fn drawn_values(&self, distribution: &ScenarioDistribution) -> Vec<f64> {
@@ -1076,7 +1100,10 @@ pub struct EvaluationSetup<'a> {
 
 /// Runs every policy on the scenarios `indices` in parallel; `run_done` is
 /// called as each run ends (any thread, any order). The results come
-/// back in (scenario, policy) order whatever the thread count.
+/// back in (scenario, policy) order whatever the thread count. Each
+/// scenario's truth is folded once ([`Scenario::folded_truth`]) and every
+/// policy deploys a copy of it: the same runs as folds of their own, at
+/// one fold per scenario instead of one per policy.
 pub fn evaluate(
     setup: &EvaluationSetup,
     indices: &[usize],
@@ -1086,59 +1113,99 @@ pub fn evaluate(
         .iter()
         .map(|&i| setup.distribution.draw(setup.seed, i))
         .collect();
-    let jobs: Vec<(usize, usize)> = (0..scenarios.len())
-        .flat_map(|s| (0..setup.policies.len()).map(move |p| (s, p)))
-        .collect();
     let tolerance = setup.problem.connection_tolerance_m;
-    let results = jobs
+    let results = scenarios
         .par_iter()
-        .map(|&(s, p)| {
-            let scenario = &scenarios[s];
-            let policy = &setup.policies[p];
-            let result = scenario.with_truth_setup(
-                setup.bridge,
-                setup.truth_slip_event_substeps,
-                setup.model,
-                setup.problem,
-                policy,
-                |run| {
-                    if setup.cycles <= 1 {
-                        match deploy_closed_loop(run, &mut ()) {
-                            Ok(d) => RunResult::of(scenario.index, p, Some(&d), tolerance),
-                            Err(e) => RunResult::not_started(scenario.index, p, &e),
-                        }
-                    } else {
-                        let mut each = CycleRuns {
-                            scenario: scenario.index,
-                            policy: p,
-                            tolerance_m: tolerance,
-                            results: Vec::new(),
-                        };
-                        // A run that stopped early shows in its cycles'
-                        // results; one that could not start, by its reason.
-                        let end = run_cycles(
-                            run,
-                            setup.cycles,
-                            &mut CaseMemory::default(),
-                            None,
-                            &mut each,
-                        );
-                        match end {
-                            Err(e) if each.results.is_empty() => {
-                                RunResult::not_started(scenario.index, p, &e)
-                            }
-                            _ => {
-                                RunResult::of_cycles(scenario.index, p, each.results, setup.cycles)
-                            }
-                        }
-                    }
-                },
-            );
-            run_done();
-            result
+        // One task per scenario: runs take from 0.05 to a few seconds,
+        // and chunks of them left a core idle at the end.
+        .with_max_len(1)
+        .flat_map_iter(|scenario| {
+            // The truth's fold (a third or more of a run on the wide
+            // distribution) is the same for every policy: folded once,
+            // each policy deploys a copy, exactly as if it had folded its
+            // own. Several cycles fold and unfold their own truth.
+            let folded = (setup.cycles <= 1)
+                .then(|| {
+                    scenario.folded_truth(
+                        setup.bridge,
+                        setup.truth_slip_event_substeps,
+                        setup.model,
+                        setup.problem,
+                    )
+                })
+                .flatten();
+            // One copy per policy but the last, which takes the fold itself.
+            let policies = setup.policies.len();
+            let mut plants: Vec<Option<Plant>> = (1..policies).map(|_| folded.clone()).collect();
+            plants.push(folded);
+            let runs: Vec<RunResult> = plants
+                .into_par_iter()
+                .enumerate()
+                .map(|(p, plant)| {
+                    let result = run_scenario(setup, scenario, p, plant, tolerance);
+                    run_done();
+                    result
+                })
+                .collect();
+            runs
         })
         .collect();
     (scenarios, results)
+}
+
+/// Policy `p`'s run of `scenario`: one deployment from the `folded`
+/// truth where given (else from a fold of its own), or the setup's cycles
+/// from an empty case memory.
+fn run_scenario(
+    setup: &EvaluationSetup,
+    scenario: &Scenario,
+    p: usize,
+    folded: Option<Plant>,
+    tolerance: f64,
+) -> RunResult {
+    scenario.with_truth_setup(
+        setup.bridge,
+        setup.truth_slip_event_substeps,
+        setup.model,
+        setup.problem,
+        &setup.policies[p],
+        |run| {
+            if setup.cycles <= 1 {
+                let deployment = match folded {
+                    Some(mut plant) => {
+                        deploy_guided(run, &Guidance::default(), Some(&mut plant), &mut ())
+                    }
+                    None => deploy_closed_loop(run, &mut ()),
+                };
+                match deployment {
+                    Ok(d) => RunResult::of(scenario.index, p, Some(&d), tolerance),
+                    Err(e) => RunResult::not_started(scenario.index, p, &e),
+                }
+            } else {
+                let mut each = CycleRuns {
+                    scenario: scenario.index,
+                    policy: p,
+                    tolerance_m: tolerance,
+                    results: Vec::new(),
+                };
+                // A run that stopped early shows in its cycles'
+                // results; one that could not start, by its reason.
+                let end = run_cycles(
+                    run,
+                    setup.cycles,
+                    &mut CaseMemory::default(),
+                    None,
+                    &mut each,
+                );
+                match end {
+                    Err(e) if each.results.is_empty() => {
+                        RunResult::not_started(scenario.index, p, &e)
+                    }
+                    _ => RunResult::of_cycles(scenario.index, p, each.results, setup.cycles),
+                }
+            }
+        },
+    )
 }
 
 #[cfg(test)]
@@ -1158,6 +1225,69 @@ mod tests {
         )
         .unwrap();
         (bridge, model)
+    }
+
+    /// A truth folded once per scenario and shared by its policies
+    /// ([`evaluate`]) is the truth each run would have folded itself: the
+    /// same run, number for number, with the split truth and an uneven
+    /// fold (the flag and the fold must reach the shared fold too), and
+    /// a scenario whose problem does not check gets no shared fold (its
+    /// run reports why).
+    #[test]
+    fn a_truth_folded_once_per_scenario_deploys_as_a_fold_of_its_own() {
+        let (bridge, model) = bridge_and_frictionless_model();
+        let distribution = ScenarioDistribution {
+            fold_m: [0.30, 0.45],
+            fold_difference_m: Some([-0.15, -0.1]),
+            ..ScenarioDistribution::default()
+        };
+        let scenario = distribution.draw(5, 0);
+        let problem = DeploymentProblem::default();
+        let policies = [Policy::default()];
+        let setup = EvaluationSetup {
+            bridge: &bridge,
+            model: &model,
+            policies: &policies,
+            distribution: &distribution,
+            problem: &problem,
+            seed: 5,
+            cycles: 1,
+            truth_slip_event_substeps: true,
+        };
+        let folded = scenario.folded_truth(&bridge, true, &model, &problem);
+        let folded = folded.expect("the scenario folds");
+        let own = run_scenario(&setup, &scenario, 0, None, 0.03);
+        let shared = run_scenario(&setup, &scenario, 0, Some(folded.clone()), 0.03);
+        let timeless = |r: RunResult| RunResult {
+            planning_time_median_s: None,
+            ..r
+        };
+        assert!(own.commands > 0, "{own:?}");
+        assert_eq!(timeless(shared), timeless(own));
+        // The shared fold is the split truth's, folded unevenly.
+        assert!(folded.model().settings().slip_event_substeps_enable);
+        let start = scenario
+            .problem(&problem, &bridge)
+            .start_payout_m
+            .expand(model.structure().continuous_cables.len())
+            .unwrap();
+        for (reached, wanted) in folded.state().payout_m.iter().zip(&start) {
+            assert!(
+                (reached - wanted).abs() < 1e-12,
+                "{reached} against {wanted}"
+            );
+        }
+        assert!(
+            start.iter().any(|&p| (p - start[0]).abs() > 1e-3),
+            "{start:?}"
+        );
+        let unchecked = DeploymentProblem {
+            max_step_m: PerMotor::Each(vec![0.05]),
+            ..problem.clone()
+        };
+        assert!(scenario
+            .folded_truth(&bridge, true, &model, &unchecked)
+            .is_none());
     }
 
     /// `evaluate --slip-event-substeps` splits the truth's increments and
