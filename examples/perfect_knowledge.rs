@@ -23,14 +23,16 @@
 //! (POLICY default `policies/qp.toml`; CONTROLLERS a comma-separated
 //! subset of the six, default all) prints one CSV row per scenario: for each controller its status,
 //! whether it succeeded (connected, no truth limit broken), truth
-//! violations, commands, final true gap (m) and wall time (s), then the
+//! violations, commands, final true gap (m) and wall time (s; the truth
+//! is folded once per scenario, before the controllers' clocks start, and
+//! each deploys a copy), then the
 //! μ and fold the scenario drew. The truths, sensors and noise are the ones `tdeploy
 //! evaluate --distribution D --seed S` draws; only the controller's model
 //! changes (issue 22, items 4 and 6: how much an estimate of each part of
 //! the model could be worth, measured before building the estimator).
 
 use rayon::prelude::*;
-use tensegrity_deploy::control::{deploy_closed_loop, ClosedLoopSetup};
+use tensegrity_deploy::control::{deploy_closed_loop, deploy_guided, ClosedLoopSetup, Guidance};
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::evaluation_files::read_distribution;
 use tensegrity_deploy::io::policy_file::read_policy;
@@ -121,6 +123,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .forward_model()
                     .map_err(|e| e.to_string())?
             };
+            // Folded once; each controller deploys a copy.
+            let folded = s.folded_truth(&bridge, false, &nominal, &base);
             let mut row = format!("{i}");
             for (k, model) in [
                 &nominal,
@@ -137,7 +141,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let started = std::time::Instant::now();
                 let r = s.with_setup(&bridge, &nominal, &base, &policy, |setup| {
                     let setup = ClosedLoopSetup { model, ..*setup };
-                    let d = deploy_closed_loop(&setup, &mut ()).ok();
+                    let d = match &folded {
+                        Some(plant) => deploy_guided(
+                            &setup,
+                            &Guidance::default(),
+                            Some(&mut plant.clone()),
+                            &mut (),
+                        ),
+                        None => deploy_closed_loop(&setup, &mut ()),
+                    }
+                    .ok();
                     RunResult::of(i, k, d.as_ref(), base.connection_tolerance_m)
                 });
                 row += &format!(
