@@ -7,7 +7,8 @@
 //! Writes in DIR (as a whole: a crash leaves the old set or the new one):
 //! `evaluation.toml` (what ran), `runs.csv` (one row per scenario and
 //! policy, with the scenario's seed and drawn values), `summary.csv`,
-//! `paired.csv` (the first policy against each other, exact McNemar),
+//! `paired.csv` (the first policy against each other: exact McNemar on
+//! success, exact sign tests on the final true gap and the commands),
 //! and `timing.csv` (planning times, the only file that changes from run
 //! to run), formats in [`tensegrity_deploy::io::evaluation_files`] and
 //! [`tensegrity_deploy::io::evaluation_summary`]; and `evaluation.svg`

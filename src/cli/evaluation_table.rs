@@ -155,6 +155,24 @@ pub fn print_and_write(
             p.neither,
             p.mcnemar_p,
         );
+        if p.both > 0 {
+            let (g, c) = (&p.final_true_gap, &p.commands);
+            let signed = |d: Option<f64>, scale: f64| {
+                d.map_or("–".into(), |d| format!("{:+.2}", scale * d))
+            };
+            say!(
+                "  on the {} both succeed on, {b} against {a}: final true gap smaller in {}, larger in {} (exact sign test p = {:.2e}; mean difference {} mm); commands fewer in {}, more in {} (p = {:.2e}; mean difference {})",
+                p.both,
+                g.b_below,
+                g.b_above,
+                g.sign_test_p,
+                signed(g.mean_difference, 1e3),
+                c.b_below,
+                c.b_above,
+                c.sign_test_p,
+                signed(c.mean_difference, 1.0),
+            );
+        }
     }
     let svg = evaluation_svg(names, &summaries, runs.scenarios.len())?;
     write_evaluation(folder, record, runs, &summaries, &pairs)?;

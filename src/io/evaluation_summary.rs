@@ -19,9 +19,16 @@
 //!   session).
 //! - `paired.csv`: the first policy against each other one on the same
 //!   scenarios. Columns: `policy_a`, `policy_b`, `both`, `only_a`,
-//!   `only_b`, `neither` (scenarios each succeeded on) and
-//!   `mcnemar_exact_p` (exact McNemar p-value of the discordant pairs).
-//!   Only the header with one policy.
+//!   `only_b`, `neither` (scenarios each succeeded on),
+//!   `mcnemar_exact_p` (exact McNemar p-value of the discordant pairs),
+//!   then on the `both` scenarios, pair by pair (since the eighteenth
+//!   session): `gap_b_smaller` and `gap_b_larger` (scenarios where
+//!   `policy_b`'s final true gap is below or above `policy_a`'s; ties in
+//!   neither), `gap_sign_test_p` (their exact two-sided sign test),
+//!   `gap_mean_difference_m` (mean of b − a, m, ties included; empty
+//!   with no such scenario), and the same for the commands sent:
+//!   `commands_b_fewer`, `commands_b_more`, `commands_sign_test_p`,
+//!   `commands_mean_difference`. Only the header with one policy.
 //!
 //! The set's figure, `evaluation.svg`, is drawn by
 //! `report::evaluation_figure`.
@@ -105,8 +112,18 @@ fn paired_table(names: &[String], pairs: &[PairedComparison]) -> CsvTable {
         "only_b",
         "neither",
         "mcnemar_exact_p",
+        "gap_b_smaller",
+        "gap_b_larger",
+        "gap_sign_test_p",
+        "gap_mean_difference_m",
+        "commands_b_fewer",
+        "commands_b_more",
+        "commands_sign_test_p",
+        "commands_mean_difference",
     ]);
+    let mean = |d: Option<f64>| d.map_or(String::new(), |d| d.to_string());
     for p in pairs {
+        let (g, c) = (&p.final_true_gap, &p.commands);
         paired.row([
             names[p.a].clone(),
             names[p.b].clone(),
@@ -115,6 +132,14 @@ fn paired_table(names: &[String], pairs: &[PairedComparison]) -> CsvTable {
             p.only_b.to_string(),
             p.neither.to_string(),
             p.mcnemar_p.to_string(),
+            g.b_below.to_string(),
+            g.b_above.to_string(),
+            g.sign_test_p.to_string(),
+            mean(g.mean_difference),
+            c.b_below.to_string(),
+            c.b_above.to_string(),
+            c.sign_test_p.to_string(),
+            mean(c.mean_difference),
         ]);
     }
     paired

@@ -37,7 +37,9 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::cycles::{run_cycles, CycleObserver, CycleResult};
-use super::statistics::{mcnemar_exact_p, median, percentile, scenario_seed, wilson_interval};
+use super::statistics::{
+    exact_sign_test_p, mcnemar_exact_p, median, percentile, scenario_seed, wilson_interval,
+};
 use crate::control::{
     check_same_bridge, deploy_closed_loop, deploy_guided, ClosedLoopSetup, DeployError, Deployment,
     Guidance,
@@ -1024,8 +1026,59 @@ pub fn paired_outcomes(results: &[RunResult], a: usize, b: usize) -> (usize, usi
     counts
 }
 
+/// How one quantity of policy `b` compares with policy `a`'s on the
+/// scenarios both succeeded on (paired: the same truth and noise).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PairedDifference {
+    /// Scenarios where `b`'s value is below `a`'s.
+    pub b_below: usize,
+    /// Scenarios where it is above.
+    pub b_above: usize,
+    /// Exact two-sided sign test of those counts (ties left out):
+    /// whether `b` moves the quantity at all.
+    pub sign_test_p: f64,
+    /// Mean of `b − a` over the pairs, ties included (many pairs of two
+    /// policies end alike, which would put a median at 0); `None`
+    /// without a pair.
+    pub mean_difference: Option<f64>,
+}
+
+impl PairedDifference {
+    /// The comparison of paired values `(a, b)`.
+    fn of(pairs: &[(f64, f64)]) -> Self {
+        let b_below = pairs.iter().filter(|(a, b)| b < a).count();
+        let b_above = pairs.iter().filter(|(a, b)| b > a).count();
+        let differences: Vec<f64> = pairs.iter().map(|(a, b)| b - a).collect();
+        PairedDifference {
+            b_below,
+            b_above,
+            sign_test_p: exact_sign_test_p(b_below, b_above),
+            mean_difference: (!differences.is_empty())
+                .then(|| differences.iter().sum::<f64>() / differences.len() as f64),
+        }
+    }
+}
+
+/// The runs of policies `a` and `b` on each scenario both succeeded on,
+/// in scenario order.
+fn succeeded_pairs(results: &[RunResult], a: usize, b: usize) -> Vec<(&RunResult, &RunResult)> {
+    let by_run: BTreeMap<(usize, usize), &RunResult> = results
+        .iter()
+        .filter(|r| r.succeeded)
+        .map(|r| ((r.scenario, r.policy), r))
+        .collect();
+    by_run
+        .iter()
+        .filter(|((_, p), _)| *p == a)
+        .filter_map(|((s, _), ra)| Some((*ra, *by_run.get(&(*s, b))?)))
+        .collect()
+}
+
 /// The first policy of an evaluation against another on the same
-/// scenarios: their paired outcomes and the exact McNemar test of them.
+/// scenarios: their paired outcomes and the exact McNemar test of them,
+/// and on the scenarios both succeeded on, their final true gaps and
+/// commands compared pair by pair (issue 22 judges a controller by all
+/// three: success, the gap it ends at, and no more commands).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PairedComparison {
     /// The first policy (index).
@@ -1042,6 +1095,10 @@ pub struct PairedComparison {
     pub neither: usize,
     /// Exact McNemar p-value of the discordant pairs.
     pub mcnemar_p: f64,
+    /// Final true gap (m) on the scenarios both succeeded on.
+    pub final_true_gap: PairedDifference,
+    /// Commands sent on the scenarios both succeeded on.
+    pub commands: PairedDifference,
 }
 
 impl PairedComparison {
@@ -1057,6 +1114,15 @@ pub fn first_against_others(results: &[RunResult], policies: usize) -> Vec<Paire
     (1..policies)
         .map(|b| {
             let (both, only_a, only_b, neither) = paired_outcomes(results, 0, b);
+            let succeeded = succeeded_pairs(results, 0, b);
+            let gaps: Vec<(f64, f64)> = succeeded
+                .iter()
+                .filter_map(|(ra, rb)| Some((ra.final_true_gap_m?, rb.final_true_gap_m?)))
+                .collect();
+            let commands: Vec<(f64, f64)> = succeeded
+                .iter()
+                .map(|(ra, rb)| (ra.commands as f64, rb.commands as f64))
+                .collect();
             PairedComparison {
                 a: 0,
                 b,
@@ -1065,6 +1131,8 @@ pub fn first_against_others(results: &[RunResult], policies: usize) -> Vec<Paire
                 only_b,
                 neither,
                 mcnemar_p: mcnemar_exact_p(only_a, only_b),
+                final_true_gap: PairedDifference::of(&gaps),
+                commands: PairedDifference::of(&commands),
             }
         })
         .collect()
@@ -1225,6 +1293,60 @@ mod tests {
         )
         .unwrap();
         (bridge, model)
+    }
+
+    /// The paired gap and command comparisons count only the scenarios
+    /// both policies succeeded on, pair each run with the other policy's
+    /// on the same scenario whatever the order of the results, leave ties
+    /// out of the sign test but in the mean, and leave a run without a
+    /// true gap out of the gap comparison alone.
+    #[test]
+    fn paired_gaps_and_commands_are_compared_on_the_scenarios_both_succeeded_on() {
+        // (scenario, policy, succeeded, final true gap in mm, commands)
+        let runs = [
+            (0, 0, true, Some(12.0), 8),
+            (0, 1, true, Some(4.0), 9),
+            (1, 0, true, Some(20.0), 8),
+            (1, 1, true, Some(6.0), 9),
+            (2, 0, true, Some(5.0), 8),
+            (2, 1, true, Some(5.0), 8),
+            (3, 0, true, Some(3.0), 7),
+            (3, 1, false, Some(30.0), 12),
+            (4, 0, true, None, 8),
+            (4, 1, true, Some(9.0), 7),
+            (5, 0, true, Some(9.0), 8),
+            (5, 1, true, Some(10.0), 8),
+        ];
+        let mut results: Vec<RunResult> = runs
+            .iter()
+            .map(
+                |&(scenario, policy, succeeded, gap_mm, commands)| RunResult {
+                    succeeded,
+                    commands,
+                    final_true_gap_m: gap_mm.map(|g: f64| 1e-3 * g),
+                    ..RunResult::of(scenario, policy, None, 0.03)
+                },
+            )
+            .collect();
+        results.reverse();
+        let [pair] = first_against_others(&results, 2).try_into().unwrap();
+        assert_eq!((pair.both, pair.only_a, pair.only_b), (5, 1, 0));
+        // Gaps on scenarios 0, 1, 2 and 5 (4 has no gap for policy 0):
+        // smaller twice, larger once, one tie.
+        let g = pair.final_true_gap;
+        assert_eq!((g.b_below, g.b_above), (2, 1));
+        assert_eq!(g.sign_test_p, exact_sign_test_p(2, 1));
+        let mean_mm = 1e3 * g.mean_difference.unwrap();
+        assert!(
+            (mean_mm - (-8.0 - 14.0 + 0.0 + 1.0) / 4.0).abs() < 1e-9,
+            "{mean_mm}"
+        );
+        // Commands on scenarios 0, 1, 2, 4 and 5.
+        let c = pair.commands;
+        assert_eq!((c.b_below, c.b_above), (1, 2));
+        assert!((c.mean_difference.unwrap() - 1.0 / 5.0).abs() < 1e-12);
+        // One policy: nothing to compare.
+        assert!(first_against_others(&results, 1).is_empty());
     }
 
     /// A truth folded once per scenario and shared by its policies

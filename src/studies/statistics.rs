@@ -53,11 +53,19 @@ pub fn wilson_interval(k: usize, n: usize) -> (f64, f64) {
 /// approximation, which is poor for the few discordant pairs of a
 /// 50-scenario study.
 pub fn mcnemar_exact_p(only_first: usize, only_second: usize) -> f64 {
-    let n = only_first + only_second;
+    exact_sign_test_p(only_first, only_second)
+}
+
+/// Exact two-sided sign test of paired differences: `below` pairs whose
+/// difference is negative, `above` positive (ties left out), against a
+/// median difference of 0. McNemar's exact test ([`mcnemar_exact_p`]) is
+/// this test on the discordant pairs.
+pub fn exact_sign_test_p(below: usize, above: usize) -> f64 {
+    let n = below + above;
     if n == 0 {
         return 1.0;
     }
-    let k = only_first.min(only_second);
+    let k = below.min(above);
     // Σ_{i ≤ k} C(n, i) / 2ⁿ, summed in logs so that n in the thousands
     // neither overflows nor underflows term by term.
     let ln_half_n = n as f64 * std::f64::consts::LN_2;
