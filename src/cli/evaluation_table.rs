@@ -161,7 +161,7 @@ pub fn print_and_write(
                 d.map_or("–".into(), |d| format!("{:+.2}", scale * d))
             };
             say!(
-                "  on the {} both succeed on, {b} against {a}: final true gap smaller in {}, larger in {} (exact sign test p = {:.2e}; mean difference {} mm); commands fewer in {}, more in {} (p = {:.2e}; mean difference {})",
+                "  on the {} both succeed on: {b}'s final true gap below {a}'s in {}, above in {} (exact sign test p = {:.2e}; mean {b} − {a} {} mm); {b}'s commands fewer in {}, more in {} (p = {:.2e}; mean {b} − {a} {})",
                 p.both,
                 g.b_below,
                 g.b_above,

@@ -1034,8 +1034,8 @@ pub struct PairedDifference {
     pub b_below: usize,
     /// Scenarios where it is above.
     pub b_above: usize,
-    /// Exact two-sided sign test of those counts (ties left out):
-    /// whether `b` moves the quantity at all.
+    /// Exact two-sided sign test of those counts (ties left out): whether
+    /// `b`'s value is below `a`'s more often than above, or less.
     pub sign_test_p: f64,
     /// Mean of `b − a` over the pairs, ties included (many pairs of two
     /// policies end alike, which would put a median at 0); `None`
@@ -1064,7 +1064,7 @@ impl PairedDifference {
 fn succeeded_pairs(results: &[RunResult], a: usize, b: usize) -> Vec<(&RunResult, &RunResult)> {
     let by_run: BTreeMap<(usize, usize), &RunResult> = results
         .iter()
-        .filter(|r| r.succeeded)
+        .filter(|r| r.succeeded && (r.policy == a || r.policy == b))
         .map(|r| ((r.scenario, r.policy), r))
         .collect();
     by_run
@@ -1328,7 +1328,16 @@ mod tests {
                 },
             )
             .collect();
+        // A scenario only the first policy ran (a shard's cut) is no pair.
+        results.push(RunResult {
+            succeeded: true,
+            commands: 8,
+            final_true_gap_m: Some(0.001),
+            ..RunResult::of(6, 0, None, 0.03)
+        });
+        // Out of order, and not by policy either: pairs go by scenario.
         results.reverse();
+        results.swap(0, 2);
         let [pair] = first_against_others(&results, 2).try_into().unwrap();
         assert_eq!((pair.both, pair.only_a, pair.only_b), (5, 1, 0));
         // Gaps on scenarios 0, 1, 2 and 5 (4 has no gap for policy 0):
