@@ -32,7 +32,7 @@
 //! the model could be worth, measured before building the estimator).
 
 use rayon::prelude::*;
-use tensegrity_deploy::control::{deploy_closed_loop, deploy_guided, ClosedLoopSetup, Guidance};
+use tensegrity_deploy::control::{deploy_guided, fold_truth, ClosedLoopSetup, Guidance};
 use tensegrity_deploy::design::reference_bridge::{reference_bridge, BridgeParameters};
 use tensegrity_deploy::io::evaluation_files::read_distribution;
 use tensegrity_deploy::io::policy_file::read_policy;
@@ -124,7 +124,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .map_err(|e| e.to_string())?
             };
             // Folded once; each controller deploys a copy.
-            let folded = s.folded_truth(&bridge, false, &nominal, &base);
+            let folded = s.with_setup(&bridge, &nominal, &base, &policy, fold_truth);
             let mut row = format!("{i}");
             for (k, model) in [
                 &nominal,
@@ -141,16 +141,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let started = std::time::Instant::now();
                 let r = s.with_setup(&bridge, &nominal, &base, &policy, |setup| {
                     let setup = ClosedLoopSetup { model, ..*setup };
-                    let d = match &folded {
-                        Some(plant) => deploy_guided(
+                    let d = folded.as_ref().ok().and_then(|plant| {
+                        deploy_guided(
                             &setup,
                             &Guidance::default(),
                             Some(&mut plant.clone()),
                             &mut (),
-                        ),
-                        None => deploy_closed_loop(&setup, &mut ()),
-                    }
-                    .ok();
+                        )
+                        .ok()
+                    });
                     RunResult::of(i, k, d.as_ref(), base.connection_tolerance_m)
                 });
                 row += &format!(

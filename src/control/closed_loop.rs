@@ -226,6 +226,26 @@ pub fn deploy_closed_loop(
     deploy_guided(setup, &Guidance::default(), None, observer)
 }
 
+/// The setup's truth folded to its problem's start: the fold
+/// [`deploy_guided`] makes when it is given no plant, after the same
+/// checks in the same order (the two bridges alike, the problem's motors,
+/// then the fold), so that a caller deploying several policies on one
+/// truth can fold it once and give each a copy.
+pub fn fold_truth(setup: &ClosedLoopSetup) -> Result<Plant, DeployError> {
+    let s = setup.model.structure();
+    check_same_bridge(s, &setup.truth.structure)?;
+    let motors = setup
+        .problem
+        .motor_limits(s.continuous_cables.len())
+        .map_err(PlanError::from)?;
+    Plant::new(
+        setup.truth,
+        Some(&motors.start_payout_m),
+        setup.temperature_c,
+    )
+    .map_err(DeployError::TruthStart)
+}
+
 /// [`deploy_closed_loop`] with `guidance` from past cycles, on `plant`
 /// where given (a truth as a previous cycle's fold left it; it is left
 /// where this deployment ends) or else on a fresh fold of the setup's
@@ -247,12 +267,7 @@ pub fn deploy_guided(
     let plant = match plant {
         Some(p) => p,
         None => {
-            fresh_plant = Plant::new(
-                setup.truth,
-                Some(&motors.start_payout_m),
-                setup.temperature_c,
-            )
-            .map_err(DeployError::TruthStart)?;
+            fresh_plant = fold_truth(setup)?;
             &mut fresh_plant
         }
     };

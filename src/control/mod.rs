@@ -35,8 +35,8 @@ pub mod truth_watch;
 /// [`crate::plan::SolverFailure`] may carry it.
 pub use crate::plan::ControllerError;
 pub use closed_loop::{
-    check_same_bridge, deploy_closed_loop, deploy_guided, BridgeMismatch, ClosedLoopSetup,
-    DeployError,
+    check_same_bridge, deploy_closed_loop, deploy_guided, fold_truth, BridgeMismatch,
+    ClosedLoopSetup, DeployError,
 };
 pub use controller::{
     Controller, ControllerDecision, Observation, Proposal, MAX_FEEDFORWARD_SPLITS,

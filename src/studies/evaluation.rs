@@ -41,7 +41,7 @@ use super::statistics::{
     exact_sign_test_p, mcnemar_exact_p, median, percentile, scenario_seed, wilson_interval,
 };
 use crate::control::{
-    check_same_bridge, deploy_closed_loop, deploy_guided, ClosedLoopSetup, DeployError, Deployment,
+    deploy_closed_loop, deploy_guided, fold_truth, ClosedLoopSetup, DeployError, Deployment,
     Guidance,
 };
 use crate::learn::{Case, CaseMemory};
@@ -614,27 +614,6 @@ impl Scenario {
         })
     }
 
-    /// The truth of [`Self::with_truth_setup`] folded to this scenario's
-    /// start, as [`deploy_closed_loop`] folds it; `None` where the fold
-    /// fails, or the problem or the bridges do not check, so that the
-    /// run's own fold reports why, in the order it checks.
-    pub fn folded_truth(
-        &self,
-        bridge: &Structure,
-        truth_slip_event_substeps: bool,
-        model: &ForwardModel,
-        base: &DeploymentProblem,
-    ) -> Option<Plant> {
-        let mut truth = self.truth(bridge);
-        truth.settings.slip_event_substeps_enable = truth_slip_event_substeps;
-        check_same_bridge(model.structure(), &truth.structure).ok()?;
-        let motors = self
-            .problem(base, bridge)
-            .motor_limits(model.structure().continuous_cables.len())
-            .ok()?;
-        Plant::new(&truth, Some(&motors.start_payout_m), self.temperature_c).ok()
-    }
-
     /// The drawn values in the order of
     /// [`ScenarioDistribution::drawn_names`].
     pub fn drawn_values(&self, distribution: &ScenarioDistribution) -> Vec<f64> {
@@ -1169,9 +1148,9 @@ pub struct EvaluationSetup<'a> {
 /// Runs every policy on the scenarios `indices` in parallel; `run_done` is
 /// called as each run ends (any thread, any order). The results come
 /// back in (scenario, policy) order whatever the thread count. Each
-/// scenario's truth is folded once ([`Scenario::folded_truth`]) and every
-/// policy deploys a copy of it: the same runs as folds of their own, at
-/// one fold per scenario instead of one per policy.
+/// scenario's truth is folded once ([`fold_truth`]) and every policy
+/// deploys a copy of it: the same runs as folds of their own, at one fold
+/// per scenario instead of one per policy.
 pub fn evaluate(
     setup: &EvaluationSetup,
     indices: &[usize],
@@ -1188,29 +1167,26 @@ pub fn evaluate(
         // and chunks of them left a core idle at the end.
         .with_max_len(1)
         .flat_map_iter(|scenario| {
-            // The truth's fold (a third or more of a run on the wide
-            // distribution) is the same for every policy: folded once,
-            // each policy deploys a copy, exactly as if it had folded its
-            // own. Several cycles fold and unfold their own truth.
-            let folded = (setup.cycles <= 1)
-                .then(|| {
-                    scenario.folded_truth(
-                        setup.bridge,
-                        setup.truth_slip_event_substeps,
-                        setup.model,
-                        setup.problem,
-                    )
-                })
-                .flatten();
-            // One copy per policy but the last, which takes the fold itself.
-            let policies = setup.policies.len();
-            let mut plants: Vec<Option<Plant>> = (1..policies).map(|_| folded.clone()).collect();
-            plants.push(folded);
-            let runs: Vec<RunResult> = plants
+            // The truth's fold (about 40 % of a run on the wide
+            // distribution) is the same for every policy: folded once
+            // (`fold_truth`, the fold each deployment makes of its own),
+            // each policy deploys a copy. Several cycles fold and unfold
+            // their own truth.
+            let folded = match setup.policies.first() {
+                Some(policy) if setup.cycles <= 1 => Some(scenario.with_truth_setup(
+                    setup.bridge,
+                    setup.truth_slip_event_substeps,
+                    setup.model,
+                    setup.problem,
+                    policy,
+                    fold_truth,
+                )),
+                _ => None,
+            };
+            let runs: Vec<RunResult> = (0..setup.policies.len())
                 .into_par_iter()
-                .enumerate()
-                .map(|(p, plant)| {
-                    let result = run_scenario(setup, scenario, p, plant, tolerance);
+                .map(|p| {
+                    let result = run_scenario(setup, scenario, p, folded.as_ref(), tolerance);
                     run_done();
                     result
                 })
@@ -1221,14 +1197,14 @@ pub fn evaluate(
     (scenarios, results)
 }
 
-/// Policy `p`'s run of `scenario`: one deployment from the `folded`
-/// truth where given (else from a fold of its own), or the setup's cycles
-/// from an empty case memory.
+/// Policy `p`'s run of `scenario`: one deployment from a copy of the
+/// `folded` truth (or the reason it could not be folded), or the setup's
+/// cycles from an empty case memory.
 fn run_scenario(
     setup: &EvaluationSetup,
     scenario: &Scenario,
     p: usize,
-    folded: Option<Plant>,
+    folded: Option<&Result<Plant, DeployError>>,
     tolerance: f64,
 ) -> RunResult {
     scenario.with_truth_setup(
@@ -1240,9 +1216,10 @@ fn run_scenario(
         |run| {
             if setup.cycles <= 1 {
                 let deployment = match folded {
-                    Some(mut plant) => {
-                        deploy_guided(run, &Guidance::default(), Some(&mut plant), &mut ())
+                    Some(Ok(plant)) => {
+                        deploy_guided(run, &Guidance::default(), Some(&mut plant.clone()), &mut ())
                     }
+                    Some(Err(e)) => Err(e.clone()),
                     None => deploy_closed_loop(run, &mut ()),
                 };
                 match deployment {
@@ -1358,23 +1335,36 @@ mod tests {
         assert!(first_against_others(&results, 1).is_empty());
     }
 
-    /// A truth folded once per scenario and shared by its policies
-    /// ([`evaluate`]) is the truth each run would have folded itself: the
-    /// same run, number for number, with the split truth and an uneven
-    /// fold (the flag and the fold must reach the shared fold too), and
-    /// a scenario whose problem does not check gets no shared fold (its
-    /// run reports why).
+    /// `evaluate` folds each scenario's truth once and every policy
+    /// deploys a copy: the runs are those of each policy folding its own
+    /// truth, number for number, with everything that reaches the fold
+    /// drawn (a temperature and a thermal truth, uneven folds, the split
+    /// truth; two policies). Regression (review, eighteenth session): the
+    /// shared fold once took neither the temperature nor the split flag
+    /// from the run it stands for, unnoticed by any test; and no policy
+    /// at all indexed past the policies.
     #[test]
-    fn a_truth_folded_once_per_scenario_deploys_as_a_fold_of_its_own() {
+    fn a_truth_folded_once_per_scenario_deploys_as_folds_of_their_own() {
         let (bridge, model) = bridge_and_frictionless_model();
-        let distribution = ScenarioDistribution {
+        let mut distribution = ScenarioDistribution {
             fold_m: [0.30, 0.45],
             fold_difference_m: Some([-0.15, -0.1]),
+            temperature_c: Some([0.0, 40.0]),
             ..ScenarioDistribution::default()
         };
-        let scenario = distribution.draw(5, 0);
+        distribution.effects.insert(
+            "thermal".into(),
+            BTreeMap::from([("expansion_per_k".into(), [1.0e-5, 1.4e-5])]),
+        );
         let problem = DeploymentProblem::default();
-        let policies = [Policy::default()];
+        let stop_closer = Policy {
+            margins: crate::plan::Margins {
+                connection_m: 0.015,
+                ..Policy::default().margins
+            },
+            ..Policy::default()
+        };
+        let policies = [Policy::default(), stop_closer];
         let setup = EvaluationSetup {
             bridge: &bridge,
             model: &model,
@@ -1385,40 +1375,40 @@ mod tests {
             cycles: 1,
             truth_slip_event_substeps: true,
         };
-        let folded = scenario.folded_truth(&bridge, true, &model, &problem);
-        let folded = folded.expect("the scenario folds");
-        let own = run_scenario(&setup, &scenario, 0, None, 0.03);
-        let shared = run_scenario(&setup, &scenario, 0, Some(folded.clone()), 0.03);
-        let timeless = |r: RunResult| RunResult {
+        let runs = std::sync::atomic::AtomicUsize::new(0);
+        let count = || {
+            runs.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        };
+        let (scenarios, shared) = evaluate(&setup, &[0, 1], &count);
+        assert_eq!(runs.into_inner(), 4);
+        let own: Vec<RunResult> = scenarios
+            .iter()
+            .flat_map(|s| {
+                assert!(s.temperature_c.is_some() && s.fold_b_m.is_some());
+                policies.iter().enumerate().map(|(p, policy)| {
+                    s.with_truth_setup(&bridge, true, &model, &problem, policy, |run| {
+                        match deploy_closed_loop(run, &mut ()) {
+                            Ok(d) => RunResult::of(s.index, p, Some(&d), 0.03),
+                            Err(e) => RunResult::not_started(s.index, p, &e),
+                        }
+                    })
+                })
+            })
+            .collect();
+        let timeless = |r: &RunResult| RunResult {
             planning_time_median_s: None,
-            ..r
+            ..r.clone()
         };
-        assert!(own.commands > 0, "{own:?}");
-        assert_eq!(timeless(shared), timeless(own));
-        // The shared fold is the split truth's, folded unevenly.
-        assert!(folded.model().settings().slip_event_substeps_enable);
-        let start = scenario
-            .problem(&problem, &bridge)
-            .start_payout_m
-            .expand(model.structure().continuous_cables.len())
-            .unwrap();
-        for (reached, wanted) in folded.state().payout_m.iter().zip(&start) {
-            assert!(
-                (reached - wanted).abs() < 1e-12,
-                "{reached} against {wanted}"
-            );
-        }
-        assert!(
-            start.iter().any(|&p| (p - start[0]).abs() > 1e-3),
-            "{start:?}"
+        assert!(own.iter().all(|r| r.commands > 0), "{own:?}");
+        assert_eq!(
+            shared.iter().map(timeless).collect::<Vec<_>>(),
+            own.iter().map(timeless).collect::<Vec<_>>()
         );
-        let unchecked = DeploymentProblem {
-            max_step_m: PerMotor::Each(vec![0.05]),
-            ..problem.clone()
+        let none = EvaluationSetup {
+            policies: &[],
+            ..setup
         };
-        assert!(scenario
-            .folded_truth(&bridge, true, &model, &unchecked)
-            .is_none());
+        assert!(evaluate(&none, &[0, 1], &|| {}).1.is_empty());
     }
 
     /// `evaluate --slip-event-substeps` splits the truth's increments and
