@@ -29,6 +29,7 @@ pub mod force_offset_filter;
 pub mod guidance;
 pub mod measured_offsets;
 pub mod session;
+pub mod support_compliance;
 pub mod truth_watch;
 
 /// Defined in `plan` ([`crate::plan::causes`]): a deployment's
