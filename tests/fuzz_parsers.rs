@@ -805,6 +805,9 @@ fn shard_contents() {
                         {
                             prop_assert!(g.is_finite() && g >= 0.0, "gap {g}");
                         }
+                        if let Some(b) = r.largest_force_breach_n {
+                            prop_assert!(b.is_finite() && b >= 0.0 && r.truth_violations > 0);
+                        }
                     }
                 }
                 check_outcome(result, start.elapsed(), &[&runs_path])

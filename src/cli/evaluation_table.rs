@@ -140,6 +140,20 @@ pub fn print_and_write(
                 "{name}: {out_as_built} of the {broke} runs that broke limits are on truths that break limits in their own as-built state, before any fold (binds `{}…`)",
                 AS_BUILT_PREFIX
             );
+            let mut breaches: Vec<f64> = runs
+                .results
+                .iter()
+                .filter(|r| r.policy == p)
+                .filter_map(|r| r.largest_force_breach_n)
+                .collect();
+            breaches.sort_by(f64::total_cmp);
+            if let (Some(least), Some(most)) = (breaches.first(), breaches.last()) {
+                say!(
+                    "{name}: how far a truth force went beyond its bound in each run that broke a force limit (runs.csv's largest_force_breach_n): {} runs, from {least:.2} N to {most:.1} N, median {:.2} N",
+                    breaches.len(),
+                    breaches[breaches.len() / 2]
+                );
+            }
         }
     }
     // The first policy against each other one on the same scenarios.

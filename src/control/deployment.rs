@@ -206,6 +206,18 @@ impl Deployment {
             .fold(0.0, f64::max)
     }
 
+    /// How far the truth's forces went beyond their bounds at worst, N
+    /// ([`crate::plan::LimitViolation::force_excess_n`] over every
+    /// command's breaches; `None` when no force bound was broken): tells a
+    /// breach at the solver's rounding from one that slackens a cable.
+    pub fn largest_force_breach_n(&self) -> Option<f64> {
+        self.records
+            .iter()
+            .flat_map(|r| &r.truth_violations)
+            .filter_map(|v| v.force_excess_n())
+            .reduce(f64::max)
+    }
+
     /// Largest true gap at the end, m.
     pub fn final_true_gap_m(&self) -> Option<f64> {
         let gaps = match self.records.last() {

@@ -23,7 +23,7 @@
 //! uses every key.
 //!
 //! **`evaluation.toml`**: what was run (format
-//! `tensegrity-deploy/evaluation/3`): seed, scenario count, cycles per
+//! `tensegrity-deploy/evaluation/4`): seed, scenario count, cycles per
 //! scenario, shard, policy names and fingerprints, the controller model's
 //! source (with the fingerprint of a model file's contents), whether the
 //! truths were split at slip events, and the distribution itself. Shards
@@ -34,7 +34,8 @@
 //! [`crate::studies::evaluation::ScenarioDistribution::drawn_names`]),
 //! then `policy,status,succeeded,commands,corrective_commands,
 //! final_measured_gap_m,final_true_gap_m,cable_travel_m,
-//! truth_worst_utilisation,truth_violations,approach_gap_m,binds` (SI
+//! truth_worst_utilisation,truth_violations,largest_force_breach_n,
+//! approach_gap_m,binds` (SI
 //! units; empty = none; with several cycles per scenario, the last
 //! cycle's, violations and utilisation over all cycles). `status` is the
 //! run's verdict label ([`crate::plan::RunVerdict::label`]: what the truth
@@ -43,8 +44,12 @@
 //! did not connect, `; `-separated ([`crate::plan::RunVerdict::binds`]:
 //! the limits the truth broke, e.g. `cable A_axial_m0_0 min`, or the
 //! limits and motors the controller stopped on, e.g. `segment A_cc1[3]
-//! min`, `A_cc0 stroke min`); empty where nothing is named. Format 1 had
-//! neither the cycles nor the approach gap, format 2 no `binds`.
+//! min`, `A_cc0 stroke min`); empty where nothing is named.
+//! `largest_force_breach_n` is how far a truth force went beyond the
+//! bound it was held to at worst (N; empty where no force bound broke:
+//! a breach at the solver's rounding reads apart from a slack cable).
+//! Format 1 had neither the cycles nor the approach gap, format 2 no
+//! `binds`, format 3 no `largest_force_breach_n`.
 //! Numbers are written as the shortest text that reads back to the same
 //! value, so a merge re-writes the rows of its shards byte for byte.
 //!
@@ -70,10 +75,10 @@ use crate::studies::evaluation::{RunResult, Scenario, ScenarioDistribution, Shar
 /// The `format` of a scenario-distribution file.
 pub const DISTRIBUTION_FORMAT: &str = "tensegrity-deploy/scenarios/1";
 /// The `format` of `evaluation.toml`.
-pub const EVALUATION_FORMAT: &str = "tensegrity-deploy/evaluation/3";
+pub const EVALUATION_FORMAT: &str = "tensegrity-deploy/evaluation/4";
 
 /// The columns of `runs.csv` after the drawn values.
-const RESULT_COLUMNS: [&str; 12] = [
+const RESULT_COLUMNS: [&str; 13] = [
     "policy",
     "status",
     "succeeded",
@@ -84,6 +89,7 @@ const RESULT_COLUMNS: [&str; 12] = [
     "cable_travel_m",
     "truth_worst_utilisation",
     "truth_violations",
+    "largest_force_breach_n",
     "approach_gap_m",
     "binds",
 ];
@@ -379,6 +385,7 @@ impl EvaluationRuns {
                 r.cable_travel_m.to_string(),
                 r.worst_utilisation.to_string(),
                 r.truth_violations.to_string(),
+                opt(r.largest_force_breach_n),
                 opt(r.approach_gap_m),
                 r.binds.join(BINDS_SEPARATOR),
             ]);
@@ -537,6 +544,11 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
                 &format!("a command count (at most {MAX_COMMANDS}, a policy's largest)"),
             ));
         }
+        let truth_violations = count(at + 9)?;
+        let largest_force_breach_n = optional_non_negative(at + 10)?;
+        if truth_violations == 0 && largest_force_breach_n.is_some() {
+            return Err(bad(at + 10, "empty, as for every run that broke no limit"));
+        }
         runs.results.push(RunResult {
             scenario: index,
             policy,
@@ -557,12 +569,13 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
             final_true_gap_m: optional_non_negative(at + 6)?,
             cable_travel_m: non_negative(at + 7)?,
             worst_utilisation: non_negative(at + 8)?,
-            truth_violations: count(at + 9)?,
-            approach_gap_m: optional_non_negative(at + 10)?,
-            binds: parse_binds(field(at + 11))
+            truth_violations,
+            largest_force_breach_n,
+            approach_gap_m: optional_non_negative(at + 11)?,
+            binds: parse_binds(field(at + 12))
                 .ok_or_else(|| {
                     bad(
-                        at + 11,
+                        at + 12,
                         &format!(
                             "a `{BINDS_SEPARATOR}`-separated list of names (limits, motors or why a run did not start; each printable, one line, 1 to {MAX_BIND_NAME_CHARS} characters)"
                         ),
@@ -570,7 +583,7 @@ pub fn read_runs(folder: &Path, record: &EvaluationRecord) -> Result<EvaluationR
                 })
                 .and_then(|names| {
                     if status == "connected" && !names.is_empty() {
-                        Err(bad(at + 11, "empty, as for every connected run"))
+                        Err(bad(at + 12, "empty, as for every connected run"))
                     } else {
                         Ok(names)
                     }

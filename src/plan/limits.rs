@@ -300,6 +300,22 @@ impl LimitViolation {
         }
     }
 
+    /// How far a force went beyond the bound the truth was held to, N
+    /// (positive): [`Self::excess`] of a breach of a force bound (below
+    /// its minimum, above its maximum, or worse than a start that broke
+    /// one); `None` for a clearance, a slack or the model's unmeasured-fall
+    /// rule, which are no force bounds of the bridge.
+    pub fn force_excess_n(&self) -> Option<f64> {
+        match self {
+            LimitViolation::BelowLower { .. }
+            | LimitViolation::AboveUpper { .. }
+            | LimitViolation::WorseThanStart { .. } => Some(self.excess()),
+            LimitViolation::UnmeasuredFall { .. }
+            | LimitViolation::StrutsTooClose { .. }
+            | LimitViolation::SlackGrew { .. } => None,
+        }
+    }
+
     /// How far beyond its bound the value is (N for forces, m for
     /// clearances and slack; positive): which of two breaches of one
     /// limit is the worse.
@@ -902,6 +918,38 @@ mod tests {
     /// restores it, then to its required bound; a row the start meets is
     /// held to its bound throughout, and breaking a start value is named
     /// as such.
+    #[test]
+    fn a_force_excess_is_read_from_force_bounds_only() {
+        let below = LimitViolation::BelowLower {
+            member: "cable c".into(),
+            force_n: 4.9,
+            lower_n: 5.0,
+        };
+        let above = LimitViolation::AboveUpper {
+            member: "cable c".into(),
+            force_n: 3100.0,
+            upper_n: 3000.0,
+        };
+        let worse = LimitViolation::WorseThanStart {
+            member: "cable r".into(),
+            force_n: 9803.6,
+            start_n: 9803.3,
+            limit_n: 3000.0,
+            lower: false,
+        };
+        let close = LimitViolation::StrutsTooClose {
+            strut_a: "a".into(),
+            strut_b: "b".into(),
+            distance_m: 0.001,
+            min_m: 0.002,
+        };
+        let near = |v: Option<f64>, x: f64| v.is_some_and(|v| (v - x).abs() < 1e-9);
+        assert!(near(below.force_excess_n(), 0.1));
+        assert!(near(above.force_excess_n(), 100.0));
+        assert!(near(worse.force_excess_n(), 0.3));
+        assert_eq!(close.force_excess_n(), None);
+    }
+
     #[test]
     fn a_start_broken_row_is_held_to_its_start_value_until_restored() {
         let b = |lower_n, upper_n| ForceBounds { lower_n, upper_n };

@@ -698,6 +698,10 @@ pub struct RunResult {
     pub worst_utilisation: f64,
     /// Truth limits broken (count over increments).
     pub truth_violations: usize,
+    /// How far a truth force went beyond its bound at worst, N
+    /// ([`Deployment::largest_force_breach_n`]; over every cycle with
+    /// several; `None`: no force bound broken).
+    pub largest_force_breach_n: Option<f64>,
     /// Largest measured gap after the first approach, m (the error a
     /// case memory learns to remove; `None` if no approach was measured).
     pub approach_gap_m: Option<f64>,
@@ -750,6 +754,7 @@ impl RunResult {
                         .sum(),
                     worst_utilisation: d.truth_worst_utilisation(),
                     truth_violations: d.truth_limit_violations,
+                    largest_force_breach_n: d.largest_force_breach_n(),
                     approach_gap_m: d.approach_gap_m(),
                     planning_time_median_s: median(
                         d.records.iter().map(|r| r.planning_time_s).collect(),
@@ -768,6 +773,7 @@ impl RunResult {
                 cable_travel_m: 0.0,
                 worst_utilisation: 0.0,
                 truth_violations: 0,
+                largest_force_breach_n: None,
                 approach_gap_m: None,
                 binds: Vec::new(),
                 planning_time_median_s: None,
@@ -800,7 +806,8 @@ impl RunResult {
     /// the results of the cycles that ran (none: the first could not
     /// start, `not_started`): the last cycle's figures, since the cycles
     /// before it are the learning, except that limits broken in any cycle
-    /// count (`truth_violations` summed, `worst_utilisation` the largest)
+    /// count (`truth_violations` summed, `worst_utilisation` and
+    /// `largest_force_breach_n` the largest)
     /// and fail the run (its status is then `limits_broken`, and `binds`
     /// names the limits broken in every cycle, each once). A run whose
     /// truth could not be folded back before the last cycle has the status
@@ -817,6 +824,10 @@ impl RunResult {
             .iter()
             .map(|r| r.worst_utilisation)
             .fold(0.0, f64::max);
+        let breach = per_cycle
+            .iter()
+            .filter_map(|r| r.largest_force_breach_n)
+            .reduce(f64::max);
         let mut broken: Vec<String> = Vec::new();
         for r in per_cycle.iter().filter(|r| r.truth_violations > 0) {
             for b in &r.binds {
@@ -836,6 +847,7 @@ impl RunResult {
         }
         last.succeeded &= ran == cycles && violations == 0;
         last.truth_violations = violations;
+        last.largest_force_breach_n = breach;
         last.worst_utilisation = utilisation;
         last
     }
@@ -1485,6 +1497,7 @@ mod tests {
             cable_travel_m: 4.0,
             worst_utilisation: utilisation,
             truth_violations: violations,
+            largest_force_breach_n: (violations > 0).then_some(1.5 * violations as f64),
             approach_gap_m: Some(0.012),
             binds: if violations > 0 {
                 vec![format!("cable A_axial_m0_{commands} min")]
@@ -1561,21 +1574,35 @@ mod tests {
         let whole = RunResult::of_cycles(
             3,
             1,
-            vec![cycle(9, 0, 0.4), cycle(10, 2, 0.9), cycle(8, 0, 0.5)],
-            3,
+            vec![
+                cycle(9, 0, 0.4),
+                cycle(10, 2, 0.9),
+                cycle(7, 1, 0.6),
+                cycle(8, 0, 0.5),
+            ],
+            4,
         );
         assert_eq!(whole.commands, 8);
-        assert_eq!(whole.truth_violations, 2);
+        assert_eq!(whole.truth_violations, 3);
+        // The worst breach of any cycle, not the last cycle's none.
+        assert_eq!(whole.largest_force_breach_n, Some(3.0));
         assert_eq!(whole.worst_utilisation, 0.9);
         assert!(!whole.succeeded);
         assert_eq!(whole.status, "limits_broken");
-        // What the learning cycle broke, though the last cycle kept every
+        // What the learning cycles broke, though the last cycle kept every
         // limit.
-        assert_eq!(whole.binds, vec!["cable A_axial_m0_10 min".to_string()]);
+        assert_eq!(
+            whole.binds,
+            vec![
+                "cable A_axial_m0_10 min".to_string(),
+                "cable A_axial_m0_7 min".to_string()
+            ]
+        );
 
         let clean = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4), cycle(8, 0, 0.5)], 2);
         assert!(clean.succeeded);
         assert_eq!((clean.commands, clean.truth_violations), (8, 0));
+        assert_eq!(clean.largest_force_breach_n, None);
 
         let cut = RunResult::of_cycles(3, 1, vec![cycle(9, 0, 0.4)], 2);
         assert_eq!(cut.status, "cycles_stopped");
