@@ -28,7 +28,10 @@
 //! model error, as the output-bias correction treats them) and a free
 //! payout scale `ε_h` per independent part `h` (a half: drum slip, and the
 //! stiffness and weight errors that need more payout for the same
-//! motion), `U_km` being motor `m`'s payout commanded since the start. A
+//! motion), `U_km` being motor `m`'s payout commanded since the start
+//! (the sum runs over every motor: a motor moves only the nodes of its
+//! own part, which is what makes the parts independent,
+//! [`IndependentParts`]). A
 //! scale acts at the current payout, so its signature is the tangent
 //! there, not the motion since the start: near the design a gap closes
 //! faster per metre than on the way, and the secant `p_kj − p_0j` read a
@@ -105,15 +108,17 @@ pub struct SupportComplianceFit {
     pub rss_m2: Vec<Option<f64>>,
     /// Position readings fitted.
     pub readings: usize,
-    /// Parameters fitted: one offset per coordinate, one payout scale per
-    /// part, the compliance.
+    /// Parameters fitted: one offset per coordinate read, one payout scale
+    /// per part with a coordinate read, the compliance.
     pub parameters: usize,
     /// The estimate, m/N (within the candidates' range).
     pub compliance_m_per_n: f64,
     /// Its standard error, m/N; `None` where the best candidate is at the
-    /// end of the range or its neighbours failed (no curvature to read).
+    /// end of the range, a neighbour failed or the three do not curve
+    /// upward (no curvature to read).
     pub standard_error_m_per_n: Option<f64>,
-    /// Residual standard deviation at the best candidate, m.
+    /// Residual standard deviation at the estimate, m (at the best
+    /// candidate where there is no parabola).
     pub residual_sd_m: f64,
     /// Payout scale `ε` per part at the best candidate (index = part id).
     pub payout_scale: Vec<f64>,
@@ -125,6 +130,11 @@ pub fn model_on_supports(
     model: &ForwardModel,
     compliance_m_per_n: f64,
 ) -> Result<ForwardModel, String> {
+    if !(compliance_m_per_n.is_finite() && compliance_m_per_n >= 0.0) {
+        return Err(format!(
+            "support compliance {compliance_m_per_n:e} m/N must be finite and ≥ 0"
+        ));
+    }
     if compliance_m_per_n == 0.0 {
         return Ok(model.clone());
     }
@@ -312,7 +322,7 @@ pub fn fit_support_compliance(
     let mut part_of_coordinate = Vec::new();
     for (i, s) in sensors.iter().enumerate() {
         if let SensorTarget::Position { node, axis } = s.target {
-            if let Some(Some(part)) = parts_of.of_node.get(node) {
+            if let (true, Some(Some(part))) = (axis < 3, parts_of.of_node.get(node)) {
                 sensor_index.push(i);
                 coordinates.push((node, axis));
                 part_of_coordinate.push(*part);
@@ -320,15 +330,24 @@ pub fn fit_support_compliance(
         }
     }
     let parts = part_of_coordinate.iter().max().map_or(0, |p| p + 1);
+    // A reading that is not a finite number is a missing one.
     let measured: Vec<Vec<Option<f64>>> = readings
         .iter()
-        .map(|step| sensor_index.iter().map(|&i| step[i]).collect())
+        .map(|step| {
+            sensor_index
+                .iter()
+                .map(|&i| step[i].filter(|v| v.is_finite()))
+                .collect()
+        })
         .collect();
     let used = measured.iter().flatten().flatten().count();
-    let observed = (0..coordinates.len())
+    let observed: Vec<usize> = (0..coordinates.len())
         .filter(|&j| measured.iter().any(|m| m[j].is_some()))
-        .count();
-    let parameters = observed + parts + 1;
+        .collect();
+    let mut observed_parts: Vec<usize> = observed.iter().map(|&j| part_of_coordinate[j]).collect();
+    observed_parts.sort_unstable();
+    observed_parts.dedup();
+    let parameters = observed.len() + observed_parts.len() + 1;
     if used <= parameters {
         return Err(SupportFitError::TooFewReadings {
             readings: used,
@@ -360,32 +379,61 @@ pub fn fit_support_compliance(
         let first = fits.into_iter().find_map(Result::err).unwrap_or_default();
         return Err(SupportFitError::NoCandidate(first));
     };
-    let rss_min = rss_m2[best].unwrap_or(0.0);
-    let variance = rss_min / (used - parameters) as f64;
-    let c = candidates_m_per_n;
-    let (compliance_m_per_n, standard_error_m_per_n) =
-        match (best.checked_sub(1).map(|i| rss_m2[i]), rss_m2.get(best + 1)) {
-            (Some(Some(lo)), Some(Some(hi))) => {
-                let (x0, x1, x2) = (c[best - 1], c[best], c[best + 1]);
-                parabola_minimum([(x0, lo), (x1, rss_min), (x2, *hi)])
-                    .map(|(x, half_curvature)| {
-                        (x.clamp(x0, x2), Some((variance / half_curvature).sqrt()))
-                    })
-                    .unwrap_or((x1, None))
-            }
-            _ => (c[best], None),
-        };
+    let estimate = grid_estimate(candidates_m_per_n, &rss_m2, best, used - parameters);
     let payout_scale = fits[best].as_ref().map(|f| f.1.clone()).unwrap_or_default();
     Ok(SupportComplianceFit {
-        candidates_m_per_n: c.to_vec(),
+        candidates_m_per_n: candidates_m_per_n.to_vec(),
         rss_m2,
         readings: used,
         parameters,
-        compliance_m_per_n,
-        standard_error_m_per_n,
-        residual_sd_m: variance.sqrt(),
+        compliance_m_per_n: estimate.value,
+        standard_error_m_per_n: estimate.standard_error,
+        residual_sd_m: estimate.residual_sd,
         payout_scale,
     })
+}
+
+/// The estimate a grid of residual sums of squares gives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct GridEstimate {
+    value: f64,
+    standard_error: Option<f64>,
+    residual_sd: f64,
+}
+
+/// The estimate from the residual sums of squares `rss` of candidates `x`
+/// (`None`: failed), their smallest at `best`, with `dof` residual
+/// degrees of freedom: the vertex of the parabola through `best` and its
+/// neighbours, and its least-squares standard error
+/// `(σ̂²/a)^½` with `σ̂² = r/dof`, `a` the parabola's half curvature and
+/// `r` its value at the vertex (the grid's smallest RSS overstates it
+/// when the vertex lies between candidates). At the grid's end, beside a
+/// failed candidate, or where the parabola does not open upward, the
+/// estimate is the best candidate, without a standard error.
+fn grid_estimate(x: &[f64], rss: &[Option<f64>], best: usize, dof: usize) -> GridEstimate {
+    let at_best = rss[best].unwrap_or(0.0);
+    let neighbours = best
+        .checked_sub(1)
+        .and_then(|lo| Some((rss[lo]?, rss.get(best + 1).copied().flatten()?)));
+    let vertex = neighbours.and_then(|(lo, hi)| {
+        parabola_minimum([(x[best - 1], lo), (x[best], at_best), (x[best + 1], hi)])
+    });
+    match vertex {
+        Some((value, a)) => {
+            let r = (at_best - a * (x[best] - value).powi(2)).max(0.0);
+            let variance = r / dof as f64;
+            GridEstimate {
+                value,
+                standard_error: Some((variance / a).sqrt()),
+                residual_sd: variance.sqrt(),
+            }
+        }
+        None => GridEstimate {
+            value: x[best],
+            standard_error: None,
+            residual_sd: (at_best / dof as f64).sqrt(),
+        },
+    }
 }
 
 /// The vertex `x` and the half curvature `a` of the parabola
@@ -422,6 +470,95 @@ mod tests {
         let (x, a) = parabola_minimum([(0.0, y(0.0)), (0.5, y(0.5)), (1.5, y(1.5))]).unwrap();
         assert!((x - 0.4).abs() < 1e-12 && (a - 3.0).abs() < 1e-12);
         assert_eq!(parabola_minimum([(0.0, 1.0), (1.0, 2.0), (2.0, 1.0)]), None);
+    }
+
+    #[test]
+    fn an_exact_parabola_gives_its_vertex_and_the_least_squares_standard_error() {
+        // RSS(x) = a·(x − 2.3)² + r on a unit grid, 40 residual degrees of
+        // freedom: Var = σ̂²/a with σ̂² = r/40, r the vertex's value and
+        // not the grid's smallest (which is 0.09·a larger).
+        let (a, r, dof) = (5.0, 8.0, 40);
+        let x: Vec<f64> = (0..6).map(f64::from).collect();
+        let rss: Vec<Option<f64>> = x
+            .iter()
+            .map(|x| Some(a * (x - 2.3f64).powi(2) + r))
+            .collect();
+        let e = grid_estimate(&x, &rss, 2, dof);
+        assert!((e.value - 2.3).abs() < 1e-12, "{e:?}");
+        let sd = (r / dof as f64).sqrt();
+        assert!((e.residual_sd - sd).abs() < 1e-12, "{e:?}");
+        assert!(
+            (e.standard_error.unwrap() - sd / a.sqrt()).abs() < 1e-12,
+            "{e:?}"
+        );
+        // At the grid's end, or beside a failed candidate: the candidate,
+        // no standard error.
+        let at_end = grid_estimate(&x, &rss, 0, dof);
+        assert_eq!((at_end.value, at_end.standard_error), (0.0, None));
+        let mut failed = rss.clone();
+        failed[3] = None;
+        let beside = grid_estimate(&x, &failed, 2, dof);
+        assert_eq!((beside.value, beside.standard_error), (2.0, None));
+    }
+
+    #[test]
+    fn each_part_has_its_own_payout_scale() {
+        // Two coordinates of part 0 with scale 0.1, one of part 1 with −0.2.
+        let predicted = vec![
+            vec![0.0, 1.0, 2.0],
+            vec![0.1, 1.2, 2.1],
+            vec![0.3, 1.1, 2.5],
+        ];
+        let response = vec![
+            vec![0.0, 0.0, 0.0],
+            vec![0.1, 0.2, 0.3],
+            vec![0.3, 0.1, 0.2],
+        ];
+        let scale = [0.1, 0.1, -0.2];
+        let measured: Vec<Vec<Option<f64>>> = predicted
+            .iter()
+            .zip(&response)
+            .map(|(p, q)| {
+                (0..3)
+                    .map(|j| Some(p[j] + 0.01 * j as f64 + scale[j] * q[j]))
+                    .collect()
+            })
+            .collect();
+        let (rss, fitted) = offset_and_scale_rss(&predicted, &response, &measured, &[0, 0, 1], 2);
+        assert!(rss < 1e-28, "{rss}");
+        assert!((fitted[0] - 0.1).abs() < 1e-12 && (fitted[1] + 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn missing_and_non_finite_readings_are_left_out() {
+        let full = measured_deployment(2.5e-5, 0.0, 1);
+        let mut gaps = full.readings.clone();
+        // One coordinate never read (sensor 4 is the first position), a
+        // few readings lost.
+        for step in &mut gaps {
+            step[4] = None;
+        }
+        gaps[2][7] = None;
+        gaps[3][20] = None;
+        let dropped = Measured {
+            readings: gaps.clone(),
+            ..measured_deployment(2.5e-5, 0.0, 1)
+        };
+        let fit = dropped.fit(&CANDIDATES).unwrap();
+        assert_eq!(fit.readings, 5 * 30 - 5 - 2);
+        assert_eq!(fit.parameters, 29 + 2 + 1);
+        let se = fit.standard_error_m_per_n.unwrap();
+        assert!((fit.compliance_m_per_n - 2.5e-5).abs() < 3.0 * se);
+        // A reading that is no number is one lost, not a reason to read
+        // rigid supports.
+        let mut nan = gaps;
+        nan[2][7] = Some(f64::NAN);
+        nan[3][20] = Some(f64::INFINITY);
+        let with_nan = Measured {
+            readings: nan,
+            ..measured_deployment(2.5e-5, 0.0, 1)
+        };
+        assert_eq!(with_nan.fit(&CANDIDATES), Ok(fit));
     }
 
     #[test]
