@@ -157,6 +157,7 @@ fn shards_merge_into_the_sweep_byte_for_byte_at_any_thread_count() {
         ("cable_travel_m", "-5"),
         ("final_true_gap_m", "inf"),
         ("binds", " x"),
+        ("largest_force_breach_n", "1"),
     ] {
         let bad = dir(&format!("bad-{name}"));
         std::fs::create_dir(&bad).unwrap();

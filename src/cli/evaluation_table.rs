@@ -17,6 +17,7 @@ use tensegrity_deploy::report::evaluation_figure::evaluation_svg;
 use tensegrity_deploy::studies::evaluation::{
     binding_counts, first_against_others, summarise_results, PolicySummary,
 };
+use tensegrity_deploy::studies::statistics::median;
 
 /// How many of the names that bind most often the table prints.
 const BINDS_NAMED: usize = 5;
@@ -147,11 +148,12 @@ pub fn print_and_write(
                 .filter_map(|r| r.largest_force_breach_n)
                 .collect();
             breaches.sort_by(f64::total_cmp);
-            if let (Some(least), Some(most)) = (breaches.first(), breaches.last()) {
+            let runs_breaching = breaches.len();
+            if let (Some(&least), Some(&most), Some(middle)) =
+                (breaches.first(), breaches.last(), median(breaches.clone()))
+            {
                 say!(
-                    "{name}: how far a truth force went beyond its bound in each run that broke a force limit (runs.csv's largest_force_breach_n): {} runs, from {least:.2} N to {most:.1} N, median {:.2} N",
-                    breaches.len(),
-                    breaches[breaches.len() / 2]
+                    "{name}: how far a truth force went beyond its bound in each run that broke a force limit (runs.csv's largest_force_breach_n): {runs_breaching} runs, from {least:.2} N to {most:.2} N, median {middle:.2} N"
                 );
             }
         }

@@ -37,7 +37,8 @@
 //! truth_worst_utilisation,truth_violations,largest_force_breach_n,
 //! approach_gap_m,binds` (SI
 //! units; empty = none; with several cycles per scenario, the last
-//! cycle's, violations and utilisation over all cycles). `status` is the
+//! cycle's, violations, utilisation and the largest breach over all
+//! cycles). `status` is the
 //! run's verdict label ([`crate::plan::RunVerdict::label`]: what the truth
 //! did; `limits_broken` if any cycle broke a limit) and `succeeded` is
 //! `true` exactly for `connected`. `binds` names what decided a run that

@@ -914,10 +914,8 @@ mod tests {
         }
     }
 
-    /// A start-broken row is held to its start value until a command
-    /// restores it, then to its required bound; a row the start meets is
-    /// held to its bound throughout, and breaking a start value is named
-    /// as such.
+    /// How far a breach went is read for the force bounds of the bridge
+    /// only, from the bound the force was held to.
     #[test]
     fn a_force_excess_is_read_from_force_bounds_only() {
         let below = LimitViolation::BelowLower {
@@ -930,26 +928,54 @@ mod tests {
             force_n: 3100.0,
             upper_n: 3000.0,
         };
-        let worse = LimitViolation::WorseThanStart {
+        let worse_up = LimitViolation::WorseThanStart {
             member: "cable r".into(),
             force_n: 9803.6,
             start_n: 9803.3,
             limit_n: 3000.0,
             lower: false,
         };
-        let close = LimitViolation::StrutsTooClose {
-            strut_a: "a".into(),
-            strut_b: "b".into(),
-            distance_m: 0.001,
-            min_m: 0.002,
+        let worse_down = LimitViolation::WorseThanStart {
+            member: "segment s".into(),
+            force_n: 4.2,
+            start_n: 4.7,
+            limit_n: 5.0,
+            lower: true,
         };
+        let not_forces = [
+            LimitViolation::StrutsTooClose {
+                strut_a: "a".into(),
+                strut_b: "b".into(),
+                distance_m: 0.001,
+                min_m: 0.002,
+            },
+            LimitViolation::UnmeasuredFall {
+                member: "cable u".into(),
+                force_n: 50.0,
+                fall_n: 200.0,
+                margin: 0.4,
+                lower_n: 5.0,
+            },
+            LimitViolation::SlackGrew {
+                cable: "A_cc1".into(),
+                slack_m: 3.2e-3,
+                bound_m: 1.9e-3,
+            },
+        ];
         let near = |v: Option<f64>, x: f64| v.is_some_and(|v| (v - x).abs() < 1e-9);
         assert!(near(below.force_excess_n(), 0.1));
         assert!(near(above.force_excess_n(), 100.0));
-        assert!(near(worse.force_excess_n(), 0.3));
-        assert_eq!(close.force_excess_n(), None);
+        assert!(near(worse_up.force_excess_n(), 0.3));
+        assert!(near(worse_down.force_excess_n(), 0.5));
+        for v in not_forces {
+            assert_eq!(v.force_excess_n(), None, "{v:?}");
+        }
     }
 
+    /// A start-broken row is held to its start value until a command
+    /// restores it, then to its required bound; a row the start meets is
+    /// held to its bound throughout, and breaking a start value is named
+    /// as such.
     #[test]
     fn a_start_broken_row_is_held_to_its_start_value_until_restored() {
         let b = |lower_n, upper_n| ForceBounds { lower_n, upper_n };

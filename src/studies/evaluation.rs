@@ -1576,15 +1576,16 @@ mod tests {
             1,
             vec![
                 cycle(9, 0, 0.4),
-                cycle(10, 2, 0.9),
                 cycle(7, 1, 0.6),
+                cycle(10, 2, 0.9),
                 cycle(8, 0, 0.5),
             ],
             4,
         );
         assert_eq!(whole.commands, 8);
         assert_eq!(whole.truth_violations, 3);
-        // The worst breach of any cycle, not the last cycle's none.
+        // The worst breach of any cycle: neither the first cycle's that
+        // broke a limit (1.5 N) nor the last cycle's none.
         assert_eq!(whole.largest_force_breach_n, Some(3.0));
         assert_eq!(whole.worst_utilisation, 0.9);
         assert!(!whole.succeeded);
@@ -1594,8 +1595,8 @@ mod tests {
         assert_eq!(
             whole.binds,
             vec![
-                "cable A_axial_m0_10 min".to_string(),
-                "cable A_axial_m0_7 min".to_string()
+                "cable A_axial_m0_7 min".to_string(),
+                "cable A_axial_m0_10 min".to_string()
             ]
         );
 
