@@ -25,8 +25,9 @@
 //!   absolute readings from the design on): a second method;
 //! - `PLAN=1`: the run deployed again from the same folded truth on the
 //!   model over the full fit's estimated supports (as a next cycle on the
-//!   same site would; rigid where the fit failed, and frictionless
-//!   whatever μ `MU_GRID` found), and on the truth's exact supports.
+//!   same site would; frictionless whatever μ `MU_GRID` found; no run, and
+//!   empty columns, where the fit failed), and on the truth's exact
+//!   supports.
 //!
 //! Runs with fewer than 3 commands (the big folds that stop at once,
 //! docs/known-limitations.md item 18) carry little to fit; the figures in
@@ -206,11 +207,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 // truth's exact compliance.
                 let planned = if std::env::var("PLAN").is_ok_and(|v| v == "1") {
                     let (_, full) = &full_fit;
-                    let estimate = full.as_ref().map_or(0.0, |f| f.compliance_m_per_n);
-                    [estimate, compliance]
+                    let estimate = full.as_ref().ok().map(|f| f.compliance_m_per_n);
+                    [estimate, Some(compliance)]
                         .iter()
-                        .map(|&c| {
-                            let model = model_on_supports(&nominal, c).expect("a supported model");
+                        .map(|c| {
+                            // No estimate, no run: a rigid model standing in
+                            // for a failed fit would read as one.
+                            let Some(c) = *c else {
+                                return ",,,,,".to_string();
+                            };
+                            let model = match model_on_supports(&nominal, c) {
+                                Ok(m) => m,
+                                Err(e) => return format!("{c:.3e},model: {},0,0,0,", e.replace(',', ";")),
+                            };
                             let setup = ClosedLoopSetup { model: &model, ..*setup };
                             let run = folded.as_ref().ok().and_then(|plant| {
                                 deploy_guided(&setup, &Guidance::default(), Some(&mut plant.clone()), &mut ())
@@ -237,7 +246,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     sent.len(),
                     columns(&full_fit),
                     early,
-                    columns(&fit(early)),
+                    // The same commands give the same fit: not fitted twice.
+                    if early == sent.len() {
+                        columns(&full_fit)
+                    } else {
+                        columns(&fit(early))
+                    },
                     r.status,
                     u8::from(r.succeeded),
                     r.truth_violations,
