@@ -134,7 +134,7 @@ fn the_default_truth_connects_in_closed_loop_within_its_limits_at_every_incremen
         };
         assert_eq!(
             *v,
-            Some(d.final_true_state.positions_m[node][axis]),
+            Some(d.final_true_state.positions_m[node][axis.index()]),
             "{}",
             s.id
         );

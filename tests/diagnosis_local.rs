@@ -30,7 +30,7 @@ use tensegrity_deploy::measure::lab::DAILY_SWING_K;
 use tensegrity_deploy::measure::local::{LocalKind, Term};
 use tensegrity_deploy::measure::log::MeasurementLog;
 use tensegrity_deploy::model::{Effects, MemberKind, Structure};
-use tensegrity_deploy::sim::{EffectModel, SensorTarget};
+use tensegrity_deploy::sim::{Axis, EffectModel, SensorTarget};
 
 fn model(structure: Structure) -> EffectModel {
     EffectModel::for_measurement(structure, Effects::default())
@@ -138,7 +138,9 @@ fn one_load_cell_with_a_gain_error_is_named() {
 #[test]
 fn a_drifting_position_sensor_is_named() {
     let log = clean_log();
-    let z = first_sensor(log, |t| matches!(t, SensorTarget::Position { axis: 2, .. }));
+    let z = first_sensor(log, |t| {
+        matches!(t, SensorTarget::Position { axis: Axis::Z, .. })
+    });
     // 3 mm over the log's 36 readings: three noise SDs at the end, a χ²
     // of about 100 over the log against a penalty of ~23 per half.
     let drift = 0.003 / 35.0;
@@ -271,7 +273,7 @@ fn rare_spikes_are_named_as_outliers_not_structure() {
     let mut spiky = clean_log().clone();
     let cell = first_sensor(&spiky, |t| matches!(t, SensorTarget::SegmentTension { .. }));
     let x = first_sensor(&spiky, |t| {
-        matches!(t, SensorTarget::Position { axis: 0, .. })
+        matches!(t, SensorTarget::Position { axis: Axis::X, .. })
     });
     let spikes = [(1, 3, cell, 175.0), (3, 1, cell, -140.0), (2, 5, x, 0.025)];
     for &(c, k, s, add) in &spikes {
@@ -308,7 +310,7 @@ fn a_slow_trend_is_seen_against_the_logs_clock() {
         .filter(|&s| {
             matches!(
                 creeping.sensors[s].target,
-                SensorTarget::Position { axis: 2, .. }
+                SensorTarget::Position { axis: Axis::Z, .. }
             )
         })
         .collect();

@@ -11,7 +11,7 @@ mod common;
 
 use common::fixtures::reference_structure;
 use tensegrity_deploy::model::{EffectKind, Effects};
-use tensegrity_deploy::sim::{standard_sensors, CycleSchedule, EffectModel, SensorTarget};
+use tensegrity_deploy::sim::{standard_sensors, Axis, CycleSchedule, EffectModel, SensorTarget};
 
 #[test]
 fn step_zero_is_the_models_own_equilibrium_not_the_as_built_geometry() {
@@ -43,7 +43,11 @@ fn step_zero_is_the_models_own_equilibrium_not_the_as_built_geometry() {
             "{}: {a} at step 0, {b} after a zero command",
             sensor.id
         );
-        if let SensorTarget::Position { node, axis: 2 } = sensor.target {
+        if let SensorTarget::Position {
+            node,
+            axis: Axis::Z,
+        } = sensor.target
+        {
             largest_sag = largest_sag.max(structure.nodes[node].position_m.z - a);
         }
     }

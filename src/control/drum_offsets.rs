@@ -106,10 +106,10 @@ pub fn estimate_drum_offsets(
                 let mut j: Vec<f64> = response
                     .pay_out
                     .iter()
-                    .map(|e| e.positions_m_per_m[node][axis])
+                    .map(|e| e.positions_m_per_m[node][axis.index()])
                     .collect();
                 j.extend(bias.then_some(0.0));
-                positions.push((y - state.positions_m[node][axis], noise, j));
+                positions.push((y - state.positions_m[node][axis.index()], noise, j));
             }
             SensorTarget::SegmentTension { cable, segment } => {
                 let Some(c) = s.continuous_cables.get(cable) else {
@@ -208,7 +208,9 @@ mod tests {
         sensors
             .iter()
             .map(|sensor| match sensor.target {
-                SensorTarget::Position { node, axis } => Some(state.positions_m[node][axis]),
+                SensorTarget::Position { node, axis } => {
+                    Some(state.positions_m[node][axis.index()])
+                }
                 SensorTarget::SegmentTension { cable, segment } => {
                     Some(forces[s.members.len() + state.segment_offsets[cable] + segment])
                 }

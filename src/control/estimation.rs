@@ -196,7 +196,8 @@ impl PayoutScaleEstimator {
                 continue;
             }
             let g = fraction[part]
-                * (predicted.positions_m[node][axis] - before.positions_m[node][axis]);
+                * (predicted.positions_m[node][axis.index()]
+                    - before.positions_m[node][axis.index()]);
             let r = (y1 - y0) - g;
             information[part] += g * g / variance;
             weighted_residual[part] += g * r / variance;
@@ -260,7 +261,9 @@ mod tests {
         sensors
             .iter()
             .map(|s| match s.target {
-                SensorTarget::Position { node, axis } => Some(state.positions_m[node][axis]),
+                SensorTarget::Position { node, axis } => {
+                    Some(state.positions_m[node][axis.index()])
+                }
                 _ => None,
             })
             .collect()

@@ -10,7 +10,7 @@ use super::force_offset_filter::ForceOffsetFilter;
 use crate::model::{DeploymentState, ForwardModel, Structure};
 use crate::plan::limits::force_rows;
 use crate::plan::{Measurement, ModelCorrection};
-use crate::sim::{Sensor, SensorTarget};
+use crate::sim::{Axis, Sensor, SensorTarget};
 
 /// Gap vector `x_a − x_b` of each midspan pair from a measurement: the
 /// six position readings of its two nodes; `None` where any is missing
@@ -22,11 +22,11 @@ pub fn measured_gap_vectors(
 ) -> Vec<Option<Vector3<f64>>> {
     let position = |node: usize| -> Option<Vector3<f64>> {
         let mut p = Vector3::zeros();
-        for axis in 0..3 {
+        for axis in Axis::ALL {
             let s = sensors
                 .iter()
                 .position(|s| s.target == SensorTarget::Position { node, axis })?;
-            p[axis] = (*readings.get(s)?)?;
+            p[axis.index()] = (*readings.get(s)?)?;
         }
         Some(p)
     };
@@ -202,7 +202,7 @@ mod tests {
         let mut rng = StdRng::seed_from_u64(3);
         let noisy = plant.measure(&sensors, &mut rng);
         let c = model_correction(&model, &state, &sensors, &noisy, &policy.control.measures);
-        let reading = |node: usize, axis: usize| {
+        let reading = |node: usize, axis: Axis| {
             let k = sensors
                 .iter()
                 .position(|s| s.target == SensorTarget::Position { node, axis })
@@ -210,10 +210,11 @@ mod tests {
             noisy[k].unwrap()
         };
         for (p, [a, b]) in s.midspan_pairs.iter().enumerate() {
-            for axis in 0..3 {
+            for axis in Axis::ALL {
                 let measured = reading(*a, axis) - reading(*b, axis);
-                let model_gap = state.positions_m[*a][axis] - state.positions_m[*b][axis];
-                assert!((c.gap_offsets_m[p][axis] - (measured - model_gap)).abs() < 1e-15);
+                let i = axis.index();
+                let model_gap = state.positions_m[*a][i] - state.positions_m[*b][i];
+                assert!((c.gap_offsets_m[p][i] - (measured - model_gap)).abs() < 1e-15);
             }
         }
 
@@ -222,7 +223,13 @@ mod tests {
         let [a0, _] = s.midspan_pairs[0];
         let k = sensors
             .iter()
-            .position(|s| s.target == SensorTarget::Position { node: a0, axis: 1 })
+            .position(|s| {
+                s.target
+                    == SensorTarget::Position {
+                        node: a0,
+                        axis: Axis::Y,
+                    }
+            })
             .unwrap();
         let mut missing = noisy.clone();
         missing[k] = None;

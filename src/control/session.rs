@@ -775,7 +775,7 @@ impl<'a> Session<'a> {
                     let Some(p) = state.positions_m.get(node) else {
                         continue;
                     };
-                    let off = v - p[axis];
+                    let off = v - p[axis.index()];
                     if off.abs() > locks.max_position_offset_m {
                         trips.push(format!(
                             "{} reads {:.3} m, {:.3} m from where the model puts node {} (plausible within {} m)",

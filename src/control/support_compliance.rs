@@ -67,7 +67,7 @@ use crate::model::flexible_supports::with_flexible_supports;
 use crate::model::{ForwardModel, MotorDirection, SlipOnset, StructureError, Workspace};
 use crate::plan::response::IndependentParts;
 use crate::plan::{folded_start, DeploymentProblem, PlanError};
-use crate::sim::{Sensor, SensorTarget};
+use crate::sim::{Axis, Sensor, SensorTarget};
 
 /// Why a compliance could not be fitted.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -174,7 +174,7 @@ fn replay(
     model: &ForwardModel,
     problem: &DeploymentProblem,
     increment_m: f64,
-    coordinates: &[(usize, usize)],
+    coordinates: &[(usize, Axis)],
     sent_m: &[Vec<f64>],
 ) -> Result<Replay, String> {
     let mut state =
@@ -193,7 +193,7 @@ fn replay(
         out.positions_m.push(
             coordinates
                 .iter()
-                .map(|&(node, axis)| state.positions_m[node][axis])
+                .map(|&(node, axis)| state.positions_m[node][axis.index()])
                 .collect(),
         );
         let mut response = vec![0.0; coordinates.len()];
@@ -209,7 +209,7 @@ fn replay(
                 };
                 if let Some(r) = s.response(m, direction) {
                     for (q, &(node, axis)) in response.iter_mut().zip(coordinates) {
-                        *q += r.positions_m_per_m[node][axis] * u;
+                        *q += r.positions_m_per_m[node][axis.index()] * u;
                     }
                 }
             }
@@ -322,7 +322,7 @@ pub fn fit_support_compliance(
     let mut part_of_coordinate = Vec::new();
     for (i, s) in sensors.iter().enumerate() {
         if let SensorTarget::Position { node, axis } = s.target {
-            if let (true, Some(Some(part))) = (axis < 3, parts_of.of_node.get(node)) {
+            if let Some(Some(part)) = parts_of.of_node.get(node) {
                 sensor_index.push(i);
                 coordinates.push((node, axis));
                 part_of_coordinate.push(*part);

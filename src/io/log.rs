@@ -38,6 +38,7 @@ use super::{csv_records, csv_with_header, write_atomically, CsvTable, FileError}
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::Structure;
 use crate::numerics::NumberRange;
+use crate::sim::Axis;
 use crate::sim::{Sensor, SensorTarget};
 
 /// The `format` a log must declare.
@@ -209,9 +210,9 @@ fn sensor_row(
                 .node_index(target_text)
                 .ok_or_else(|| err("target", format!("no node \"{target_text}\"")))?;
             let axis = match kind {
-                "position_x" => 0,
-                "position_y" => 1,
-                _ => 2,
+                "position_x" => Axis::X,
+                "position_y" => Axis::Y,
+                _ => Axis::Z,
             };
             SensorTarget::Position { node, axis }
         }
@@ -432,7 +433,10 @@ mod tests {
                 },
                 Sensor {
                     id: "z4".into(),
-                    target: SensorTarget::Position { node: 24, axis: 2 },
+                    target: SensorTarget::Position {
+                        node: 24,
+                        axis: Axis::Z,
+                    },
                     noise_sd: 0.001,
                 },
                 Sensor {

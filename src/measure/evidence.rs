@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 use super::compare::Comparison;
 use super::settings::NoiseSettings;
 use super::tail_probability::{chi_squared_upper, normal_two_sided};
-use crate::sim::{Sensor, SensorTarget};
+use crate::sim::{Axis, Sensor, SensorTarget};
 
 /// A group of sensors of one kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -47,8 +47,8 @@ impl SensorGroup {
             SensorTarget::SegmentTension { .. } | SensorTarget::MemberForce { .. } => {
                 Some(SensorGroup::LoadCells)
             }
-            SensorTarget::Position { axis: 0, .. } => Some(SensorGroup::PositionX),
-            SensorTarget::Position { axis: 1, .. } => Some(SensorGroup::PositionY),
+            SensorTarget::Position { axis: Axis::X, .. } => Some(SensorGroup::PositionX),
+            SensorTarget::Position { axis: Axis::Y, .. } => Some(SensorGroup::PositionY),
             SensorTarget::Position { .. } => Some(SensorGroup::PositionZ),
             SensorTarget::Temperature => None,
         }
@@ -260,7 +260,10 @@ mod tests {
                 target: if i < 3 {
                     SensorTarget::MemberForce { member: i }
                 } else {
-                    SensorTarget::Position { node: i, axis: 2 }
+                    SensorTarget::Position {
+                        node: i,
+                        axis: Axis::Z,
+                    }
                 },
                 noise_sd: 1.0,
             })

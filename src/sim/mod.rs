@@ -15,6 +15,6 @@ pub use effect_model::{EffectModel, PlantError};
 pub use plant::Plant;
 pub use schedule_run::{CycleSchedule, Readings, Run, StepFeatures};
 pub use sensors::{
-    standard_sensors, Sensor, SensorTarget, LOAD_CELL_NOISE_N, POSITION_NOISE_M,
+    standard_sensors, Axis, Sensor, SensorTarget, LOAD_CELL_NOISE_N, POSITION_NOISE_M,
     TEMPERATURE_NOISE_C,
 };

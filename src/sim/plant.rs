@@ -216,7 +216,9 @@ impl Plant {
                 SensorTarget::MemberForce { member } => {
                     Some(self.effects.load_cell_reading_n(forces.member_n[member]))
                 }
-                SensorTarget::Position { node, axis } => Some(self.state.positions_m[node][axis]),
+                SensorTarget::Position { node, axis } => {
+                    Some(self.state.positions_m[node][axis.index()])
+                }
                 SensorTarget::Temperature => self.temperature_c,
             })
             .collect()

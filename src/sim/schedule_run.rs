@@ -147,7 +147,7 @@ mod tests {
     use super::*;
     use crate::design::{reference_bridge, BridgeParameters};
     use crate::model::{EffectKind, Effects, RelaxSettings};
-    use crate::sim::SensorTarget;
+    use crate::sim::{Axis, SensorTarget};
 
     fn schedule(n: usize) -> Vec<CycleSchedule> {
         let out_in = |d: f64| {
@@ -179,13 +179,19 @@ mod tests {
             },
             Sensor {
                 id: "z".into(),
-                target: SensorTarget::Position { node: 22, axis: 2 },
+                target: SensorTarget::Position {
+                    node: 22,
+                    axis: Axis::Z,
+                },
                 noise_sd: 0.001,
             },
             // Thermal growth shows along the span.
             Sensor {
                 id: "x".into(),
-                target: SensorTarget::Position { node: 22, axis: 0 },
+                target: SensorTarget::Position {
+                    node: 22,
+                    axis: Axis::X,
+                },
                 noise_sd: 0.001,
             },
         ]
@@ -255,7 +261,10 @@ mod tests {
             .iter()
             .map(|&node| Sensor {
                 id: s.nodes[node].id.clone(),
-                target: SensorTarget::Position { node, axis: 0 },
+                target: SensorTarget::Position {
+                    node,
+                    axis: Axis::X,
+                },
                 noise_sd: 0.001,
             })
             .collect();

@@ -19,15 +19,45 @@ pub enum SensorTarget {
         /// Member index.
         member: usize,
     },
-    /// Coordinate `axis` (0 x, 1 y, 2 z) of node `node`, m.
+    /// Coordinate `axis` of node `node`, m.
     Position {
         /// Node index.
         node: usize,
         /// Axis.
-        axis: usize,
+        axis: Axis,
     },
     /// Air temperature, °C.
     Temperature,
+}
+
+/// A coordinate axis of the bridge's frame. A type of its own, not an
+/// index: an axis of 3 or more used to index past a position's three
+/// coordinates and panic in the estimators that read a sensor's
+/// coordinate (only a library caller building a [`Sensor`] by hand could
+/// pass one; sensor files name the axis).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Axis {
+    /// x: along the span.
+    X,
+    /// y: across the span.
+    Y,
+    /// z: up.
+    Z,
+}
+
+impl Axis {
+    /// The three axes in coordinate order.
+    pub const ALL: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
+
+    /// The coordinate's index in a position vector: 0, 1 or 2.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// `x`, `y` or `z`, as in sensor kinds (`position_x`) and ids.
+    pub fn name(self) -> &'static str {
+        ["x", "y", "z"][self.index()]
+    }
 }
 
 /// One sensor of the layout.
@@ -53,7 +83,7 @@ impl Sensor {
                 ("tension".into(), structure.members[member].id.clone())
             }
             SensorTarget::Position { node, axis } => (
-                format!("position_{}", ["x", "y", "z"][axis]),
+                format!("position_{}", axis.name()),
                 structure.nodes[node].id.clone(),
             ),
             SensorTarget::Temperature => ("temperature".into(), "-".into()),
@@ -114,9 +144,9 @@ pub fn standard_sensors(structure: &Structure) -> Vec<Sensor> {
         });
     }
     for &node in structure.midspan_pairs.iter().flatten() {
-        for (axis, name) in ["x", "y", "z"].iter().enumerate() {
+        for axis in Axis::ALL {
             sensors.push(Sensor {
-                id: format!("{}_{name}", structure.nodes[node].id),
+                id: format!("{}_{}", structure.nodes[node].id, axis.name()),
                 target: SensorTarget::Position { node, axis },
                 noise_sd: POSITION_NOISE_M,
             });
@@ -128,4 +158,44 @@ pub fn standard_sensors(structure: &Structure) -> Vec<Sensor> {
         noise_sd: TEMPERATURE_NOISE_C,
     });
     sensors
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{reference_bridge, BridgeParameters};
+
+    #[test]
+    fn an_axis_is_one_of_the_three_coordinates_with_its_file_name() {
+        let names: Vec<_> = Axis::ALL.iter().map(|a| (a.index(), a.name())).collect();
+        assert_eq!(names, [(0, "x"), (1, "y"), (2, "z")]);
+    }
+
+    #[test]
+    fn the_standard_layout_names_each_position_sensor_after_its_node_and_axis() {
+        let s = reference_bridge(&BridgeParameters::default()).unwrap();
+        let sensors = standard_sensors(&s);
+        let node = s.midspan_pairs[0][0];
+        let positions: Vec<_> = sensors
+            .iter()
+            .filter_map(|x| match x.target {
+                SensorTarget::Position { node: n, axis } if n == node => {
+                    Some((x.id.clone(), x.kind_and_target(&s).0, axis))
+                }
+                _ => None,
+            })
+            .collect();
+        let id = &s.nodes[node].id;
+        assert_eq!(
+            positions,
+            Axis::ALL
+                .iter()
+                .map(|a| (
+                    format!("{id}_{}", a.name()),
+                    format!("position_{}", a.name()),
+                    *a
+                ))
+                .collect::<Vec<_>>()
+        );
+    }
 }

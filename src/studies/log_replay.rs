@@ -546,7 +546,7 @@ pub fn counterfactual(
 mod tests {
     use super::*;
     use crate::measure::log::Cycle;
-    use crate::sim::Sensor;
+    use crate::sim::{Axis, Sensor};
 
     fn log(cycles: Vec<Cycle>) -> MeasurementLog {
         MeasurementLog {
@@ -554,7 +554,10 @@ mod tests {
             sensors: vec![
                 Sensor {
                     id: "z".into(),
-                    target: SensorTarget::Position { node: 0, axis: 2 },
+                    target: SensorTarget::Position {
+                        node: 0,
+                        axis: Axis::Z,
+                    },
                     noise_sd: 0.001,
                 },
                 Sensor {
