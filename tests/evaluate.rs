@@ -30,11 +30,12 @@ fn ok(out: &Output) {
 }
 
 /// The files that must be identical (timing.csv holds wall-clock times).
-const SAME: [&str; 5] = [
+const SAME: [&str; 6] = [
     "evaluation.toml",
     "runs.csv",
     "summary.csv",
     "paired.csv",
+    "by_fold.csv",
     "evaluation.svg",
 ];
 
@@ -383,4 +384,89 @@ fn a_run_that_stops_names_what_binds() {
         printed.contains("what binds in the 3 runs that did not connect"),
         "{printed}"
     );
+}
+
+#[test]
+fn by_fold_counts_every_run_once_in_the_band_of_its_deeper_half() {
+    // Folds of 15–55 cm, half B up to 15 cm deeper or shallower: the
+    // runs spread over several bands, some of them on half B's fold.
+    let distribution = common::repo_text("scenarios/default.toml")
+        .lines()
+        .map(|l| {
+            if l.starts_with("fold_m") {
+                "fold_m = [0.15, 0.55]\nfold_difference_m = [-0.15, 0.15]"
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let tmp = dir_with(&[("spread.toml", &distribution)]);
+    let out = tdeploy(
+        &[
+            "evaluate",
+            "--distribution",
+            "spread.toml",
+            "--scenarios",
+            "8",
+            "--seed",
+            "12",
+            "-o",
+            "o",
+        ],
+        tmp.path(),
+    );
+    ok(&out);
+    let (header, rows) = common::files::read_csv(&tmp.path().join("o/runs.csv"));
+    let col = |name: &str| common::files::column(&header, name);
+    let (fold_a, fold_b, succeeded, violations) = (
+        col("fold_m"),
+        col("fold_b_m"),
+        col("succeeded"),
+        col("truth_violations"),
+    );
+    // The bands recounted here from runs.csv: (k·10 cm, (k+1)·10 cm].
+    let mut expected: std::collections::BTreeMap<i64, [usize; 4]> = Default::default();
+    for r in &rows {
+        let deeper: f64 = r[fold_a]
+            .parse::<f64>()
+            .unwrap()
+            .max(r[fold_b].parse().unwrap());
+        let mm = (deeper * 1e3).round() as i64;
+        let band = (mm + 99) / 100 - 1;
+        let e = expected.entry(band).or_default();
+        e[0] += 1;
+        if r[succeeded] == "true" {
+            e[1] += 1;
+        } else if r[violations] != "0" {
+            e[2] += 1;
+        } else {
+            e[3] += 1;
+        }
+    }
+    assert!(expected.len() >= 2, "the folds span bands: {expected:?}");
+    let (bh, bands) = common::files::read_csv(&tmp.path().join("o/by_fold.csv"));
+    assert_eq!(
+        bh,
+        [
+            "policy",
+            "fold_from_m",
+            "fold_to_m",
+            "runs",
+            "succeeded",
+            "broke_limits",
+            "stopped"
+        ]
+    );
+    let found: std::collections::BTreeMap<i64, [usize; 4]> = bands
+        .iter()
+        .map(|b| {
+            let from: f64 = b[1].parse().unwrap();
+            let to: f64 = b[2].parse().unwrap();
+            assert!((to - from - 0.1).abs() < 1e-9, "{b:?}");
+            let n: Vec<usize> = b[3..].iter().map(|x| x.parse().unwrap()).collect();
+            ((from * 10.0).round() as i64, [n[0], n[1], n[2], n[3]])
+        })
+        .collect();
+    assert_eq!(found, expected);
 }

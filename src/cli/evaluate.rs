@@ -9,7 +9,9 @@
 //! policy, with the scenario's seed and drawn values), `summary.csv`,
 //! `paired.csv` (the first policy against each other: exact McNemar on
 //! success, exact sign tests on the final true gap and the commands),
-//! and `timing.csv` (planning times, the only file that changes from run
+//! `by_fold.csv` (each policy's runs by the deeper half's fold, in 10 cm
+//! bands: succeeded, broke limits, stopped; also printed when the runs
+//! span more than one band), and `timing.csv` (planning times, the only file that changes from run
 //! to run), formats in [`tensegrity_deploy::io::evaluation_files`] and
 //! [`tensegrity_deploy::io::evaluation_summary`]; and `evaluation.svg`
 //! ([`tensegrity_deploy::report::evaluation_figure`]). Every other file
@@ -65,7 +67,7 @@ pub fn command() -> Command {
         .arg(super::truth_substeps_arg())
         .arg(Arg::new("shard").long("shard").default_value("1/1").help("Run shard k of n (scenarios i with i mod n = k − 1); `tdeploy merge` joins the shards"))
         .arg(super::threads_arg())
-        .arg(Arg::new("out").long("out").short('o').default_value("out/evaluate").value_parser(value_parser!(PathBuf)).help("Folder for evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg, timing.csv"))
+        .arg(Arg::new("out").long("out").short('o').default_value("out/evaluate").value_parser(value_parser!(PathBuf)).help("Folder for evaluation.toml, runs.csv, summary.csv, paired.csv, by_fold.csv, evaluation.svg, timing.csv"))
         .arg(super::force_arg())
 }
 
@@ -241,7 +243,7 @@ pub fn run(o: &Options) -> Result<Outcome> {
     let limits = print_and_write(&record, &runs, folder.path())?;
     folder.commit()?;
     say!(
-        "results in {} (evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg; planning times in timing.csv)",
+        "results in {} (evaluation.toml, runs.csv, summary.csv, paired.csv, by_fold.csv, evaluation.svg; planning times in timing.csv)",
         o.out.display()
     );
     Ok(match all_policies(&limits).failure() {

@@ -17,6 +17,7 @@ use tensegrity_deploy::report::evaluation_figure::evaluation_svg;
 use tensegrity_deploy::studies::evaluation::{
     binding_counts, first_against_others, summarise_results, PolicySummary,
 };
+use tensegrity_deploy::studies::fold_bands::fold_bands;
 use tensegrity_deploy::studies::statistics::median;
 
 /// How many of the names that bind most often the table prints.
@@ -190,8 +191,32 @@ pub fn print_and_write(
             );
         }
     }
+    let bands = fold_bands(&runs.results, names.len(), |s| runs.deepest_fold_m(s));
+    for (p, name) in names.iter().enumerate() {
+        let mine: Vec<String> = bands
+            .iter()
+            .filter(|b| b.policy == p)
+            .map(|b| {
+                format!(
+                    "{:.0}–{:.0} cm {}/{}/{} of {}",
+                    1e2 * b.from_m,
+                    1e2 * b.to_m,
+                    b.succeeded,
+                    b.broke_limits,
+                    b.stopped(),
+                    b.runs
+                )
+            })
+            .collect();
+        if mine.len() > 1 {
+            say!(
+                "{name} by the deeper half's fold (succeeded/broke limits/stopped of runs; by_fold.csv): {}",
+                mine.join("; ")
+            );
+        }
+    }
     let svg = evaluation_svg(names, &summaries, runs.scenarios.len())?;
-    write_evaluation(folder, record, runs, &summaries, &pairs)?;
+    write_evaluation(folder, record, runs, &summaries, &pairs, &bands)?;
     write_atomically(&folder.join("evaluation.svg"), svg.as_bytes())?;
     Ok(summaries
         .iter()

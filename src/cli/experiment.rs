@@ -343,7 +343,7 @@ fn deployment_experiment(e: &DeploymentExperiment) -> Result<Outcome> {
         "seed lab practice: predetermined 5 cm commands of every cable, no feedback (the nominal policy); connection judged by eye, success rate not reported"
     );
     say!(
-        "results in {} (evaluation.toml, runs.csv, summary.csv, paired.csv, evaluation.svg; planning times in timing.csv)",
+        "results in {} (evaluation.toml, runs.csv, summary.csv, paired.csv, by_fold.csv, evaluation.svg; planning times in timing.csv)",
         e.out.display()
     );
     // The first policy is the one under test; the others are baselines,

@@ -361,6 +361,21 @@ impl EvaluationRuns {
         }
     }
 
+    /// How deep scenario `index` was folded: the deeper of its halves'
+    /// drawn folds (`fold_m`, and `fold_b_m` where the distribution folds
+    /// half B differently), m; `None` for a scenario not in the runs.
+    pub fn deepest_fold_m(&self, index: usize) -> Option<f64> {
+        let row = self.scenarios.get(&index)?;
+        let drawn = |name: &str| {
+            self.drawn_names
+                .iter()
+                .position(|n| n == name)
+                .and_then(|i| row.drawn.get(i).copied())
+        };
+        let a = drawn("fold_m")?;
+        Some(drawn("fold_b_m").map_or(a, |b| a.max(b)))
+    }
+
     /// `runs.csv` as a table.
     pub fn runs_table(&self) -> CsvTable {
         let mut header: Vec<&str> = vec!["scenario", "seed"];

@@ -38,21 +38,24 @@ use std::path::Path;
 use super::evaluation_files::{EvaluationRecord, EvaluationRuns};
 use super::{write_atomically, CsvTable, FileError};
 use crate::studies::evaluation::{PairedComparison, PolicySummary};
+use crate::studies::fold_bands::FoldBand;
 
-/// Writes `evaluation.toml`, `runs.csv`, `summary.csv`, `paired.csv` and
-/// `timing.csv` of `runs` into `dir` (which must exist); `summaries` are
-/// the policies' in `runs.policy_names` order.
+/// Writes `evaluation.toml`, `runs.csv`, `summary.csv`, `paired.csv`,
+/// `by_fold.csv` and `timing.csv` of `runs` into `dir` (which must
+/// exist); `summaries` are the policies' in `runs.policy_names` order.
 pub fn write_evaluation(
     dir: &Path,
     record: &EvaluationRecord,
     runs: &EvaluationRuns,
     summaries: &[PolicySummary],
     pairs: &[PairedComparison],
+    bands: &[FoldBand],
 ) -> Result<(), FileError> {
     write_atomically(&dir.join("evaluation.toml"), record.to_toml()?.as_bytes())?;
     runs.runs_table().write(&dir.join("runs.csv"))?;
     summary_table(&runs.policy_names, summaries).write(&dir.join("summary.csv"))?;
     paired_table(&runs.policy_names, pairs).write(&dir.join("paired.csv"))?;
+    fold_table(&runs.policy_names, bands).write(&dir.join("by_fold.csv"))?;
     runs.timing_table().write(&dir.join("timing.csv"))
 }
 
@@ -143,4 +146,35 @@ fn paired_table(names: &[String], pairs: &[PairedComparison]) -> CsvTable {
         ]);
     }
     paired
+}
+
+/// `by_fold.csv`.
+fn fold_table(names: &[String], bands: &[FoldBand]) -> CsvTable {
+    let mut t = CsvTable::new(&[
+        "policy",
+        "fold_from_m",
+        "fold_to_m",
+        "runs",
+        "succeeded",
+        "broke_limits",
+        "stopped",
+    ]);
+    for b in bands {
+        t.row([
+            names[b.policy].clone(),
+            fold_text(b.from_m),
+            fold_text(b.to_m),
+            b.runs.to_string(),
+            b.succeeded.to_string(),
+            b.broke_limits.to_string(),
+            b.stopped().to_string(),
+        ]);
+    }
+    t
+}
+
+/// A band's end, m, as written: to the millimetre (`0.3`, not
+/// `0.30000000000000004`).
+fn fold_text(m: f64) -> String {
+    ((1e3 * m).round() / 1e3).to_string()
 }

@@ -5,6 +5,7 @@
 pub mod cycles;
 pub mod deployment_log;
 pub mod evaluation;
+pub mod fold_bands;
 pub mod friction_effect;
 pub mod friction_grading;
 pub mod friction_vs_measurement;
