@@ -156,7 +156,7 @@ done
 "$tdeploy" merge "${shard_dirs[@]}" -o "$work/merged" >/dev/null 2>&1 || [ $? -eq 1 ]
 "$tdeploy" "${evaluate_args[@]}" -o "$work/single" >/dev/null 2>&1 || [ $? -eq 1 ]
 
-for f in evaluation.toml runs.csv summary.csv paired.csv evaluation.svg; do
+for f in evaluation.toml runs.csv summary.csv paired.csv by_fold.csv evaluation.svg; do
     cmp "$work/single/$f" "$work/merged/$f" || { say "$f differs"; exit 1; }
 done
 say "ok: $shards Slurm array tasks merged equal the single run byte for byte ($(($(wc -l < "$work/single/runs.csv") - 1)) runs)"

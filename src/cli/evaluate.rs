@@ -9,8 +9,8 @@
 //! policy, with the scenario's seed and drawn values), `summary.csv`,
 //! `paired.csv` (the first policy against each other: exact McNemar on
 //! success, exact sign tests on the final true gap and the commands),
-//! `by_fold.csv` (each policy's runs by the deeper half's fold, in 10 cm
-//! bands: succeeded, broke limits, stopped; also printed when the runs
+//! `by_fold.csv` (each policy's runs in 10 cm bands of each half's fold:
+//! succeeded, broke limits, failed otherwise; also printed when the runs
 //! span more than one band), and `timing.csv` (planning times, the only file that changes from run
 //! to run), formats in [`tensegrity_deploy::io::evaluation_files`] and
 //! [`tensegrity_deploy::io::evaluation_summary`]; and `evaluation.svg`

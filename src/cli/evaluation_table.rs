@@ -1,6 +1,7 @@
 //! The printed table of a policy evaluation, shared by `evaluate`, `merge`
-//! and the deployment experiment: a row per policy and a line per paired
-//! comparison; the set of files is written through
+//! and the deployment experiment: a row per policy, a line per paired
+//! comparison, and each policy's outcomes by fold (when the runs span
+//! more than one 10 cm band); the set of files is written through
 //! [`tensegrity_deploy::io::evaluation_summary`] and its figure drawn by
 //! [`tensegrity_deploy::report::evaluation_figure`].
 
@@ -17,7 +18,7 @@ use tensegrity_deploy::report::evaluation_figure::evaluation_svg;
 use tensegrity_deploy::studies::evaluation::{
     binding_counts, first_against_others, summarise_results, PolicySummary,
 };
-use tensegrity_deploy::studies::fold_bands::fold_bands;
+use tensegrity_deploy::studies::fold_bands::{fold_bands, FoldOf};
 use tensegrity_deploy::studies::statistics::median;
 
 /// How many of the names that bind most often the table prints.
@@ -191,28 +192,35 @@ pub fn print_and_write(
             );
         }
     }
-    let bands = fold_bands(&runs.results, names.len(), |s| runs.deepest_fold_m(s));
+    let bands = fold_bands(&runs.results, names.len(), |s| runs.half_folds_m(s));
     for (p, name) in names.iter().enumerate() {
-        let mine: Vec<String> = bands
-            .iter()
-            .filter(|b| b.policy == p)
-            .map(|b| {
-                format!(
-                    "{:.0}–{:.0} cm {}/{}/{} of {}",
-                    1e2 * b.from_m,
-                    1e2 * b.to_m,
-                    b.succeeded,
-                    b.broke_limits,
-                    b.stopped(),
-                    b.runs
-                )
-            })
-            .collect();
-        if mine.len() > 1 {
-            say!(
-                "{name} by the deeper half's fold (succeeded/broke limits/stopped of runs; by_fold.csv): {}",
-                mine.join("; ")
-            );
+        for fold_of in [FoldOf::BothHalves, FoldOf::HalfA, FoldOf::HalfB] {
+            let mine: Vec<String> = bands
+                .iter()
+                .filter(|b| b.policy == p && b.fold_of == fold_of)
+                .map(|b| {
+                    format!(
+                        "{:.0}–{:.0} cm {}/{}/{} of {}",
+                        1e2 * b.from_m,
+                        1e2 * b.to_m,
+                        b.succeeded,
+                        b.broke_limits,
+                        b.other_failures(),
+                        b.runs
+                    )
+                })
+                .collect();
+            let whose = match fold_of {
+                FoldOf::BothHalves => "the fold",
+                FoldOf::HalfA => "half A's fold",
+                FoldOf::HalfB => "half B's fold",
+            };
+            if mine.len() > 1 {
+                say!(
+                    "{name} by {whose} (succeeded/broke limits/failed otherwise of runs; by_fold.csv): {}",
+                    mine.join("; ")
+                );
+            }
         }
     }
     let svg = evaluation_svg(names, &summaries, runs.scenarios.len())?;

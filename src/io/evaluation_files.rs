@@ -57,7 +57,8 @@
 //! **`timing.csv`**: `scenario,policy,median_planning_time_s`, the one
 //! file that differs from run to run.
 //!
-//! The set's summary tables (`summary.csv`, `paired.csv`) and the writer
+//! The set's summary tables (`summary.csv`, `paired.csv`, `by_fold.csv`)
+//! and the writer
 //! of the whole set are [`super::evaluation_summary`]'s.
 
 use std::collections::BTreeMap;
@@ -361,10 +362,10 @@ impl EvaluationRuns {
         }
     }
 
-    /// How deep scenario `index` was folded: the deeper of its halves'
-    /// drawn folds (`fold_m`, and `fold_b_m` where the distribution folds
-    /// half B differently), m; `None` for a scenario not in the runs.
-    pub fn deepest_fold_m(&self, index: usize) -> Option<f64> {
+    /// How deep scenario `index` was folded: half A's drawn fold
+    /// (`fold_m`), and half B's (`fold_b_m`) where the distribution folds
+    /// it differently, m; `None` for a scenario not in the runs.
+    pub fn half_folds_m(&self, index: usize) -> Option<(f64, Option<f64>)> {
         let row = self.scenarios.get(&index)?;
         let drawn = |name: &str| {
             self.drawn_names
@@ -372,8 +373,7 @@ impl EvaluationRuns {
                 .position(|n| n == name)
                 .and_then(|i| row.drawn.get(i).copied())
         };
-        let a = drawn("fold_m")?;
-        Some(drawn("fold_b_m").map_or(a, |b| a.max(b)))
+        Some((drawn("fold_m")?, drawn("fold_b_m")))
     }
 
     /// `runs.csv` as a table.

@@ -29,6 +29,19 @@
 //!   with no such scenario), and the same for the commands sent:
 //!   `commands_b_fewer`, `commands_b_more`, `commands_sign_test_p`,
 //!   `commands_mean_difference`. Only the header with one policy.
+//! - `by_fold.csv` (since the twentieth session): each policy's runs in
+//!   10 cm bands of the fold ([`crate::studies::fold_bands`]): by half
+//!   A's fold and then by half B's where the distribution folds the halves
+//!   differently (`fold_difference_m`), else by the one fold; per policy
+//!   and half, one row per band that holds a run, shallowest first.
+//!   Columns: `policy`, `half` (`A`, `B`, or `both` where the halves fold
+//!   alike), `fold_from_m` (excluded, but for the first band, which starts
+//!   at 0) and `fold_to_m` (included), both to the millimetre, `runs`,
+//!   `succeeded`, `broke_limits` (runs whose truth broke a limit) and
+//!   `other_failures` (the rest: stopped short, never started, a limit
+//!   the fold broke not restored, or called connected with the true gap
+//!   out of tolerance); the last three sum to `runs`, and each half's
+//!   rows count every run once.
 //!
 //! The set's figure, `evaluation.svg`, is drawn by
 //! `report::evaluation_figure`.
@@ -152,22 +165,24 @@ fn paired_table(names: &[String], pairs: &[PairedComparison]) -> CsvTable {
 fn fold_table(names: &[String], bands: &[FoldBand]) -> CsvTable {
     let mut t = CsvTable::new(&[
         "policy",
+        "half",
         "fold_from_m",
         "fold_to_m",
         "runs",
         "succeeded",
         "broke_limits",
-        "stopped",
+        "other_failures",
     ]);
     for b in bands {
         t.row([
             names[b.policy].clone(),
+            b.fold_of.label().to_string(),
             fold_text(b.from_m),
             fold_text(b.to_m),
             b.runs.to_string(),
             b.succeeded.to_string(),
             b.broke_limits.to_string(),
-            b.stopped().to_string(),
+            b.other_failures().to_string(),
         ]);
     }
     t

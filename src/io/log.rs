@@ -38,8 +38,7 @@ use super::{csv_records, csv_with_header, write_atomically, CsvTable, FileError}
 use crate::measure::log::{Cycle, MeasurementLog};
 use crate::model::Structure;
 use crate::numerics::NumberRange;
-use crate::sim::Axis;
-use crate::sim::{Sensor, SensorTarget};
+use crate::sim::{Axis, Sensor, SensorTarget};
 
 /// The `format` a log must declare.
 pub const LOG_FORMAT: &str = "tensegrity-deploy/log/1";

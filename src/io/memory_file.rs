@@ -349,6 +349,25 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "my notes\n");
     }
 
+    /// The payout scale a case stores is the estimator's `ŝ` (a half's
+    /// cable moves `(1 + ŝ)` times its drum command), negative for drums
+    /// that pay out short: the range `(0, 10]` refused such a case when
+    /// the memory was next read (`tdeploy cycles --memory` run twice on a
+    /// bridge whose drums slip). Read back as written; `1 + ŝ ≤ 0` is
+    /// refused.
+    #[test]
+    fn a_case_whose_drums_paid_out_short_is_read_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("short.tdm");
+        let mut short = consistent_case();
+        short.conditions.payout_scale = vec![-0.0054, -0.05];
+        append_case(&path, &short).unwrap();
+        let memory = read_memory_or_empty(&path, 10, 5).unwrap();
+        assert_eq!(memory.cases, [short.clone()]);
+        short.conditions.payout_scale[1] = -1.0;
+        assert!(short.validate(10, 5).is_err());
+    }
+
     /// A case as the tools write it for the reference bridge (10 motors,
     /// 5 midspan pairs).
     fn consistent_case() -> Case {
@@ -357,7 +376,7 @@ mod tests {
                 temperature_c: Some(12.0),
                 fold_m: vec![0.4; 10],
                 start_gap_m: Some(0.14),
-                payout_scale: vec![1.01, 0.99],
+                payout_scale: vec![0.01, -0.01],
             },
             commands_m: vec![vec![-0.05; 10], vec![-0.01; 10]],
             measured_gaps_m: vec![
@@ -413,7 +432,7 @@ mod tests {
                 c.prediction_error_m[0] = Some(1e-310)
             }),
             ("case.conditions.payout_scale[0]", |c| {
-                c.conditions.payout_scale[0] = 0.0
+                c.conditions.payout_scale[0] = -1.0
             }),
             ("case.outcome.status", |c| c.outcome.status = "bogus".into()),
             ("case.outcome.status", |c| c.outcome.status = String::new()),

@@ -31,7 +31,7 @@ use crate::control::PayoutScaleEstimator;
 use crate::model::{DeploymentState, RelaxStatus, SensitivityError, Workspace};
 use crate::plan::response::{IndependentParts, PayoutResponse};
 use crate::plan::search::step_data;
-use crate::plan::{MemorySettings, PlanContext};
+use crate::plan::{LearntPath, MemorySettings, PlanContext};
 
 /// The model's state at the end of the last case adapted, kept between
 /// adaptations. On a frictionless model the state is a function of the
@@ -175,13 +175,17 @@ pub fn adapt(
             l
         })
         .collect();
+    let merged = merged_tail(
+        &case.commands_m,
+        case.outcome.corrective_commands.unwrap_or(0),
+        &context.motors.max_step_m,
+        settings.ilc_max_change_m,
+    );
     let data = IlcData {
-        commands_m: merged_tail(
-            &case.commands_m,
-            case.outcome.corrective_commands.unwrap_or(0),
-            &context.motors.max_step_m,
-            settings.ilc_max_change_m,
-        ),
+        commands_m: match settings.learnt_path {
+            LearntPath::Replayed => merged,
+            LearntPath::Paced => paced_path(&merged),
+        },
         end_gaps_m: case.final_gap_vectors_m.clone(),
         gap_weights: context.gap_weights.clone(),
         gap_sensitivity,
@@ -208,6 +212,39 @@ pub fn adapt(
         ilc,
         guidance,
     }))
+}
+
+/// The straight path to where `commands_m` end, at their pace: command
+/// `j` moves every motor by its total (m) times `w_j / Σ w`, where `w_j`
+/// is command `j`'s largest motor move. The path the commands took is
+/// replaced by the straight line in payout space (every motor one way
+/// throughout, no lateral correction of the cycle they came from), and
+/// its progress per command is theirs (a closed loop slows down near the
+/// design: its last commands stay small). Every command stays within the
+/// largest of theirs. Commands that move nothing are kept as they are.
+pub fn paced_path(commands_m: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let Some(first) = commands_m.first() else {
+        return Vec::new();
+    };
+    let total: Vec<f64> = (0..first.len())
+        .map(|m| {
+            commands_m
+                .iter()
+                .map(|u| u.get(m).copied().unwrap_or(0.0))
+                .sum()
+        })
+        .collect();
+    let pace: Vec<f64> = commands_m
+        .iter()
+        .map(|u| u.iter().fold(0.0f64, |a, x| a.max(x.abs())))
+        .collect();
+    let whole: f64 = pace.iter().sum();
+    if !(whole > 0.0 && whole.is_finite()) {
+        return commands_m.to_vec();
+    }
+    pace.iter()
+        .map(|w| total.iter().map(|t| t * w / whole).collect())
+        .collect()
 }
 
 /// The case's commands with its corrections merged: of the last
@@ -381,6 +418,38 @@ mod tests {
         let tiny = vec![approach.clone(), vec![-1e-200; 3], vec![1e-200; 3]];
         assert_eq!(merged_tail(&tiny, 2, &[0.05; 3], 0.004).len(), 3);
         assert_eq!(merged_tail(&[], 3, &[0.05; 3], 0.004).len(), 0);
+    }
+
+    /// Issue 24 ("never worse"): a learnt approach was the last cycle's
+    /// closed loop replayed, its lateral corrections included, on a
+    /// bridge that had moved on. The paced path keeps each motor's total
+    /// and the commands' pace, and moves every motor one way.
+    #[test]
+    fn a_learnt_approach_is_the_straight_path_at_the_cases_pace() {
+        let closed_loop = vec![
+            vec![-0.05, -0.05, -0.05],
+            vec![-0.012, 0.002, -0.012],
+            vec![-0.05, -0.05, -0.049],
+            vec![-0.006, -0.009, 0.003],
+        ];
+        let paced = paced_path(&closed_loop);
+        let totals =
+            |c: &[Vec<f64>]| -> Vec<f64> { (0..3).map(|m| c.iter().map(|u| u[m]).sum()).collect() };
+        assert_eq!(paced.len(), closed_loop.len());
+        for (a, b) in totals(&paced).iter().zip(totals(&closed_loop)) {
+            assert!((a - b).abs() < 1e-15, "{a} against {b}");
+        }
+        // Pace 50, 12, 50 and 9 mm of 121: motor 0's −118 mm goes
+        // −48.8, −11.7, −48.8 and −8.8 mm, every motor one way.
+        let whole = 0.05 + 0.012 + 0.05 + 0.009;
+        for (u, w) in paced.iter().zip([0.05, 0.012, 0.05, 0.009]) {
+            assert!((u[0] - -0.118 * w / whole).abs() < 1e-15, "{u:?}");
+            assert!(u.iter().all(|x| *x < 0.0), "{u:?}");
+            assert!(u.iter().all(|x| x.abs() <= 0.05), "{u:?}");
+        }
+        assert!(paced_path(&[]).is_empty());
+        // Nothing moved: kept as it is.
+        assert_eq!(paced_path(&[vec![0.0; 3]]), [vec![0.0; 3]]);
     }
 
     /// The end reached from the as-built state (or from a cached end) must

@@ -22,9 +22,14 @@ const FOLD_RANGE_M: NumberRange = NumberRange::closed(0.0, 10.0);
 const GAP_RANGE_M: NumberRange = NumberRange::closed(0.0, 10.0);
 /// A component of a midspan gap vector, m.
 const GAP_COMPONENT_RANGE_M: NumberRange = NumberRange::closed(-10.0, 10.0);
-/// A payout scale estimate, 1: the estimator's factor on a half's
-/// payouts, positive; 10 bounds any plausible drum error.
-const PAYOUT_SCALE_RANGE: NumberRange = NumberRange::positive_up_to(10.0);
+/// A payout scale estimate `ŝ`, 1: a half's cable moves `(1 + ŝ)` times
+/// its drum command (`control::PayoutScaleEstimator`, which starts at 0),
+/// so `ŝ` is negative for drums that pay out short and `1 + ŝ` must stay
+/// positive; 10 bounds any plausible drum error. (Until the twentieth
+/// session this range was `(0, 10]`, read as the factor itself: a case
+/// whose estimate was at or below 0, about every other cycle on a bridge
+/// whose drums slip, was refused when the memory was next read.)
+const PAYOUT_SCALE_RANGE: NumberRange = NumberRange::closed(-1.0, 10.0).excluding_min();
 /// A temperature, °C, as the evaluation's distributions allow.
 const TEMPERATURE_RANGE_C: NumberRange = NumberRange::closed(-100.0, 100.0);
 

@@ -48,8 +48,9 @@ pub use outcome::{CommandRecord, Plan, PlanError, PlanStatus};
 pub use planner::{worst_along_path, CommandPlanner, Decision, PlanContext, PlannedCommand, Trial};
 pub use planners::planner_for;
 pub use policy::{
-    ControlSettings, GreedyTreeSettings, Margins, Measurement, MemorySettings, NominalSettings,
-    PlannerSettings, Policy, PolicyError, QpPlannerSettings, SensitivityKind, TrustRegion, Weights,
+    ControlSettings, GreedyTreeSettings, LearntPath, Margins, Measurement, MemorySettings,
+    NominalSettings, PlannerSettings, Policy, PolicyError, QpPlannerSettings, SensitivityKind,
+    TrustRegion, Weights,
 };
 pub use problem::{DeploymentProblem, MotorLimits, PerMotor, ProblemError};
 pub use qp_step::{formulate, solve_step, QpStep, QpStepStatus, StepData, StepWeights};

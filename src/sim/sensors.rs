@@ -35,7 +35,7 @@ pub enum SensorTarget {
 /// coordinates and panic in the estimators that read a sensor's
 /// coordinate (only a library caller building a [`Sensor`] by hand could
 /// pass one; sensor files name the axis).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Axis {
     /// x: along the span.
     X,

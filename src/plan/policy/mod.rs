@@ -31,7 +31,7 @@ pub mod trust_region;
 
 pub use control::{ControlSettings, Measurement};
 pub use margins::Margins;
-pub use memory::MemorySettings;
+pub use memory::{LearntPath, MemorySettings};
 pub use planner_settings::{GreedyTreeSettings, NominalSettings, PlannerSettings};
 pub use qp_planner::{QpPlannerSettings, SensitivityKind, Weights};
 pub use trust_region::TrustRegion;
