@@ -492,12 +492,24 @@ fn by_fold_counts_every_run_once_per_half_in_the_band_of_its_fold() {
 fn a_learnt_approach_does_not_slacken_a_cable_that_crept_between_cycles() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("o");
+    let memory = common::repo_text("policies/memory.toml");
+    assert!(memory.contains("learnt_path = \"paced\""));
+    let replayed = tmp.path().join("replayed.toml");
+    std::fs::write(
+        &replayed,
+        memory
+            .replace("learnt_path = \"paced\"", "learnt_path = \"replayed\"")
+            .replace("name = \"memory\"", "name = \"replayed\""),
+    )
+    .unwrap();
     let run = tdeploy_in_repo(&[
         "evaluate",
         "--distribution",
         "scenarios/wide.toml",
         "--policy",
         "policies/memory.toml",
+        "--policy",
+        replayed.to_str().unwrap(),
         "--scenarios",
         "62",
         "--shard",
@@ -512,8 +524,13 @@ fn a_learnt_approach_does_not_slacken_a_cable_that_crept_between_cycles() {
     ok(&run);
     let (header, rows) = common::files::read_csv(&out.join("runs.csv"));
     let col = |name: &str| common::files::column(&header, name);
-    assert_eq!(rows.len(), 1);
-    assert_eq!(rows[0][col("scenario")], "61");
-    assert_eq!(rows[0][col("truth_violations")], "0", "{:?}", rows[0]);
-    assert_eq!(rows[0][col("status")], "connected", "{:?}", rows[0]);
+    assert_eq!(rows.len(), 2);
+    let [paced, replayed] = [&rows[0], &rows[1]];
+    assert_eq!(paced[col("scenario")], "61");
+    assert_eq!(paced[col("policy")], "memory");
+    assert_eq!(paced[col("truth_violations")], "0", "{paced:?}");
+    assert_eq!(paced[col("status")], "connected", "{paced:?}");
+    // The scenario still exercises the flaw: replayed, the cable goes.
+    assert_eq!(replayed[col("policy")], "replayed");
+    assert_ne!(replayed[col("truth_violations")], "0", "{replayed:?}");
 }

@@ -184,7 +184,7 @@ pub fn adapt(
     let data = IlcData {
         commands_m: match settings.learnt_path {
             LearntPath::Replayed => merged,
-            LearntPath::Paced => paced_path(&merged),
+            LearntPath::Paced => paced_path(&merged, &context.motors.max_step_m),
         },
         end_gaps_m: case.final_gap_vectors_m.clone(),
         gap_weights: context.gap_weights.clone(),
@@ -216,13 +216,18 @@ pub fn adapt(
 
 /// The straight path to where `commands_m` end, at their pace: command
 /// `j` moves every motor by its total (m) times `w_j / Σ w`, where `w_j`
-/// is command `j`'s largest motor move. The path the commands took is
-/// replaced by the straight line in payout space (every motor one way
-/// throughout, no lateral correction of the cycle they came from), and
-/// its progress per command is theirs (a closed loop slows down near the
-/// design: its last commands stay small). Every command stays within the
-/// largest of theirs. Commands that move nothing are kept as they are.
-pub fn paced_path(commands_m: &[Vec<f64>]) -> Vec<Vec<f64>> {
+/// is command `j`'s largest move of a motor as a fraction of that motor's
+/// drum step `max_step_m` (m; with one step for all, the largest move
+/// itself, scaled). The path the commands took is replaced by the
+/// straight line in payout space (every motor one way throughout, no
+/// lateral correction of the cycle they came from), and its progress per
+/// command is theirs (a closed loop slows down near the design: its last
+/// commands stay small). A motor's total is at most `Σ_j |u_jm| ≤ Σ_j
+/// w_j·step_m`, so every paced command keeps each motor within `w_j` of
+/// its step, as the commands did. Commands that move nothing, or hold a
+/// number that is not finite, or a motor without a positive step, are
+/// kept as they are.
+pub fn paced_path(commands_m: &[Vec<f64>], max_step_m: &[f64]) -> Vec<Vec<f64>> {
     let Some(first) = commands_m.first() else {
         return Vec::new();
     };
@@ -234,12 +239,27 @@ pub fn paced_path(commands_m: &[Vec<f64>]) -> Vec<Vec<f64>> {
                 .sum()
         })
         .collect();
+    let fraction = |m: usize, x: f64| match max_step_m.get(m) {
+        Some(&step) if step > 0.0 => x.abs() / step,
+        _ => f64::NAN,
+    };
     let pace: Vec<f64> = commands_m
         .iter()
-        .map(|u| u.iter().fold(0.0f64, |a, x| a.max(x.abs())))
+        .map(|u| {
+            u.iter()
+                .enumerate()
+                .map(|(m, &x)| fraction(m, x))
+                .fold(0.0f64, |a, x| {
+                    if a.is_nan() || x.is_nan() {
+                        f64::NAN
+                    } else {
+                        a.max(x)
+                    }
+                })
+        })
         .collect();
     let whole: f64 = pace.iter().sum();
-    if !(whole > 0.0 && whole.is_finite()) {
+    if !(whole > 0.0 && whole.is_finite()) || total.iter().any(|t| !t.is_finite()) {
         return commands_m.to_vec();
     }
     pace.iter()
@@ -432,7 +452,7 @@ mod tests {
             vec![-0.05, -0.05, -0.049],
             vec![-0.006, -0.009, 0.003],
         ];
-        let paced = paced_path(&closed_loop);
+        let paced = paced_path(&closed_loop, &[0.05; 3]);
         let totals =
             |c: &[Vec<f64>]| -> Vec<f64> { (0..3).map(|m| c.iter().map(|u| u[m]).sum()).collect() };
         assert_eq!(paced.len(), closed_loop.len());
@@ -447,9 +467,22 @@ mod tests {
             assert!(u.iter().all(|x| *x < 0.0), "{u:?}");
             assert!(u.iter().all(|x| x.abs() <= 0.05), "{u:?}");
         }
-        assert!(paced_path(&[]).is_empty());
-        // Nothing moved: kept as it is.
-        assert_eq!(paced_path(&[vec![0.0; 3]]), [vec![0.0; 3]]);
+        assert!(paced_path(&[], &[0.05; 3]).is_empty());
+        // Nothing moved, or not a number: kept as it is.
+        assert_eq!(paced_path(&[vec![0.0; 3]], &[0.05; 3]), [vec![0.0; 3]]);
+        let nan = vec![vec![-0.05, f64::NAN, -0.05]];
+        assert!(paced_path(&nan, &[0.05; 3])[0][1].is_nan());
+        // Motors with steps of their own: the pace is each command's
+        // largest fraction of a step, so no motor passes its own (motor
+        // 1's 20 mm step; paced by the largest move alone, its first
+        // command would be 28.6 mm).
+        let unequal = vec![vec![0.05, 0.02], vec![0.0, 0.02]];
+        for u in paced_path(&unequal, &[0.05, 0.02]) {
+            assert!(
+                (u[0] - 0.025).abs() < 1e-15 && (u[1] - 0.02).abs() < 1e-15,
+                "{u:?}"
+            );
+        }
     }
 
     /// The end reached from the as-built state (or from a cached end) must

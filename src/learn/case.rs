@@ -60,8 +60,9 @@ pub struct CaseConditions {
     pub fold_m: Vec<f64>,
     /// Largest measured midspan gap at the start, m (`None`: not measured).
     pub start_gap_m: Option<f64>,
-    /// Payout scale of each bridge half as estimated at the cycle's end
-    /// (the effect parameters the controller estimates), 1.
+    /// Payout scale `ŝ` of each bridge half as estimated at the cycle's end
+    /// (a half's cable moves `(1 + ŝ)` times its drum command; negative
+    /// for drums that pay out short), 1.
     pub payout_scale: Vec<f64>,
 }
 

@@ -25,8 +25,11 @@
 //! (the learning gain `GᵀG/(GᵀG + ρ_eff)`, `1/ρ_eff = Σ_j 1/ρ_j`) against
 //! how far a noisy error moves the commands. The weights grow towards the
 //! first command, so the correction goes mostly into the last commands:
-//! the case showed its path safe, and changing an early command moves
-//! every state after it, while changing the last moves only the end.
+//! the path to the case's end is its pace along the straight line there
+//! (`learn::adaptation::paced_path`; or the case's own commands, with
+//! `learnt_path = "replayed"`), each of its commands still checked on the
+//! model when it is sent, and changing an early command moves every state
+//! after it, while changing the last moves only the end.
 //! (Spread evenly, a correction of a few millimetres shifted the whole
 //! path of a high-friction bridge enough for the model to refuse a
 //! command the case had sent.) A drum's step limit moves the rest to
@@ -66,7 +69,9 @@ use crate::plan::qp_step::{step_solver_settings, LinearLimit};
 /// Everything one ILC update is formulated from, as plain numbers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IlcData {
-    /// The last cycle's drum commands, per command and motor, m.
+    /// The commands to update, per command and motor, m: the last cycle's
+    /// drum commands as the learnt path takes them (paced along the
+    /// straight line to their end, or replayed; `learn::adaptation`).
     pub commands_m: Vec<Vec<f64>>,
     /// Measured gap vector of each midspan pair at the last cycle's end,
     /// m (`None`: not measured; that pair is left out of the objective).
@@ -210,8 +215,10 @@ pub struct IlcFormulation {
 
 /// Builds the ILC update's QP (see the module documentation). A limit the
 /// last cycle's end already breaks is widened to its value there, so that
-/// `Δu = 0` is always feasible (the last commands were sent, so they met
-/// the step and stroke limits).
+/// `Δu = 0` is always feasible (the commands meet the step and stroke
+/// limits: the last cycle sent them, and its pace along the straight line
+/// keeps every motor within the share of its step it used and between
+/// the payouts it started and ended at).
 pub fn formulate(data: &IlcData, regularisation: f64) -> IlcFormulation {
     let m = data.motors();
     let j_count = data.commands_m.len();
@@ -361,8 +368,9 @@ pub fn command_weight(j: usize, count: usize, regularisation: f64) -> f64 {
 pub struct IlcUpdate {
     /// The QP's status.
     pub status: QpStatus,
-    /// The next cycle's drum commands, per command and motor, m (the last
-    /// cycle's unchanged unless the QP solved).
+    /// The next cycle's drum commands, per command and motor, m (the
+    /// commands given, [`IlcData::commands_m`], unchanged unless the QP
+    /// solved).
     pub commands_m: Vec<Vec<f64>>,
     /// Largest end gap the linearisation predicts for them, m.
     pub predicted_end_gap_m: f64,

@@ -91,9 +91,10 @@ pub struct MemorySettings {
     /// `scenarios/wide.toml`, seed 7503 (held out): replayed, the memory
     /// succeeded in 59 and broke limits in 18 runs; paced, 64 and 14; the
     /// memoryless controller 61 and 14. On `scenarios/default.toml`
-    /// (60 scenarios, seed 7603, held out) all three 60 and 0. The two
-    /// seeds the choice was made on, and the equal-steps path tried:
-    /// docs/controller.md, "The learnt path".
+    /// (60 scenarios, seed 7603, held out) all three 60 and 0. The seeds
+    /// the choice was made on (wide 7501 and 7502, default 7602 and 1–4)
+    /// and the equal-steps path tried: docs/controller.md, "The learnt
+    /// path".
     pub learnt_path: LearntPath,
     /// How many times a learnt command the controller's model refuses
     /// (beyond a limit or its margin) is halved before the planner takes
