@@ -239,27 +239,21 @@ pub fn paced_path(commands_m: &[Vec<f64>], max_step_m: &[f64]) -> Vec<Vec<f64>> 
                 .sum()
         })
         .collect();
-    let fraction = |m: usize, x: f64| match max_step_m.get(m) {
-        Some(&step) if step > 0.0 => x.abs() / step,
-        _ => f64::NAN,
-    };
+    let steps_known = (0..first.len()).all(|m| max_step_m.get(m).is_some_and(|s| *s > 0.0));
+    if !steps_known || commands_m.iter().flatten().any(|x| !x.is_finite()) {
+        return commands_m.to_vec();
+    }
     let pace: Vec<f64> = commands_m
         .iter()
         .map(|u| {
             u.iter()
-                .enumerate()
-                .map(|(m, &x)| fraction(m, x))
-                .fold(0.0f64, |a, x| {
-                    if a.is_nan() || x.is_nan() {
-                        f64::NAN
-                    } else {
-                        a.max(x)
-                    }
-                })
+                .zip(max_step_m)
+                .map(|(x, step)| x.abs() / step)
+                .fold(0.0, f64::max)
         })
         .collect();
     let whole: f64 = pace.iter().sum();
-    if !(whole > 0.0 && whole.is_finite()) || total.iter().any(|t| !t.is_finite()) {
+    if whole == 0.0 {
         return commands_m.to_vec();
     }
     pace.iter()
