@@ -17,6 +17,10 @@ use tensegrity_deploy::plan::{
     folded_start, DeploymentProblem, MemorySettings, PlanContext, Policy,
 };
 
+/// Noise SD of one measured pair gap, m: the standard sensors' 1 mm on
+/// both nodes.
+const GAP_SD_M: f64 = 0.0014;
+
 fn case(k: usize) -> Case {
     // Spread over temperature and payout scale by a fixed pattern.
     let t = (k * 37 % 400) as f64 / 10.0;
@@ -69,7 +73,10 @@ fn bench(c: &mut Criterion) {
     let start = folded_start(&model, &problem, policy.increment_m).expect("fold");
     let context = PlanContext::new(&model, &problem, &policy, &start).expect("context");
     let adapt_with = |cache: &mut EndStateCache| {
-        adapt(&memory, &query, &context, &start, &settings, &scales, cache)
+        adapt(
+            &memory, &query, &context, &start, &settings, &scales, GAP_SD_M, cache,
+        )
+        .map(|a| a.adaptation().cloned())
     };
     let retrieved = adapt_with(&mut EndStateCache::default())
         .expect("adaptation")
@@ -92,9 +99,12 @@ fn bench(c: &mut Criterion) {
         &start,
         &settings,
         &scales,
+        GAP_SD_M,
         &mut EndStateCache::default(),
     )
-    .expect("adaptation");
+    .expect("adaptation")
+    .adaptation()
+    .cloned();
     let index = |a: Option<tensegrity_deploy::learn::Adaptation>| a.map(|a| a.case_index);
     let (a, b) = (
         index(first).expect("a case"),
@@ -112,7 +122,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             adapt_with(&mut cache).expect("adaptation");
             adapt(
-                &memory, &other, &context, &start, &settings, &scales, &mut cache,
+                &memory, &other, &context, &start, &settings, &scales, GAP_SD_M, &mut cache,
             )
         })
     });

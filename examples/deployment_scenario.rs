@@ -27,6 +27,18 @@ impl CycleObserver for PrintCycles {
     fn on_cycle(&mut self, result: &CycleResult, deployment: &Deployment, _: &Case) {
         println!("-- cycle {}", result.cycle);
         print_deployment(deployment);
+        let mm = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{:.1}", x * 1e3));
+        println!(
+            "learnt from case {:?}: {} learnt commands, ILC predicted {} mm, approach reached {} mm (error {} mm)",
+            result.learnt_from_case,
+            result.learnt_commands.map_or("no".to_string(), |n| n.to_string()),
+            mm(result.ilc_predicted_gap_m),
+            mm(result.approach_gap_m),
+            mm(result.ilc_error_m),
+        );
+        if let Some(why) = &result.memory_declined {
+            println!("memory declined: {why}");
+        }
     }
 }
 

@@ -165,6 +165,9 @@ impl CycleObserver for MemoryWriter<'_> {
         if let Some(note) = &result.planning_note {
             say!("  planned on the model file: {note}");
         }
+        if let Some(why) = &result.memory_declined {
+            say!("  memory: no guidance: {why}");
+        }
         if let Some(u) = &result.model_update {
             let scored = if u.held_out { "held-out" } else { "in-sample" };
             let planner = if u.planner_takes == "none" || u.planner_takes.is_empty() {

@@ -33,7 +33,8 @@ use anyhow::{bail, Context, Result};
 use clap::{value_parser, Arg, ArgAction, ArgMatches, Command};
 
 use tensegrity_deploy::control::{
-    Guidance, Interlocks, Session, SessionEvent, SessionPhase, SessionRefusal, SessionSetup,
+    gap_reading_sd_m, Guidance, Interlocks, Session, SessionEvent, SessionPhase, SessionRefusal,
+    SessionSetup,
 };
 use tensegrity_deploy::io::journal::Tail;
 use tensegrity_deploy::io::json_text;
@@ -51,7 +52,7 @@ use tensegrity_deploy::io::session_files::{
 use tensegrity_deploy::io::session_protocol::{
     parse_in_message, InMessage, OutMessage, SessionStatus, PROTOCOL,
 };
-use tensegrity_deploy::learn::{adapt, CaseConditions, EndStateCache, FeatureScales};
+use tensegrity_deploy::learn::{adapt, Advice, CaseConditions, EndStateCache, FeatureScales};
 use tensegrity_deploy::model::{DeploymentState, ForwardModel};
 use tensegrity_deploy::plan::{DeploymentProblem, PlanContext, Policy};
 use tensegrity_deploy::sim::{standard_sensors, Sensor};
@@ -565,22 +566,27 @@ fn memory_guidance(
         start_gap_m: None,
         payout_scale: Vec::new(),
     };
-    let adaptation = adapt(
+    let advice = adapt(
         &memory,
         &conditions,
         &context,
         folded,
         settings,
         &FeatureScales::default(),
+        gap_reading_sd_m(s, setup.sensors),
         &mut EndStateCache::default(),
     )
     .with_context(|| format!("--memory {}", path.display()))?;
-    Ok(match adaptation {
-        None => (
+    Ok(match advice {
+        Advice::Empty => (
             Guidance::default(),
             format!("memory {}: empty, no guidance", path.display()),
         ),
-        Some(a) => {
+        Advice::Declined(why) => (
+            Guidance::default(),
+            format!("memory {}: no guidance: {why}", path.display()),
+        ),
+        Advice::Guided(a) => {
             let words = format!(
                 "memory {}: case {} (distance {:.2}), {} feedforward commands",
                 path.display(),

@@ -34,6 +34,7 @@ use super::force_offset_filter::ForceOffsetFilter;
 use super::guidance::Guidance;
 use super::measured_offsets::{filter_force_offsets, model_correction};
 use crate::model::{DeploymentState, ForwardModel};
+use crate::plan::take_up::take_up;
 use crate::plan::{
     folded_start, planner_for, CommandPlanner, ControllerError, Decision, DeploymentProblem,
     PlanContext, PlanError, PlanStatus, PlannedCommand, Policy, QpStepStatus, Trial,
@@ -108,6 +109,9 @@ struct Pending {
     proposal: Proposal,
     /// Whether it is a feedforward command (not the planner's).
     feedforward: bool,
+    /// Whether it is the take-up sent before a feedforward
+    /// ([`Controller::take_up_before_feedforward`]).
+    take_up: bool,
 }
 
 /// The controller of a closed-loop deployment (see the module notes).
@@ -134,6 +138,9 @@ pub struct Controller<'a> {
     guided_approach: bool,
     /// Feedforward commands decided so far.
     feedforward_sent: usize,
+    /// Commands sent before the feedforward: the take-up of a cable the
+    /// model sees slack (0 or 1).
+    taken_up_first: usize,
     /// Without a feedforward, the number of the first command predicted
     /// to connect.
     first_connecting: Option<usize>,
@@ -279,6 +286,7 @@ impl<'a> Controller<'a> {
             feedforward_cut: false,
             guided_approach: !guidance.feedforward_m.is_empty(),
             feedforward_sent: 0,
+            taken_up_first: 0,
             first_connecting: None,
             drum_offsets,
         })
@@ -335,13 +343,14 @@ impl<'a> Controller<'a> {
         self.force_filter.bias_n()
     }
 
-    /// Commands of the first approach: with a feedforward, the
-    /// feedforward commands decided (a halved learnt command's parts
-    /// counted one by one); otherwise the number of the first command the
-    /// controller predicted would connect (`None`: none yet).
+    /// Commands of the first approach: with a feedforward, the take-up
+    /// sent before it (if any) and the feedforward commands decided (a
+    /// halved learnt command's parts counted one by one); otherwise the
+    /// number of the first command the controller predicted would connect
+    /// (`None`: none yet).
     pub fn approach_commands(&self) -> Option<usize> {
         if self.guided_approach {
-            Some(self.feedforward_sent)
+            Some(self.taken_up_first + self.feedforward_sent)
         } else {
             self.first_connecting
         }
@@ -369,15 +378,25 @@ impl<'a> Controller<'a> {
             return ControllerDecision::Send(p.proposal.clone());
         }
         let clock = Instant::now();
+        let connected = self.context.connected(&self.state);
+        let take_up_first = if connected {
+            None
+        } else {
+            self.take_up_before_feedforward()
+        };
         // The next feedforward command as cable motion, tried on the
         // model; `None` once the feedforward is sent or given up.
-        let fed = self.next_feedforward_in_parts();
-        if fed.is_none() {
-            // Beyond a limit on the model (or all sent): the planner
-            // takes over.
-            self.give_up_feedforward();
-        }
-        let connected = self.context.connected(&self.state);
+        let fed = if take_up_first.is_some() {
+            None
+        } else {
+            let fed = self.next_feedforward_in_parts();
+            if fed.is_none() {
+                // Beyond a limit on the model (or all sent): the planner
+                // takes over.
+                self.give_up_feedforward();
+            }
+            fed
+        };
         let fed = match fed {
             // Connected already: the feedforward goes on only while it is
             // predicted to reduce the largest gap.
@@ -395,7 +414,9 @@ impl<'a> Controller<'a> {
         if self.commands_observed >= self.context.policy.max_commands {
             return ControllerDecision::Stop(PlanStatus::CommandLimit);
         }
+        let is_take_up = take_up_first.is_some();
         let (c, feedforward_m) = match fed {
+            _ if is_take_up => (Box::new(take_up_first.expect("a take-up")), None),
             Some((sent, cable, trial)) => {
                 self.feedforward.pop_front();
                 self.feedforward_sent += 1;
@@ -453,8 +474,86 @@ impl<'a> Controller<'a> {
             command: c,
             proposal: proposal.clone(),
             feedforward: is_feedforward,
+            take_up: is_take_up,
         });
         ControllerDecision::Send(proposal)
+    }
+
+    /// The planner's take-up of a cable the model sees slack
+    /// ([`crate::plan::take_up`]), where it comes before the first
+    /// feedforward command. A learnt approach carries the take-up of the
+    /// cycle it was learnt from inside its commands, and paced
+    /// ([`crate::plan::LearntPath::Paced`]) that take-up is spread over
+    /// every motor: the other cables reel in while the slack one is still
+    /// slack, and its segments, already below their minimum, fall further
+    /// (`scenarios/wide.toml` seed 7502 scenario 20: 0.1 N below their
+    /// start in every learnt cycle, 24 violations, none without the
+    /// memory). Sent first, its motion is taken out of the feedforward
+    /// once observed ([`Self::deduct_from_feedforward`]), so the learnt
+    /// approach still ends where it was learnt to, and the case's own
+    /// take-up, paced into the feedforward's first command, is merged
+    /// into the next ([`Self::merge_first_feedforward_commands`]).
+    fn take_up_before_feedforward(&self) -> Option<PlannedCommand> {
+        if !self.guided_approach
+            || self.commands_observed > 0
+            || self.feedforward_sent > 0
+            || self.feedforward.is_empty()
+        {
+            return None;
+        }
+        take_up(&self.context, &self.state)
+    }
+
+    /// Takes the drum motion `sent_m` out of the feedforward not yet
+    /// sent: each motor's commands scaled by `(t − sent)/t`, `t` its
+    /// total in the feedforward, so that it still ends at its learnt total
+    /// and keeps its pace (a paced approach stays the straight path, now
+    /// from where the take-up left the motor). A motor the feedforward
+    /// moves the other way, or less than `sent`, is not moved by it (its
+    /// commands scaled by 0: the take-up went past its learnt total).
+    /// Commands left with no motion are dropped.
+    fn deduct_from_feedforward(&mut self, sent_m: &[f64]) {
+        for (m, &sent) in sent_m.iter().enumerate() {
+            let total: f64 = self.feedforward.iter().filter_map(|(u, _)| u.get(m)).sum();
+            if sent == 0.0 || total * sent <= 0.0 {
+                continue;
+            }
+            let factor = ((total - sent) / total).max(0.0);
+            for (u, _) in self.feedforward.iter_mut() {
+                if let Some(x) = u.get_mut(m) {
+                    *x *= factor;
+                }
+            }
+        }
+        self.feedforward
+            .retain(|(u, _)| u.iter().any(|x| *x != 0.0));
+    }
+
+    /// Merges the first feedforward command into the second where the sum
+    /// is within every drum's step. The case learnt from began with its
+    /// own take-up (a cycle on the same conditions finds the same slack),
+    /// which the paced path made a step of a few millimetres of every
+    /// motor; sent after this cycle's take-up, that step reeled the other
+    /// cables in by 2 mm while the far segments of a cable folded below
+    /// their minimum stuck at its joints, and took them 0.1–0.3 N further
+    /// below (wide 7501 scenarios 67 and 87, cycle 4), where the
+    /// memoryless controller's next command, 25 mm, does not.
+    fn merge_first_feedforward_commands(&mut self) {
+        let [first, second] = match (self.feedforward.front(), self.feedforward.get(1)) {
+            (Some((a, _)), Some((b, _))) => [a, b],
+            _ => return,
+        };
+        let merged: Vec<f64> = first.iter().zip(second).map(|(a, b)| a + b).collect();
+        let within_step = merged
+            .iter()
+            .zip(&self.context.motors.max_step_m)
+            .all(|(u, max)| u.abs() <= *max);
+        if within_step && merged.len() == first.len() {
+            self.feedforward.pop_front();
+            if let Some((front, _)) = self.feedforward.front_mut() {
+                *front = merged;
+            }
+        }
     }
 
     /// The last decision was rejected before it was sent (an operator
@@ -563,6 +662,11 @@ impl<'a> Controller<'a> {
                 .all(|(a, b)| (a - b).abs() <= OWN_COMMAND_TOLERANCE_M)
         });
         let own_decision = own.is_some();
+        if own.as_ref().is_some_and(|p| p.take_up) {
+            self.taken_up_first = 1;
+            self.deduct_from_feedforward(sent_m);
+            self.merge_first_feedforward_commands();
+        }
         let (planned_m, predicted) = match own {
             Some(p) => {
                 let c = *p.command;

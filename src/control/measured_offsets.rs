@@ -37,6 +37,29 @@ pub fn measured_gap_vectors(
         .collect()
 }
 
+/// The noise SD of one midspan pair's measured gap, m: the largest over
+/// the pairs and axes of `√(σ_a² + σ_b²)`, the noise SDs of the two
+/// position sensors on that axis (a gap is their difference); 0 where no
+/// pair is read.
+pub fn gap_reading_sd_m(structure: &Structure, sensors: &[Sensor]) -> f64 {
+    let sd = |node: usize, axis: Axis| {
+        sensors
+            .iter()
+            .find(|s| s.target == SensorTarget::Position { node, axis })
+            .map(|s| s.noise_sd)
+    };
+    structure
+        .midspan_pairs
+        .iter()
+        .flat_map(|&[a, b]| {
+            Axis::ALL.into_iter().filter_map(move |axis| {
+                let (sa, sb) = (sd(a, axis)?, sd(b, axis)?);
+                Some(sa.hypot(sb))
+            })
+        })
+        .fold(0.0, f64::max)
+}
+
 /// The force row (members, then segments) a load cell reads on `model`,
 /// if the model has it.
 pub(crate) fn load_cell_row(
@@ -142,6 +165,43 @@ mod tests {
     use crate::plan::planner::PlanContext;
     use crate::plan::{folded_start, Policy};
     use crate::sim::{default_truth, standard_sensors, Plant};
+
+    /// A gap is the difference of two positions read with independent
+    /// noise: its SD is √2 times theirs where both are alike, and the
+    /// noisier axis of the worse pair where they differ.
+    #[test]
+    fn the_gap_reading_noise_is_that_of_a_difference_of_two_positions() {
+        let structure = reference_bridge(&BridgeParameters::default()).expect("bridge");
+        let mut sensors = standard_sensors(&structure);
+        let position_sd = |sensors: &[Sensor]| {
+            sensors
+                .iter()
+                .find(|s| matches!(s.target, SensorTarget::Position { .. }))
+                .map(|s| s.noise_sd)
+                .expect("position sensors")
+        };
+        let sd = position_sd(&sensors);
+        let expected = sd * 2f64.sqrt();
+        assert!((gap_reading_sd_m(&structure, &sensors) - expected).abs() < 1e-15);
+        // One node's z sensor three times noisier: that pair's z gap
+        // reads with √(9 + 1)·σ.
+        let [a, _] = structure.midspan_pairs[2];
+        for s in sensors.iter_mut() {
+            if s.target
+                == (SensorTarget::Position {
+                    node: a,
+                    axis: Axis::Z,
+                })
+            {
+                s.noise_sd *= 3.0;
+            }
+        }
+        let expected = sd * 10f64.sqrt();
+        assert!((gap_reading_sd_m(&structure, &sensors) - expected).abs() < 1e-15);
+        // No position sensors: no gap is read.
+        sensors.retain(|s| !matches!(s.target, SensorTarget::Position { .. }));
+        assert_eq!(gap_reading_sd_m(&structure, &sensors), 0.0);
+    }
 
     #[test]
     fn the_correction_is_measured_minus_predicted_and_brings_the_gaps_onto_the_truth() {

@@ -36,8 +36,12 @@
 //!   the cycle was planned on and against the fitted one, noise SDs),
 //!   `learnt_model` (the effects the next cycle carries beyond the model
 //!   file, with their standard errors, in words), `adaptation_error` (why
-//!   the memory gave no guidance although it held cases, in words). Empty:
-//!   no value (no such command, no case learnt from, no error).
+//!   the memory could not give guidance although it held cases: a case
+//!   its model cannot follow, in words), `memory_declined` (why it would
+//!   not: no case connected, or the newest learnt cycle refuted the ILC
+//!   update, `crate::learn::acceptance`; the cycle ran as the memoryless
+//!   controller would, in words). Empty: no value (no such command, no
+//!   case learnt from, no error).
 //!   `approach_commands` and `approach_gap_m` are empty in a cycle that
 //!   connected without a first approach: without a feedforward, the
 //!   approach ends at the first command the controller's model *predicted*
@@ -103,6 +107,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
         "model_fitted_rms",
         "learnt_model",
         "adaptation_error",
+        "memory_declined",
     ]);
     for r in results {
         t.row([
@@ -132,6 +137,7 @@ fn cycles_table(results: &[CycleResult]) -> CsvTable {
             ),
             field(r.model_update.as_ref().map(|u| u.carried.clone())),
             field(r.adaptation_error.as_ref()),
+            field(r.memory_declined.as_ref()),
         ]);
     }
     t

@@ -1,10 +1,13 @@
 //! What the memory gives a new cycle: the case to learn from, and the
 //! ILC-updated commands and payout-scale prior it leads to.
 //!
-//! 1. **Retrieval.** The memory's `neighbours` nearest cases to the new
-//!    cycle's conditions; of those within `match_distance` (the same
-//!    conditions), the most recent, since iterative learning continues
-//!    from the last trial; with none that near, the nearest.
+//! 1. **Retrieval.** The memory's `neighbours` nearest cases that
+//!    connected to the new cycle's conditions; of those within
+//!    `match_distance` (the same conditions), the most recent, since
+//!    iterative learning continues from the last trial; with none that
+//!    near, the nearest. Then the acceptance check ([`super::acceptance`]):
+//!    where the newest learnt cycle under these conditions refuted the
+//!    update, no guidance.
 //! 2. **Linearisation at the case's end.** The case's drum commands, made
 //!    cable motion by its estimated payout scale, are applied to the
 //!    controller's model (`solve_case_end` says where that solve
@@ -18,14 +21,15 @@
 //!
 //! The result is a [`Guidance`] for [`crate::control::deploy_guided`]: the
 //! updated commands as feedforward and the case's payout scale as the
-//! estimator's prior.
+//! estimator's prior; or why the memory gives none ([`Advice`]).
 
 use nalgebra::DMatrix;
 use thiserror::Error;
 
+use super::acceptance::{newest_learning_score, Decline};
 use super::case::CaseConditions;
 use super::ilc::{learn_commands, IlcData, IlcUpdate};
-use super::memory::{CaseMemory, FeatureScales};
+use super::memory::{distance_squared, CaseMemory, FeatureScales};
 use crate::control::Guidance;
 use crate::control::PayoutScaleEstimator;
 use crate::model::{DeploymentState, RelaxStatus, SensitivityError, Workspace};
@@ -55,6 +59,29 @@ pub struct Adaptation {
     pub ilc: IlcUpdate,
     /// Feedforward and estimator prior for the deployment.
     pub guidance: Guidance,
+}
+
+/// What the memory gives a new cycle: nothing to learn from, a reasoned
+/// refusal, or guidance.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Advice {
+    /// The memory holds no case.
+    Empty,
+    /// The memory holds cases but gives no guidance, for the reason given:
+    /// the cycle runs as the memoryless controller would.
+    Declined(Decline),
+    /// Guidance from one case.
+    Guided(Adaptation),
+}
+
+impl Advice {
+    /// The adaptation, if the memory gave guidance.
+    pub fn adaptation(&self) -> Option<&Adaptation> {
+        match self {
+            Advice::Guided(a) => Some(a),
+            _ => None,
+        }
+    }
 }
 
 /// Why a case could not be adapted to the new cycle.
@@ -89,14 +116,15 @@ pub enum AdaptError {
 }
 
 /// The case a cycle with `conditions` learns from (see the module
-/// documentation), with its distance; `None` for an empty memory.
+/// documentation), with its distance; `None` where no case of the memory
+/// connected.
 pub fn retrieve(
     memory: &CaseMemory,
     conditions: &CaseConditions,
     settings: &MemorySettings,
     scales: &FeatureScales,
 ) -> Option<(usize, f64)> {
-    let near = memory.nearest(conditions, settings.neighbours, scales);
+    let near = memory.nearest_where(conditions, settings.neighbours, scales, |c| c.connected());
     near.iter()
         .filter(|n| n.distance <= settings.match_distance)
         .max_by_key(|n| n.index)
@@ -104,9 +132,35 @@ pub fn retrieve(
         .map(|n| (n.index, n.distance))
 }
 
+/// The acceptance check ([`super::acceptance`]): the refutation of the
+/// update by the newest learnt cycle under `conditions`, if any;
+/// `gap_reading_sd_m` is the noise SD of one measured pair gap, m (the
+/// tolerance is `ilc_acceptance_noise_sds` of it).
+pub fn refutation(
+    memory: &CaseMemory,
+    conditions: &CaseConditions,
+    settings: &MemorySettings,
+    scales: &FeatureScales,
+    gap_reading_sd_m: f64,
+) -> Option<Decline> {
+    if !settings.ilc_acceptance_enable {
+        return None;
+    }
+    let same_conditions = (0..memory.cases.len()).filter(|&k| {
+        distance_squared(conditions, &memory.cases[k].conditions, scales).sqrt()
+            <= settings.match_distance
+    });
+    let score = newest_learning_score(memory, same_conditions)?;
+    let tolerance_m = settings.ilc_acceptance_noise_sds * gap_reading_sd_m;
+    score
+        .refutes_learning(tolerance_m)
+        .then_some(Decline::Refuted { score, tolerance_m })
+}
+
 /// The adaptation of `memory` to a cycle with `conditions`, planned with
-/// `context` from the model's folded `start`; `Ok(None)` for an empty
-/// memory.
+/// `context` from the model's folded `start`, its gaps read with noise SD
+/// `gap_reading_sd_m` (m, one pair's gap).
+#[allow(clippy::too_many_arguments)]
 pub fn adapt(
     memory: &CaseMemory,
     conditions: &CaseConditions,
@@ -114,11 +168,20 @@ pub fn adapt(
     start: &DeploymentState,
     settings: &MemorySettings,
     scales: &FeatureScales,
+    gap_reading_sd_m: f64,
     cache: &mut EndStateCache,
-) -> Result<Option<Adaptation>, AdaptError> {
+) -> Result<Advice, AdaptError> {
+    if memory.cases.is_empty() {
+        return Ok(Advice::Empty);
+    }
     let Some((case_index, distance)) = retrieve(memory, conditions, settings, scales) else {
-        return Ok(None);
+        return Ok(Advice::Declined(Decline::NoConnectedCase {
+            cases: memory.cases.len(),
+        }));
     };
+    if let Some(d) = refutation(memory, conditions, settings, scales, gap_reading_sd_m) {
+        return Ok(Advice::Declined(d));
+    }
     let case = &memory.cases[case_index];
     let motors = start.payout_m.len();
     if let Some(bad) = case.commands_m.iter().find(|u| u.len() != motors) {
@@ -206,7 +269,7 @@ pub fn adapt(
         payout_scale_prior_sd: Some(settings.payout_scale_prior_sd),
         feedforward_splits: settings.feedforward_splits,
     };
-    Ok(Some(Adaptation {
+    Ok(Advice::Guided(Adaptation {
         case_index,
         distance,
         ilc,
@@ -377,6 +440,7 @@ fn solve_case_end(
 mod tests {
     use super::*;
     use crate::design::reference_bridge::{reference_bridge, BridgeParameters};
+    use crate::learn::case::{Case, CaseLearning, CaseOutcome};
     use crate::model::{ForwardModel, JointFriction, RelaxSettings};
     use crate::plan::{folded_start, DeploymentProblem, Policy};
 
@@ -388,6 +452,126 @@ mod tests {
             RelaxSettings::default(),
         )
         .expect("model")
+    }
+
+    /// Issue 24, "learning never makes it worse": a memory whose newest
+    /// learnt cycle ended its approach further from the update's
+    /// prediction than from no update gives no guidance (the cycle runs
+    /// as the memoryless controller would); nor does a memory of cycles
+    /// that never connected; a failed cycle is passed over for an
+    /// earlier one that connected.
+    #[test]
+    fn a_refuted_update_or_a_memory_of_failures_gives_no_guidance() {
+        let model = frictionless_bridge();
+        let problem = DeploymentProblem::default();
+        let policy = Policy::default();
+        let start = folded_start(&model, &problem, policy.increment_m).expect("fold");
+        let context = PlanContext::new(&model, &problem, &policy, &start).expect("context");
+        let pairs = model.structure().midspan_pairs.len();
+        // Two commands to 1 cm short of the as-built payout; the second
+        // ends the approach at `approach_gap_m`, the cycle at `final_gap_m`.
+        let half_way: Vec<f64> = start.payout_m.iter().map(|p| 0.5 * (0.01 - p)).collect();
+        let cycle = |final_gap_m: f64,
+                     approach_gap_m: f64,
+                     status: &str,
+                     learnt: Option<(usize, f64)>| Case {
+            conditions: CaseConditions {
+                temperature_c: None,
+                fold_m: start.payout_m.clone(),
+                start_gap_m: Some(0.14),
+                payout_scale: vec![0.0; 2],
+            },
+            commands_m: vec![half_way.clone(); 2],
+            measured_gaps_m: vec![vec![Some(0.08); pairs], vec![Some(approach_gap_m); pairs]],
+            final_gap_vectors_m: vec![Some([final_gap_m, 0.0, 0.0]); pairs],
+            prediction_error_m: vec![Some(0.001); 2],
+            outcome: CaseOutcome {
+                status: status.into(),
+                commands: 2,
+                corrective_commands: Some(0),
+                final_gap_m: Some(final_gap_m),
+                approach_commands: Some(2),
+            },
+            learning: learnt.map(|(from_case, predicted_m)| CaseLearning {
+                from_case,
+                from_gap_m: 0.02,
+                predicted_gaps_m: vec![Some(predicted_m); pairs],
+                learnt_commands: 2,
+                approach_completed: true,
+            }),
+            model: None,
+        };
+        let query = CaseConditions {
+            temperature_c: None,
+            fold_m: start.payout_m.clone(),
+            start_gap_m: None,
+            payout_scale: Vec::new(),
+        };
+        let gap_sd_m = 0.0014;
+        let advise = |memory: &CaseMemory, settings: &MemorySettings| {
+            adapt(
+                memory,
+                &query,
+                &context,
+                &start,
+                settings,
+                &FeatureScales::default(),
+                gap_sd_m,
+                &mut EndStateCache::default(),
+            )
+            .expect("adaptation")
+        };
+        let settings = MemorySettings::default();
+
+        let failures = CaseMemory {
+            cases: vec![cycle(0.1, 0.1, "not_reachable", None)],
+        };
+        assert_eq!(
+            advise(&failures, &settings),
+            Advice::Declined(Decline::NoConnectedCase { cases: 1 })
+        );
+
+        // Case 1 (learnt from case 0) ended at 20 mm; case 2 learnt from
+        // it, predicted 12 mm and reached 27 mm: 15 mm off against 7 mm,
+        // beyond 3 × 1.4 mm.
+        let refuted = CaseMemory {
+            cases: vec![
+                cycle(0.030, 0.030, "connected", None),
+                cycle(0.020, 0.025, "connected", Some((0, 0.012))),
+                cycle(0.010, 0.027, "connected", Some((1, 0.012))),
+            ],
+        };
+        match advise(&refuted, &settings) {
+            Advice::Declined(Decline::Refuted { score, tolerance_m }) => {
+                assert_eq!(score.case, 2);
+                assert!((score.ilc_error_m - 0.015).abs() < 1e-12);
+                assert!((score.replay_error_m - 0.007).abs() < 1e-12);
+                assert!((tolerance_m - 3.0 * gap_sd_m).abs() < 1e-15);
+            }
+            other => panic!("expected a refutation, got {other:?}"),
+        }
+        let trusting = MemorySettings {
+            ilc_acceptance_enable: false,
+            ..settings
+        };
+        let guided = advise(&refuted, &trusting);
+        assert_eq!(guided.adaptation().map(|a| a.case_index), Some(2));
+
+        // Reached 13 mm: 1 mm off the prediction, the update stands.
+        let borne_out = CaseMemory {
+            cases: vec![
+                cycle(0.030, 0.030, "connected", None),
+                cycle(0.020, 0.025, "connected", Some((0, 0.012))),
+                cycle(0.010, 0.013, "connected", Some((1, 0.012))),
+                cycle(0.1, 0.1, "command_limit", None),
+            ],
+        };
+        let guided = advise(&borne_out, &settings);
+        assert_eq!(
+            guided.adaptation().map(|a| a.case_index),
+            Some(2),
+            "the failed case 3 is passed over"
+        );
     }
 
     /// Issue 24: the memory replayed a case's corrective commands as

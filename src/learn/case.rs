@@ -455,15 +455,52 @@ impl Case {
     /// predicted for were not the ones sent) and read a pair's gap.
     pub fn learnt_approach_error_m(&self) -> Option<f64> {
         let l = self.learning.as_ref()?;
-        if !l.approach_completed {
-            return None;
-        }
-        let k = self.outcome.approach_commands?.checked_sub(1)?;
-        let measured = self.measured_gaps_m.get(k)?;
+        let measured = self.learnt_approach_gaps_m()?;
         l.predicted_gaps_m
             .iter()
             .zip(measured)
             .filter_map(|(p, m)| Some((p.as_ref()? - m.as_ref()?).abs()))
+            .reduce(f64::max)
+    }
+
+    /// Whether the cycle ended connected, as the controller judged it (its
+    /// status, not the truth's verdict: a memory holds what the
+    /// controller knew).
+    pub fn connected(&self) -> bool {
+        self.outcome.status == PlanStatus::Connected.label()
+    }
+
+    /// The measured gap of each pair at the end of the learnt approach, m
+    /// (`None` where [`Self::learnt_approach_error_m`] is: the approach
+    /// was cut short, or the cycle was not guided).
+    fn learnt_approach_gaps_m(&self) -> Option<&[Option<f64>]> {
+        let l = self.learning.as_ref()?;
+        if !l.approach_completed {
+            return None;
+        }
+        let k = self.outcome.approach_commands?.checked_sub(1)?;
+        self.measured_gaps_m.get(k).map(|g| &g[..])
+    }
+
+    /// The error of the prediction the ILC update replaced, at the end of
+    /// this cycle's learnt approach: that the commands of `learnt_from`
+    /// (the case this cycle learnt from), sent again unchanged, end where
+    /// they ended. The largest |‖final gap vector of `learnt_from`‖ −
+    /// measured gap| over the pairs, m; `None` where
+    /// [`Self::learnt_approach_error_m`] is, or no pair was read in both.
+    /// The two errors, compared, say whether the update's linearisation
+    /// predicted this bridge better than no update
+    /// ([`crate::learn::acceptance`]).
+    pub fn replay_error_m(&self, learnt_from: &Case) -> Option<f64> {
+        let measured = self.learnt_approach_gaps_m()?;
+        learnt_from
+            .final_gap_vectors_m
+            .iter()
+            .zip(measured)
+            .filter_map(|(v, m)| {
+                let [x, y, z] = (*v)?;
+                Some(((x * x + y * y + z * z).sqrt() - m.as_ref()?).abs())
+            })
             .reduce(f64::max)
     }
 

@@ -91,10 +91,22 @@ impl CaseMemory {
     /// memory holds fewer). One pass over the cases and a partial sort:
     /// O(n + k log k).
     pub fn nearest(&self, query: &CaseConditions, k: usize, s: &FeatureScales) -> Vec<Neighbour> {
+        self.nearest_where(query, k, s, |_| true)
+    }
+
+    /// [`Self::nearest`] among the cases `keep` accepts.
+    pub fn nearest_where(
+        &self,
+        query: &CaseConditions,
+        k: usize,
+        s: &FeatureScales,
+        keep: impl Fn(&Case) -> bool,
+    ) -> Vec<Neighbour> {
         let mut all: Vec<Neighbour> = self
             .cases
             .iter()
             .enumerate()
+            .filter(|(_, c)| keep(c))
             .map(|(index, c)| Neighbour {
                 index,
                 distance: distance_squared(query, &c.conditions, s).sqrt(),

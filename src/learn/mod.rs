@@ -8,18 +8,22 @@
 //!
 //! - [`ilc`]: the norm-optimal ILC update of a case's commands, a QP
 //!   within the motor and member limits;
+//! - [`acceptance`]: whether the newest learnt cycle bore the update out
+//!   (learning never makes a cycle worse than no memory);
 //! - [`adaptation`]: retrieval, linearisation at the case's end and the
 //!   update: the guidance a new cycle's deployment runs with.
 //!
 //! The memory file's format (versioned, a checksum per case, atomic
 //! appends) is in [`crate::io::memory_file`]. Pure: no files here.
 
+pub mod acceptance;
 pub mod adaptation;
 pub mod case;
 pub mod ilc;
 pub mod memory;
 
-pub use adaptation::{adapt, retrieve, AdaptError, Adaptation, EndStateCache};
+pub use acceptance::{Decline, LearningScore};
+pub use adaptation::{adapt, retrieve, AdaptError, Adaptation, Advice, EndStateCache};
 pub use case::{
     model_base, Case, CaseConditions, CaseLearning, CaseModel, CaseOutcome, LearntEffect,
     RIVAL_EFFECTS,

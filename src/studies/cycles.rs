@@ -20,10 +20,12 @@ use serde::{Serialize, Serializer};
 use super::deployment_log::{cycles_log, deployment_log};
 use super::model_learning::{describe_learnt, learn_model};
 use super::statistics::scenario_seed;
-use crate::control::{deploy_guided, ClosedLoopSetup, DeployError, Deployment, Guidance};
+use crate::control::{
+    deploy_guided, gap_reading_sd_m, ClosedLoopSetup, DeployError, Deployment, Guidance,
+};
 use crate::learn::{
-    adapt, model_base, AdaptError, Case, CaseConditions, CaseLearning, CaseMemory, CaseModel,
-    EndStateCache, FeatureScales,
+    adapt, model_base, AdaptError, Advice, Case, CaseConditions, CaseLearning, CaseMemory,
+    CaseModel, Decline, EndStateCache, FeatureScales,
 };
 use crate::measure::compare::compare;
 use crate::model::{EffectKind, ForwardModel};
@@ -98,6 +100,11 @@ pub struct CycleResult {
     /// (serialised as its message).
     #[serde(serialize_with = "error_message")]
     pub adaptation_error: Option<AdaptError>,
+    /// Why the memory declined to guide the cycle although it held cases
+    /// (no case connected, or the newest learnt cycle refuted the ILC
+    /// update: [`crate::learn::acceptance`]); serialised as its message.
+    #[serde(serialize_with = "display_message")]
+    pub memory_declined: Option<Decline>,
     /// Wall-clock planning time of the cycle (adaptation and every
     /// command), s: the only value not a function of the inputs.
     #[serde(skip)]
@@ -188,7 +195,15 @@ fn error_message<S: Serializer>(
     error: &Option<AdaptError>,
     serializer: S,
 ) -> Result<S::Ok, S::Error> {
-    error.as_ref().map(|e| e.to_string()).serialize(serializer)
+    display_message(error, serializer)
+}
+
+/// An optional value as its message.
+fn display_message<S: Serializer, T: std::fmt::Display>(
+    value: &Option<T>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    value.as_ref().map(|e| e.to_string()).serialize(serializer)
 }
 
 /// Runs `cycles` cycles of `setup` (its truth's hidden effects fixed for
@@ -212,6 +227,7 @@ pub fn run_cycles(
 ) -> Result<CyclesEnd, DeployError> {
     let (problem, policy) = (setup.problem, setup.policy);
     let structure = setup.model.structure();
+    let gap_reading_sd = gap_reading_sd_m(structure, setup.sensors);
     let motors = problem
         .motor_limits(structure.continuous_cables.len())
         .map_err(PlanError::from)?;
@@ -289,7 +305,7 @@ pub fn run_cycles(
             start_gap_m: None,
             payout_scale: Vec::new(),
         };
-        let (adaptation, adaptation_error) = match &policy.memory {
+        let (advice, adaptation_error) = match &policy.memory {
             Some(settings) => {
                 match adapt(
                     memory,
@@ -298,14 +314,20 @@ pub fn run_cycles(
                     start,
                     settings,
                     &scales,
+                    gap_reading_sd,
                     &mut end_states,
                 ) {
                     Ok(a) => (a, None),
-                    Err(e) => (None, Some(e)),
+                    Err(e) => (Advice::Empty, Some(e)),
                 }
             }
-            None => (None, None),
+            None => (Advice::Empty, None),
         };
+        let memory_declined = match &advice {
+            Advice::Declined(d) => Some(*d),
+            _ => None,
+        };
+        let adaptation = advice.adaptation();
         let adaptation_time_s = clock.elapsed().as_secs_f64();
         let guidance = adaptation
             .as_ref()
@@ -390,6 +412,7 @@ pub fn run_cycles(
             model_update,
             planning_note,
             adaptation_error,
+            memory_declined,
             planning_time_s: adaptation_time_s
                 + d.records.iter().map(|r| r.planning_time_s).sum::<f64>(),
         };
@@ -668,10 +691,15 @@ mod tests {
             model_update: None,
             planning_note: None,
             adaptation_error: Some(error),
+            memory_declined: Some(Decline::NoConnectedCase { cases: 2 }),
             planning_time_s: 0.0,
         };
         let json = serde_json::to_value(&result).unwrap();
         assert_eq!(json["adaptation_error"], text);
+        assert_eq!(
+            json["memory_declined"],
+            "none of the memory's 2 cases connected: no approach to learn from"
+        );
         let json = serde_json::to_value(CycleResult {
             adaptation_error: None,
             ..result
