@@ -76,11 +76,9 @@ fn bench(c: &mut Criterion) {
         adapt(
             &memory, &query, &context, &start, &settings, &scales, GAP_SD_M, cache,
         )
-        .map(|a| a.adaptation().cloned())
     };
-    let retrieved = adapt_with(&mut EndStateCache::default())
-        .expect("adaptation")
-        .expect("a case");
+    let advice = adapt_with(&mut EndStateCache::default()).expect("adaptation");
+    let retrieved = advice.adaptation().expect("a case");
     assert!(retrieved.ilc.status.is_solved());
     // Cold: the model follows the case's commands from the folded start.
     c.bench_function("memory/retrieve_and_adapt_10000_cold", |b| {
@@ -91,7 +89,10 @@ fn bench(c: &mut Criterion) {
     // scales 0.02 apart (the end payouts 8 mm apart, more than between
     // cycles) take turns; one iteration is two adaptations.
     let other = case(12_346).conditions;
-    let first = adapt_with(&mut EndStateCache::default()).expect("adaptation");
+    let first = adapt_with(&mut EndStateCache::default())
+        .expect("adaptation")
+        .adaptation()
+        .cloned();
     let second = adapt(
         &memory,
         &other,

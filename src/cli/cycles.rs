@@ -168,6 +168,9 @@ impl CycleObserver for MemoryWriter<'_> {
         if let Some(why) = &result.memory_declined {
             say!("  memory: no guidance: {why}");
         }
+        if let Some(error) = &result.adaptation_error {
+            say!("  memory: no guidance, its case could not be adapted: {error}");
+        }
         if let Some(u) = &result.model_update {
             let scored = if u.held_out { "held-out" } else { "in-sample" };
             let planner = if u.planner_takes == "none" || u.planner_takes.is_empty() {

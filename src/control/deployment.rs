@@ -135,8 +135,9 @@ pub struct Deployment {
     /// Commands after that one: the corrective commands.
     pub corrective_commands: Option<usize>,
     /// Commands of the first approach: with a feedforward
-    /// ([`super::Guidance::feedforward_m`]), the feedforward commands sent
-    /// (a halved learnt command's parts counted one by one); otherwise the
+    /// ([`super::Guidance::feedforward_m`]), the take-up sent before it,
+    /// if any, and the feedforward commands sent (a halved learnt
+    /// command's parts counted one by one); otherwise the
     /// commands up to the first the controller predicted would connect
     /// (`None`: it never predicted so).
     pub approach_commands: Option<usize>,

@@ -1,5 +1,8 @@
-//! Whether the memory's learning is borne out on this bridge: learning
-//! never makes a cycle worse than the memoryless controller would.
+//! Whether the memory's learning is borne out on this bridge, so that a
+//! refuted update is not sent again (issue 24's aim: learning never
+//! makes a cycle worse than the memoryless controller would; measured
+//! against that aim in docs/controller.md, "Learning only where it is
+//! borne out").
 //!
 //! The ILC update ([`super::ilc`]) is a linearisation at the case's end on
 //! the controller's model, `Δg ≈ G·Δu`. Its prediction of where the next
@@ -44,7 +47,9 @@
 
 use std::fmt;
 
-use super::memory::CaseMemory;
+use super::case::CaseConditions;
+use super::memory::{distance_squared, CaseMemory, FeatureScales};
+use crate::plan::MemorySettings;
 
 /// How well the newest scored learnt cycle's update predicted it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -91,7 +96,8 @@ impl fmt::Display for Decline {
         match self {
             Decline::NoConnectedCase { cases } => write!(
                 f,
-                "none of the memory's {cases} cases connected: no approach to learn from"
+                "none of the memory's {cases} case{} connected: no approach to learn from",
+                if *cases == 1 { "" } else { "s" }
             ),
             Decline::Refuted { score, tolerance_m } => write!(
                 f,
@@ -126,6 +132,31 @@ pub fn newest_learning_score(
             replay_error_m: c.replay_error_m(from)?,
         })
     })
+}
+
+/// The acceptance check (see the module documentation): the refutation of
+/// the update by the newest learnt cycle under `conditions`, if any;
+/// `gap_reading_sd_m` is the noise SD of one measured pair gap, m (the
+/// tolerance is `ilc_acceptance_noise_sds` of it).
+pub fn refutation(
+    memory: &CaseMemory,
+    conditions: &CaseConditions,
+    settings: &MemorySettings,
+    scales: &FeatureScales,
+    gap_reading_sd_m: f64,
+) -> Option<Decline> {
+    if !settings.ilc_acceptance_enable {
+        return None;
+    }
+    let same_conditions = (0..memory.cases.len()).filter(|&k| {
+        distance_squared(conditions, &memory.cases[k].conditions, scales).sqrt()
+            <= settings.match_distance
+    });
+    let score = newest_learning_score(memory, same_conditions)?;
+    let tolerance_m = settings.ilc_acceptance_noise_sds * gap_reading_sd_m;
+    score
+        .refutes_learning(tolerance_m)
+        .then_some(Decline::Refuted { score, tolerance_m })
 }
 
 #[cfg(test)]

@@ -26,10 +26,10 @@
 use nalgebra::DMatrix;
 use thiserror::Error;
 
-use super::acceptance::{newest_learning_score, Decline};
+use super::acceptance::{refutation, Decline};
 use super::case::CaseConditions;
 use super::ilc::{learn_commands, IlcData, IlcUpdate};
-use super::memory::{distance_squared, CaseMemory, FeatureScales};
+use super::memory::{CaseMemory, FeatureScales};
 use crate::control::Guidance;
 use crate::control::PayoutScaleEstimator;
 use crate::model::{DeploymentState, RelaxStatus, SensitivityError, Workspace};
@@ -130,31 +130,6 @@ pub fn retrieve(
         .max_by_key(|n| n.index)
         .or(near.first())
         .map(|n| (n.index, n.distance))
-}
-
-/// The acceptance check ([`super::acceptance`]): the refutation of the
-/// update by the newest learnt cycle under `conditions`, if any;
-/// `gap_reading_sd_m` is the noise SD of one measured pair gap, m (the
-/// tolerance is `ilc_acceptance_noise_sds` of it).
-pub fn refutation(
-    memory: &CaseMemory,
-    conditions: &CaseConditions,
-    settings: &MemorySettings,
-    scales: &FeatureScales,
-    gap_reading_sd_m: f64,
-) -> Option<Decline> {
-    if !settings.ilc_acceptance_enable {
-        return None;
-    }
-    let same_conditions = (0..memory.cases.len()).filter(|&k| {
-        distance_squared(conditions, &memory.cases[k].conditions, scales).sqrt()
-            <= settings.match_distance
-    });
-    let score = newest_learning_score(memory, same_conditions)?;
-    let tolerance_m = settings.ilc_acceptance_noise_sds * gap_reading_sd_m;
-    score
-        .refutes_learning(tolerance_m)
-        .then_some(Decline::Refuted { score, tolerance_m })
 }
 
 /// The adaptation of `memory` to a cycle with `conditions`, planned with

@@ -79,9 +79,10 @@ pub struct CaseOutcome {
     pub corrective_commands: Option<usize>,
     /// Largest measured gap at the end, m.
     pub final_gap_m: Option<f64>,
-    /// Commands of the first approach (the learnt commands sent, with a
-    /// feedforward; else up to the first the controller predicted would
-    /// connect). Absent in version-1 files.
+    /// Commands of the first approach (with a feedforward, the take-up
+    /// sent before it, if any, and the learnt commands sent; else up to the
+    /// first the controller predicted would connect). Absent in version-1
+    /// files.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub approach_commands: Option<usize>,
 }

@@ -9,7 +9,7 @@
 //! - [`ilc`]: the norm-optimal ILC update of a case's commands, a QP
 //!   within the motor and member limits;
 //! - [`acceptance`]: whether the newest learnt cycle bore the update out
-//!   (learning never makes a cycle worse than no memory);
+//!   (a refuted update is not sent again);
 //! - [`adaptation`]: retrieval, linearisation at the case's end and the
 //!   update: the guidance a new cycle's deployment runs with.
 //!

@@ -49,8 +49,9 @@ pub struct CycleResult {
     /// Commands after the first that brought the largest measured gap
     /// below 60 mm.
     pub corrective_commands: Option<usize>,
-    /// Commands of the first approach (the feedforward with a memory;
-    /// else up to the first command predicted to connect).
+    /// Commands of the first approach (with a memory, the take-up sent
+    /// before the feedforward, if any, and the feedforward; else up to the
+    /// first command predicted to connect).
     pub approach_commands: Option<usize>,
     /// Largest measured gap after the first approach, m.
     pub approach_gap_m: Option<f64>,
