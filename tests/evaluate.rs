@@ -535,6 +535,47 @@ fn a_learnt_approach_does_not_slacken_a_cable_that_crept_between_cycles() {
     assert_ne!(replayed[col("truth_violations")], "0", "{replayed:?}");
 }
 
+/// The `runs.csv` header and row of `policies/memory.toml` on scenario
+/// `scenario` of `scenarios/wide.toml` drawn with `seed`, over `cycles`
+/// cycles (the scenario alone: shard `scenario + 1` of `scenario + 1`).
+fn memory_on_wide_scenario(
+    seed: u64,
+    scenario: usize,
+    cycles: usize,
+) -> (Vec<String>, Vec<String>) {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("o");
+    let count = (scenario + 1).to_string();
+    let shard = format!("{count}/{count}");
+    let (seed, cycles) = (seed.to_string(), cycles.to_string());
+    let run = tdeploy_in_repo(&[
+        "evaluate",
+        "--distribution",
+        "scenarios/wide.toml",
+        "--policy",
+        "policies/memory.toml",
+        "--scenarios",
+        &count,
+        "--shard",
+        &shard,
+        "--seed",
+        &seed,
+        "--cycles",
+        &cycles,
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    ok(&run);
+    let (header, mut rows) = common::files::read_csv(&out.join("runs.csv"));
+    assert_eq!(rows.len(), 1);
+    let row = rows.remove(0);
+    assert_eq!(
+        row[common::files::column(&header, "scenario")],
+        scenario.to_string()
+    );
+    (header, row)
+}
+
 /// Issue 24 ("never worse"): a learnt approach carries the take-up of the
 /// cycle it was learnt from (the planner's first command reels in a
 /// cable the fold left slack, `plan::take_up`), and the paced path spread
@@ -546,31 +587,8 @@ fn a_learnt_approach_does_not_slacken_a_cable_that_crept_between_cycles() {
 /// on from there to the same end.
 #[test]
 fn a_learnt_approach_takes_up_a_slack_cable_before_reeling_in_the_others() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("o");
-    let run = tdeploy_in_repo(&[
-        "evaluate",
-        "--distribution",
-        "scenarios/wide.toml",
-        "--policy",
-        "policies/memory.toml",
-        "--scenarios",
-        "21",
-        "--shard",
-        "21/21",
-        "--seed",
-        "7502",
-        "--cycles",
-        "2",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    ok(&run);
-    let (header, rows) = common::files::read_csv(&out.join("runs.csv"));
+    let (header, row) = memory_on_wide_scenario(7502, 20, 2);
     let col = |name: &str| common::files::column(&header, name);
-    assert_eq!(rows.len(), 1);
-    let row = &rows[0];
-    assert_eq!(row[col("scenario")], "20");
     assert_eq!(row[col("truth_violations")], "0", "{row:?}");
     assert_eq!(row[col("status")], "connected", "{row:?}");
 }
@@ -585,32 +603,12 @@ fn a_learnt_approach_takes_up_a_slack_cable_before_reeling_in_the_others() {
 /// merged into the next learnt command.
 #[test]
 fn a_learnt_approach_after_a_take_up_does_not_begin_with_a_small_step() {
-    let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("o");
-    let run = tdeploy_in_repo(&[
-        "evaluate",
-        "--distribution",
-        "scenarios/wide.toml",
-        "--policy",
-        "policies/memory.toml",
-        "--scenarios",
-        "88",
-        "--shard",
-        "88/88",
-        "--seed",
-        "7501",
-        "--cycles",
-        "4",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    ok(&run);
     // Cycles 2 and 3 stop "not reachable" at this 48 cm fold, as the
     // memoryless controller's do; what is tested is that no limit breaks.
-    let (header, rows) = common::files::read_csv(&out.join("runs.csv"));
-    let col = |name: &str| common::files::column(&header, name);
-    assert_eq!(rows.len(), 1);
-    let row = &rows[0];
-    assert_eq!(row[col("scenario")], "87");
-    assert_eq!(row[col("truth_violations")], "0", "{row:?}");
+    let (header, row) = memory_on_wide_scenario(7501, 87, 4);
+    assert_eq!(
+        row[common::files::column(&header, "truth_violations")],
+        "0",
+        "{row:?}"
+    );
 }
