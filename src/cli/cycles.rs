@@ -29,7 +29,7 @@ use clap::{value_parser, Arg, ArgMatches, Command};
 
 use tensegrity_deploy::control::{ClosedLoopSetup, DeployError, Deployment};
 use tensegrity_deploy::io::cycles_files::write_cycles;
-use tensegrity_deploy::io::memory_file::{append_case, read_memory_or_empty};
+use tensegrity_deploy::io::memory_file::{append_checked_case, read_memory_or_empty};
 use tensegrity_deploy::io::output::ResultsFolder;
 use tensegrity_deploy::io::policy_file::{parse_policy, read_policy};
 use tensegrity_deploy::io::{write_atomically, FileError};
@@ -129,6 +129,12 @@ impl Options {
 /// first failure is kept (and ends the command after the cycles).
 struct MemoryWriter<'a> {
     path: &'a Path,
+    /// The memory's index of the next case appended.
+    next_case: usize,
+    /// Motors and midspan pairs of the bridge, which every case is
+    /// checked against before it is written.
+    motors: usize,
+    pairs: usize,
     failure: Option<FileError>,
 }
 
@@ -139,8 +145,9 @@ impl CycleObserver for MemoryWriter<'_> {
 
     fn on_cycle(&mut self, result: &CycleResult, _: &Deployment, case: &Case) {
         if self.failure.is_none() {
-            if let Err(e) = append_case(self.path, case) {
-                self.failure = Some(e);
+            match append_checked_case(self.path, case, self.next_case, self.motors, self.pairs) {
+                Ok(()) => self.next_case += 1,
+                Err(e) => self.failure = Some(e),
             }
         }
         // A cycle that did not connect says why (what binds, or which
@@ -264,6 +271,9 @@ pub fn run(o: &Options) -> Result<Outcome> {
     };
     let mut writer = MemoryWriter {
         path: &memory_path,
+        next_case: stored_before,
+        motors: model.structure().continuous_cables.len(),
+        pairs: model.structure().midspan_pairs.len(),
         failure: None,
     };
     let end = match with_threads(o.threads, || {

@@ -76,19 +76,59 @@ pub fn read_memory_or_empty(
     }
     let memory = read_memory(path)?;
     for (k, case) in memory.cases.iter().enumerate() {
-        case.validate(motors, pairs)
-            .and_then(|()| case.validate_learnt_from(k))
-            .map_err(|e| {
-                // Line 1 is the format; case k is on line k + 2.
-                FileError::field(
-                    path,
-                    k + 2,
-                    &format!("case.{}", e.field),
-                    format!("{}: the case is not used", e.reason),
-                )
-            })?;
+        check_case(path, case, k, motors, pairs, "the case is not used")?;
     }
     Ok(memory)
+}
+
+/// Checks `case`, the memory's case `index`, for a bridge of `motors`
+/// motors and `pairs` midspan pairs ([`Case::validate`],
+/// [`Case::validate_learnt_from`]); the error names the file, the case's
+/// line, the field and `consequence`.
+fn check_case(
+    path: &Path,
+    case: &Case,
+    index: usize,
+    motors: usize,
+    pairs: usize,
+    consequence: &str,
+) -> Result<(), FileError> {
+    case.validate(motors, pairs)
+        .and_then(|()| case.validate_learnt_from(index))
+        .map_err(|e| {
+            // Line 1 is the format; case k is on line k + 2.
+            FileError::field(
+                path,
+                index + 2,
+                &format!("case.{}", e.field),
+                format!("{}: {consequence}", e.reason),
+            )
+        })
+}
+
+/// [`append_case`] of the memory's case `index`, checked first as
+/// [`read_memory_or_empty`] will check it when the file is next read: a
+/// case the tools would refuse to read is not written, and the file is
+/// left as it was. (Until the twenty-first session cases were appended
+/// unchecked, so a value the reader's range refused, a drum paying out
+/// short in the twentieth, was found only when the memory was next read,
+/// and every case after it was lost to that run.)
+pub fn append_checked_case(
+    path: &Path,
+    case: &Case,
+    index: usize,
+    motors: usize,
+    pairs: usize,
+) -> Result<(), FileError> {
+    check_case(
+        path,
+        case,
+        index,
+        motors,
+        pairs,
+        "the case is not written (the memory would refuse it when read)",
+    )?;
+    append_case(path, case)
 }
 
 /// Parses a memory file's text; `path` names it in errors.
@@ -347,6 +387,34 @@ mod tests {
             .contains("line 1"));
         assert!(append_case(&path, &case(0)).is_err());
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "my notes\n");
+    }
+
+    /// A case the reader would refuse is not appended: the error names
+    /// the file, the line it would have taken and the field, and the file
+    /// is left as it was.
+    #[test]
+    fn a_case_the_reader_would_refuse_is_not_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("checked.tdm");
+        let good = consistent_case();
+        append_checked_case(&path, &good, 0, 10, 5).unwrap();
+        let before = std::fs::read(&path).unwrap();
+        let mut bad = consistent_case();
+        bad.conditions.payout_scale[0] = -1.5;
+        let e = append_checked_case(&path, &bad, 1, 10, 5)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("checked.tdm") && e.contains("line 3") && e.contains("payout_scale"),
+            "{e}"
+        );
+        assert!(e.contains("not written"), "{e}");
+        assert_eq!(std::fs::read(&path).unwrap(), before);
+        // Wrong counts for the bridge: refused too, nothing created.
+        let fresh = dir.path().join("fresh.tdm");
+        assert!(append_checked_case(&fresh, &good, 0, 9, 5).is_err());
+        assert!(!fresh.exists());
+        assert_eq!(read_memory_or_empty(&path, 10, 5).unwrap().cases, [good]);
     }
 
     /// The payout scale a case stores is the estimator's `ŝ` (a half's
