@@ -491,7 +491,6 @@ fn by_fold_counts_every_run_once_per_half_in_the_band_of_its_fold() {
 #[test]
 fn a_learnt_approach_does_not_slacken_a_cable_that_crept_between_cycles() {
     let tmp = tempfile::tempdir().unwrap();
-    let out = tmp.path().join("o");
     let memory = common::repo_text("policies/memory.toml");
     assert!(memory.contains("learnt_path = \"paced\""));
     let replayed = tmp.path().join("replayed.toml");
@@ -502,27 +501,12 @@ fn a_learnt_approach_does_not_slacken_a_cable_that_crept_between_cycles() {
             .replace("name = \"memory\"", "name = \"replayed\""),
     )
     .unwrap();
-    let run = tdeploy_in_repo(&[
-        "evaluate",
-        "--distribution",
-        "scenarios/wide.toml",
-        "--policy",
-        "policies/memory.toml",
-        "--policy",
-        replayed.to_str().unwrap(),
-        "--scenarios",
-        "62",
-        "--shard",
-        "62/62",
-        "--seed",
-        "7502",
-        "--cycles",
-        "5",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    ok(&run);
-    let (header, rows) = common::files::read_csv(&out.join("runs.csv"));
+    let (header, rows) = wide_scenario_rows(
+        &["policies/memory.toml", replayed.to_str().unwrap()],
+        7502,
+        61,
+        5,
+    );
     let col = |name: &str| common::files::column(&header, name);
     assert_eq!(rows.len(), 2);
     let [paced, replayed] = [&rows[0], &rows[1]];
@@ -535,25 +519,26 @@ fn a_learnt_approach_does_not_slacken_a_cable_that_crept_between_cycles() {
     assert_ne!(replayed[col("truth_violations")], "0", "{replayed:?}");
 }
 
-/// The `runs.csv` header and row of `policies/memory.toml` on scenario
-/// `scenario` of `scenarios/wide.toml` drawn with `seed`, over `cycles`
-/// cycles (the scenario alone: shard `scenario + 1` of `scenario + 1`).
-fn memory_on_wide_scenario(
+/// The `runs.csv` header and rows (one per policy, in order) of
+/// `policies` on scenario `scenario` of `scenarios/wide.toml` drawn with
+/// `seed`, over `cycles` cycles (the scenario alone: shard `scenario + 1`
+/// of `scenario + 1`).
+fn wide_scenario_rows(
+    policies: &[&str],
     seed: u64,
     scenario: usize,
     cycles: usize,
-) -> (Vec<String>, Vec<String>) {
+) -> (Vec<String>, Vec<Vec<String>>) {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("o");
     let count = (scenario + 1).to_string();
     let shard = format!("{count}/{count}");
     let (seed, cycles) = (seed.to_string(), cycles.to_string());
-    let run = tdeploy_in_repo(&[
-        "evaluate",
-        "--distribution",
-        "scenarios/wide.toml",
-        "--policy",
-        "policies/memory.toml",
+    let mut args = vec!["evaluate", "--distribution", "scenarios/wide.toml"];
+    for p in policies {
+        args.extend(["--policy", p]);
+    }
+    args.extend([
         "--scenarios",
         &count,
         "--shard",
@@ -565,15 +550,23 @@ fn memory_on_wide_scenario(
         "-o",
         out.to_str().unwrap(),
     ]);
-    ok(&run);
-    let (header, mut rows) = common::files::read_csv(&out.join("runs.csv"));
-    assert_eq!(rows.len(), 1);
-    let row = rows.remove(0);
-    assert_eq!(
-        row[common::files::column(&header, "scenario")],
-        scenario.to_string()
-    );
-    (header, row)
+    ok(&tdeploy_in_repo(&args));
+    let (header, rows) = common::files::read_csv(&out.join("runs.csv"));
+    assert_eq!(rows.len(), policies.len());
+    let col = common::files::column(&header, "scenario");
+    assert!(rows.iter().all(|r| r[col] == scenario.to_string()));
+    (header, rows)
+}
+
+/// The `runs.csv` header and row of `policies/memory.toml` alone
+/// ([`wide_scenario_rows`]).
+fn memory_on_wide_scenario(
+    seed: u64,
+    scenario: usize,
+    cycles: usize,
+) -> (Vec<String>, Vec<String>) {
+    let (header, mut rows) = wide_scenario_rows(&["policies/memory.toml"], seed, scenario, cycles);
+    (header, rows.remove(0))
 }
 
 /// Issue 24 ("never worse"): a learnt approach carries the take-up of the
