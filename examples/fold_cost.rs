@@ -7,7 +7,9 @@
 //! From the repository root:
 //! `cargo run --release --example fold_cost -- scenarios/wide.toml SEED COUNT [WITHOUT]`
 //! prints one line per scenario (its fold, the fold's wall time, its
-//! increments, Newton and DR iterations) and the totals; `WITHOUT` drops
+//! increments, Newton and DR iterations), then its Newton counters (how
+//! many continuation steps failed and why Newton gave up), and the
+//! totals; `WITHOUT` drops
 //! one effect from every truth first (`seats`: joint eccentricity;
 //! `supports`: support flexibility), to see what it adds. The as-built
 //! relaxation is not timed.
@@ -50,9 +52,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let mut state = built.state().clone();
         let clock = std::time::Instant::now();
+        let mut ws = Workspace::default();
         let report = built.model().apply_payout(
             &mut state,
-            &mut Workspace::default(),
+            &mut ws,
             &motors.start_payout_m,
             truth.increment_m,
             &mut (),
@@ -78,6 +81,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     r.newton_iterations,
                     r.iterations
                 );
+                println!("\t{:?}", ws.newton_counters());
             }
             Err(e) => println!("{index}\tthe fold failed: {e}"),
         }

@@ -592,8 +592,11 @@ fn a_learnt_approach_takes_up_a_slack_cable_before_reeling_in_the_others() {
 /// other cables in while the far segments of `A_cc0`, folded below their
 /// minimum, stuck at its joints, and took them 0.1–0.3 N further below
 /// (scenario 87 of wide seed 7501, cycle 4: 9 violations; the memoryless
-/// controller's next command is 25 mm and breaks none). The step is now
-/// merged into the next learnt command.
+/// controller's next command is 25 mm and breaks none). The case now
+/// records which of its commands were take-ups (memory format 4), and
+/// the paced path gives their motion to the learnt commands without a
+/// step of their own (the twenty-first session merged the first two
+/// learnt commands instead, a stand-in for this record).
 #[test]
 fn a_learnt_approach_after_a_take_up_does_not_begin_with_a_small_step() {
     // Cycles 2 and 3 stop "not reachable" at this 48 cm fold, as the

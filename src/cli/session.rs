@@ -588,9 +588,10 @@ fn memory_guidance(
         ),
         Advice::Guided(a) => {
             let words = format!(
-                "memory {}: case {} (distance {:.2}), {} feedforward commands",
+                "memory {}: case {} (line {} of the file; distance {:.2}), {} feedforward commands",
                 path.display(),
-                a.case_index + 1,
+                a.case_index,
+                a.case_index + 2,
                 a.distance,
                 a.guidance.feedforward_m.len()
             );

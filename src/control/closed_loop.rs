@@ -366,6 +366,7 @@ pub fn deploy_guided(
             trust_region_m: p.trust_region_m,
             rejected_trials: p.rejected_trials,
             active_constraints: p.active_constraints,
+            take_up: p.take_up,
             planning_time_s: p.planning_time_s,
         };
         observer.on_command(&record);

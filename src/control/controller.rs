@@ -70,6 +70,9 @@ pub struct Proposal {
     pub rejected_trials: usize,
     /// Constraints active in the decision.
     pub active_constraints: Vec<String>,
+    /// Whether it takes up slack cables
+    /// ([`crate::plan::PlannedCommand::take_up`]).
+    pub take_up: bool,
     /// Wall-clock planning time, s (the one value that is not a function
     /// of the inputs).
     pub planning_time_s: f64,
@@ -111,7 +114,7 @@ struct Pending {
     feedforward: bool,
     /// Whether it is the take-up sent before a feedforward
     /// ([`Controller::take_up_before_feedforward`]).
-    take_up: bool,
+    take_up_before_feedforward: bool,
 }
 
 /// The controller of a closed-loop deployment (see the module notes).
@@ -138,6 +141,9 @@ pub struct Controller<'a> {
     guided_approach: bool,
     /// Feedforward commands decided so far.
     feedforward_sent: usize,
+    /// The case's take-up at the front of the feedforward, to be replaced
+    /// by this cycle's ([`Guidance::take_up_in_front_m`]); taken once.
+    case_take_up_m: Option<Vec<f64>>,
     /// Commands sent before the feedforward: the take-up of a cable the
     /// model sees slack (0 or 1).
     taken_up_first: usize,
@@ -289,6 +295,7 @@ impl<'a> Controller<'a> {
             feedforward_cut: false,
             guided_approach: !guidance.feedforward_m.is_empty(),
             feedforward_sent: 0,
+            case_take_up_m: guidance.take_up_in_front_m.clone(),
             taken_up_first: 0,
             take_up_declined: false,
             first_connecting: None,
@@ -433,6 +440,7 @@ impl<'a> Controller<'a> {
                     trust_region_m: None,
                     rejected_trials: 0,
                     linearisations: 0,
+                    take_up: false,
                 };
                 (Box::new(planned), Some(sent))
             }
@@ -472,31 +480,31 @@ impl<'a> Controller<'a> {
             trust_region_m: c.trust_region_m,
             rejected_trials: c.rejected_trials,
             active_constraints: c.active_constraints.clone(),
+            take_up: c.take_up,
             planning_time_s,
         };
         self.pending = Some(Pending {
             command: c,
             proposal: proposal.clone(),
             feedforward: is_feedforward,
-            take_up: is_take_up,
+            take_up_before_feedforward: is_take_up,
         });
         ControllerDecision::Send(proposal)
     }
 
     /// The planner's take-up of a cable the model sees slack
     /// ([`crate::plan::take_up`]), where it comes before the first
-    /// feedforward command. A learnt approach carries the take-up of the
-    /// cycle it was learnt from inside its commands, and paced
-    /// ([`crate::plan::LearntPath::Paced`]) that take-up is spread over
-    /// every motor: the other cables reel in while the slack one is still
-    /// slack, and its segments, already below their minimum, fall further
+    /// feedforward command. Spread over the learnt approach, a take-up
+    /// reels the other cables in while the slack one is still slack, and
+    /// its segments, already below their minimum, fall further
     /// (`scenarios/wide.toml` seed 7502 scenario 20: 0.1 N below their
     /// start in every learnt cycle, 24 violations, none without the
-    /// memory). Sent first, its motion is taken out of the feedforward
-    /// once observed ([`Self::deduct_from_feedforward`]), so the learnt
-    /// approach still ends where it was learnt to, and the case's own
-    /// take-up, paced into the feedforward's first command, is merged
-    /// into the next ([`Self::merge_first_feedforward_commands`]).
+    /// memory). Sent first, it replaces the case's take-up, which the
+    /// learnt approach holds at its front
+    /// ([`Guidance::take_up_in_front_m`], taken out once this one is
+    /// observed, [`Self::deduct_from_feedforward`]): the learnt moves
+    /// after it are sent as learnt, and a fold that left more slack this
+    /// time is taken up in full.
     fn take_up_before_feedforward(&self) -> Option<PlannedCommand> {
         if !self.guided_approach
             || self.take_up_declined
@@ -510,62 +518,33 @@ impl<'a> Controller<'a> {
     }
 
     /// Takes the drum motion `sent_m` out of the feedforward not yet
-    /// sent: each motor's commands scaled by `(t − sent)/t`, `t` its
-    /// total in the feedforward, so that it still ends at its learnt total
-    /// and keeps its pace (a paced approach stays the straight path, now
-    /// from where the take-up left the motor). A motor the feedforward
-    /// moves less than `sent` is not moved by it (its commands scaled by
-    /// 0: the take-up went past its learnt total, and the motor ends
-    /// there); a motor it moves the other way, or not at all, is left as
-    /// it is (it ends `sent` past its learnt total). Commands left with no
-    /// motion are dropped; a feedforward left with none is cut (no learnt
-    /// approach was sent, so none is scored).
+    /// sent, from its front: each motor's from its first learnt command
+    /// moving it the same way, the rest from the next, and so on (the
+    /// inverse of [`crate::learn::adaptation::take_up_in_front`], which
+    /// put the case's take-up there). A motor the feedforward moves less
+    /// than `sent` ends unmoved by it; learnt commands moving it the other
+    /// way are left as they are. Commands left with no motion are dropped;
+    /// a feedforward left with none is cut (no learnt approach was sent,
+    /// so none is scored).
     fn deduct_from_feedforward(&mut self, sent_m: &[f64]) {
         let had_commands = !self.feedforward.is_empty();
         for (m, &sent) in sent_m.iter().enumerate() {
-            let total: f64 = self.feedforward.iter().filter_map(|(u, _)| u.get(m)).sum();
-            if sent == 0.0 || total * sent <= 0.0 {
-                continue;
-            }
-            let factor = ((total - sent) / total).max(0.0);
+            let mut left = sent;
             for (u, _) in self.feedforward.iter_mut() {
-                if let Some(x) = u.get_mut(m) {
-                    *x *= factor;
+                let Some(x) = u.get_mut(m) else { continue };
+                if left == 0.0 {
+                    break;
+                }
+                if *x * left > 0.0 {
+                    let taken = if x.abs() <= left.abs() { *x } else { left };
+                    *x -= taken;
+                    left -= taken;
                 }
             }
         }
         self.feedforward
             .retain(|(u, _)| u.iter().any(|x| *x != 0.0));
         self.feedforward_cut |= had_commands && self.feedforward.is_empty();
-    }
-
-    /// Merges the first feedforward command into the second where the sum
-    /// is within every drum's step. The case learnt from began with its
-    /// own take-up (a cycle on the same conditions finds the same slack),
-    /// which the paced path made a step of a few millimetres of every
-    /// motor; sent after this cycle's take-up, that step reeled the other
-    /// cables in by 2 mm while the far segments of a cable folded below
-    /// their minimum stuck at its joints, and took them 0.1–0.3 N further
-    /// below (wide 7501 scenarios 67 and 87, cycle 4), where the
-    /// memoryless controller's next command, 25 mm, does not. Where the
-    /// case did not begin with a take-up, the merge only makes the first
-    /// learnt command larger, within the drum step.
-    fn merge_first_feedforward_commands(&mut self) {
-        let [first, second] = match (self.feedforward.front(), self.feedforward.get(1)) {
-            (Some((a, _)), Some((b, _))) => [a, b],
-            _ => return,
-        };
-        let merged: Vec<f64> = first.iter().zip(second).map(|(a, b)| a + b).collect();
-        let within_step = merged
-            .iter()
-            .zip(&self.context.motors.max_step_m)
-            .all(|(u, max)| u.abs() <= *max);
-        if within_step && merged.len() == first.len() {
-            self.feedforward.pop_front();
-            if let Some((front, _)) = self.feedforward.front_mut() {
-                *front = merged;
-            }
-        }
     }
 
     /// The last decision was rejected before it was sent (an operator
@@ -583,7 +562,7 @@ impl<'a> Controller<'a> {
             // decided: the learnt approach is cut even if it was the last.
             self.feedforward_cut = true;
             self.give_up_feedforward();
-        } else if p.take_up {
+        } else if p.take_up_before_feedforward {
             // Not the planner's step to shrink its trust region for: the
             // learnt approach goes ahead without the take-up.
             self.take_up_declined = true;
@@ -670,7 +649,9 @@ impl<'a> Controller<'a> {
             });
         }
         let pending = self.pending.take();
-        let take_up_pending = pending.as_ref().is_some_and(|p| p.take_up);
+        let take_up_pending = pending
+            .as_ref()
+            .is_some_and(|p| p.take_up_before_feedforward);
         let own = pending.filter(|p| {
             p.proposal
                 .sent_m
@@ -682,12 +663,11 @@ impl<'a> Controller<'a> {
         if take_up_pending {
             // What was sent in the take-up's place (a resumed session's
             // journal may hold another command) stands for it: counted in
-            // the approach and taken out of the learnt commands, so that
-            // they still end at their learnt totals.
+            // the approach, and it replaces the case's take-up at the
+            // front of the learnt commands.
             self.taken_up_first = 1;
-            self.deduct_from_feedforward(sent_m);
-            if own_decision {
-                self.merge_first_feedforward_commands();
+            if let Some(case_take_up) = self.case_take_up_m.take() {
+                self.deduct_from_feedforward(&case_take_up);
             }
         }
         let (planned_m, predicted) = match own {
@@ -810,11 +790,13 @@ mod tests {
 
     /// A 58 cm fold leaves a cable slack on the model: a guided controller
     /// proposes the planner's take-up before the learnt commands. Sent, it
-    /// is counted in the approach and its motion taken out of the learnt
-    /// commands (their totals kept), the first two merged; another command
-    /// sent in its place stands for it (review: it was neither counted nor
-    /// deducted, and a resumed session re-sent a learnt step); rejected,
-    /// the learnt approach goes ahead without it.
+    /// is counted in the approach, marked a take-up (so the case records
+    /// it) and replaces the case's take-up at the front of the learnt
+    /// commands (taken out of the first learnt command, then the next;
+    /// every learnt command still sent; a case that recorded none loses
+    /// nothing); another command sent in its place stands for it (review:
+    /// it was neither counted nor deducted, and a resumed session re-sent
+    /// a learnt step); rejected, the learnt approach goes ahead without it.
     #[test]
     fn a_take_up_before_the_learnt_approach_is_counted_and_taken_out_of_it() {
         let model = frictionless_model();
@@ -830,24 +812,38 @@ mod tests {
         // and stop the planner at this fold, known limitations 18).
         let first = vec![None; sensors.len()];
         let learnt = vec![vec![-0.02; 10]; 3];
+        // The case's take-up, in front: 25 mm of motor 1 (more than its
+        // first learnt command), 5 mm of motor 6.
+        let mut case_take_up = vec![0.0; 10];
+        case_take_up[1] = -0.025;
+        case_take_up[6] = -0.005;
         let guidance = Guidance {
             feedforward_m: learnt.clone(),
             feedforward_splits: 2,
+            take_up_in_front_m: Some(case_take_up.clone()),
             ..Guidance::default()
         };
-        let controller =
-            || Controller::guided(&model, &problem, &policy, &sensors, &first, &guidance).unwrap();
-        let totals = |c: &Controller| -> Vec<f64> {
-            (0..10)
-                .map(|m| c.feedforward.iter().map(|(u, _)| u[m]).sum())
-                .collect()
+        let unrecorded = Guidance {
+            take_up_in_front_m: None,
+            ..guidance.clone()
         };
+        let controller = |g: &Guidance| {
+            Controller::guided(&model, &problem, &policy, &sensors, &first, g).unwrap()
+        };
+        let commands = |c: &Controller| -> Vec<Vec<f64>> {
+            c.feedforward.iter().map(|(u, _)| u.clone()).collect()
+        };
+        let mut replaced = learnt.clone();
+        replaced[0][1] = 0.0;
+        replaced[1][1] = -0.015;
+        replaced[0][6] = -0.015;
 
-        let mut c = controller();
+        let mut c = controller(&guidance);
         let ControllerDecision::Send(take_up) = c.decide() else {
             panic!("no command: {:?}", c.decide());
         };
         assert_ne!(take_up.sent_m, learnt[0], "the take-up comes first");
+        assert!(take_up.take_up, "the proposal says it is a take-up");
         let moved: Vec<usize> = (0..10).filter(|&m| take_up.sent_m[m] != 0.0).collect();
         assert!(
             !moved.is_empty() && moved.len() < 10,
@@ -857,29 +853,26 @@ mod tests {
         c.observe(&take_up.sent_m, &first).unwrap();
         assert_eq!(c.approach_commands(), Some(1));
         assert_eq!(
-            c.feedforward.len(),
-            2,
-            "the first two learnt commands merged"
+            commands(&c),
+            replaced,
+            "the case's take-up out of the front"
         );
-        for (m, t) in totals(&c).into_iter().enumerate() {
-            let expected = (-0.06 - take_up.sent_m[m]).min(0.0);
-            assert!(
-                (t - expected).abs() < 1e-12,
-                "motor {m}: {t} against {expected}"
-            );
-        }
 
-        let mut c = controller();
+        // A case that recorded no take-up: the learnt commands as learnt.
+        let mut c = controller(&unrecorded);
+        assert!(matches!(c.decide(), ControllerDecision::Send(_)));
+        c.observe(&take_up.sent_m, &first).unwrap();
+        assert_eq!(c.approach_commands(), Some(1));
+        assert_eq!(commands(&c), learnt);
+
+        let mut c = controller(&guidance);
         assert!(matches!(c.decide(), ControllerDecision::Send(_)));
         let instead = vec![-0.01; 10];
         c.observe(&instead, &first).unwrap();
         assert_eq!(c.approach_commands(), Some(1));
-        assert_eq!(c.feedforward.len(), 3, "not the take-up: nothing merged");
-        for t in totals(&c) {
-            assert!((t + 0.05).abs() < 1e-12, "{t}");
-        }
+        assert_eq!(commands(&c), replaced);
 
-        let mut c = controller();
+        let mut c = controller(&guidance);
         assert!(matches!(c.decide(), ControllerDecision::Send(_)));
         assert!(c.reject());
         let ControllerDecision::Send(next) = c.decide() else {

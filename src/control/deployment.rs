@@ -82,6 +82,9 @@ pub struct DeployRecord {
     pub rejected_trials: usize,
     /// Constraints active in the decision.
     pub active_constraints: Vec<String>,
+    /// Whether the command took up slack cables
+    /// ([`crate::plan::PlannedCommand::take_up`]).
+    pub take_up: bool,
     /// Wall-clock planning time, s (the one value that is not a function
     /// of the inputs).
     #[serde(skip)]
@@ -179,6 +182,17 @@ impl Deployment {
     /// The commands sent, per command and motor, m.
     pub fn commands(&self) -> Vec<Vec<f64>> {
         self.records.iter().map(|r| r.command_m.clone()).collect()
+    }
+
+    /// Indices (0 for the first) of the commands that took up slack
+    /// cables.
+    pub fn take_up_commands(&self) -> Vec<usize> {
+        self.records
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.take_up)
+            .map(|(k, _)| k)
+            .collect()
     }
 
     /// Largest measured gap at the end, m.

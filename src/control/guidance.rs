@@ -27,4 +27,14 @@ pub struct Guidance {
     /// Absent in a file: 0.
     #[serde(default)]
     pub feedforward_splits: usize,
+    /// The take-up of the case learnt from, held at the front of
+    /// `feedforward_m` (drum, m per motor; see
+    /// `crate::learn::adaptation::learnt_path`); `None` where the case
+    /// recorded none. Where the controller takes up this cycle's slack
+    /// first, its take-up replaces the case's: this motion is taken out of
+    /// the front of the feedforward. A fold that left more slack this time
+    /// is taken up in full, and the learnt moves after it are sent as
+    /// learnt. Absent in a file: `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub take_up_in_front_m: Option<Vec<f64>>,
 }

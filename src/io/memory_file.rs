@@ -2,7 +2,7 @@
 //! appended atomically (a journal, [`super::journal`]).
 //!
 //! ```text
-//! tensegrity-deploy/memory/3
+//! tensegrity-deploy/memory/4
 //! fnv1a:3f0c2b5e9a1d4c77 {"conditions":{…},"commands_m":[…],…}
 //! fnv1a:…
 //! ```
@@ -31,14 +31,22 @@ use crate::learn::{Case, CaseMemory};
 
 /// The first line of a memory file. Version 2 added each case's
 /// optional learning record ([`crate::learn::CaseLearning`]), version 3
-/// the model learnt after the case ([`crate::learn::CaseModel`]).
-pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/3";
+/// the model learnt after the case ([`crate::learn::CaseModel`]), version
+/// 4 which commands took up slack cables
+/// ([`crate::learn::Case::take_up_commands`]).
+pub const MEMORY_FORMAT: &str = "tensegrity-deploy/memory/4";
 
 /// Earlier memory formats still read: a version-1 case is a version-2
 /// case without a learning record or an approach count (read as a cycle
 /// that ran without guidance); a version-2 case is a version-3 case
-/// without a learnt model (its cycle learnt none).
-const OLDER_MEMORY_FORMATS: &[&str] = &["tensegrity-deploy/memory/1", "tensegrity-deploy/memory/2"];
+/// without a learnt model (its cycle learnt none); a version-3 case is a
+/// version-4 case with no take-up recorded (a learnt approach paces its
+/// every command).
+const OLDER_MEMORY_FORMATS: &[&str] = &[
+    "tensegrity-deploy/memory/1",
+    "tensegrity-deploy/memory/2",
+    "tensegrity-deploy/memory/3",
+];
 
 /// The memory as a journal ([`super::journal`]).
 fn kind(repair: &str) -> JournalKind<'_> {
@@ -187,6 +195,7 @@ mod tests {
                 payout_scale: vec![-0.031, 0.0427],
             },
             commands_m: vec![vec![-0.05; 10], vec![-0.0123456789; 10]],
+            take_up_commands: vec![],
             measured_gaps_m: vec![vec![Some(0.1), None, Some(0.3), Some(0.4), Some(0.5)]],
             final_gap_vectors_m: vec![Some([0.01, -0.002, 0.0]), None],
             prediction_error_m: vec![Some(1e-3), None],
@@ -218,8 +227,9 @@ mod tests {
         assert_eq!(memory.cases, (0..3).map(case).collect::<Vec<_>>());
     }
 
-    /// A learnt case's record (version 2) round-trips; a case without one
-    /// is written without the field, as version 1 wrote it.
+    /// A learnt case's record (version 2) and its take-ups (version 4)
+    /// round-trip; a case without them is written without the fields, as
+    /// version 1 wrote it.
     #[test]
     fn a_learnt_cases_record_round_trips_and_a_plain_case_is_written_as_before() {
         use crate::learn::CaseLearning;
@@ -234,18 +244,20 @@ mod tests {
             learnt_commands: 2,
             approach_completed: true,
         });
+        learnt.take_up_commands = vec![0];
         append_case(&path, &case(0)).unwrap();
         append_case(&path, &learnt).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], MEMORY_FORMAT);
         assert!(!lines[1].contains("learning") && !lines[1].contains("approach_commands"));
-        assert!(lines[2].contains("\"learning\""));
+        assert!(!lines[1].contains("take_up_commands"));
+        assert!(lines[2].contains("\"learning\"") && lines[2].contains("\"take_up_commands\":[0]"));
         assert_eq!(read_memory(&path).unwrap().cases, vec![case(0), learnt]);
     }
 
-    /// A version-1 file (cases without learning records) or version-2 file
-    /// (without learnt models) loads; the first append rewrites it under
+    /// A version-1 file (cases without learning records), version-2 file
+    /// (without learnt models) or version-3 file (without take-ups) loads; the first append rewrites it under
     /// the current header, its cases byte for byte, so that no file holds
     /// current cases under an older header (an older reader refuses the
     /// file by its header, not by a field it does not know).
@@ -447,6 +459,7 @@ mod tests {
                 payout_scale: vec![0.01, -0.01],
             },
             commands_m: vec![vec![-0.05; 10], vec![-0.01; 10]],
+            take_up_commands: vec![],
             measured_gaps_m: vec![
                 vec![Some(0.1); 5],
                 vec![Some(0.01), None, Some(0.01), Some(0.02), Some(0.0)],
@@ -510,6 +523,13 @@ mod tests {
             }),
             ("case.outcome.final_gap_m", |c| {
                 c.outcome.final_gap_m = Some(1e308)
+            }),
+            ("case.take_up_commands[0]", |c| c.take_up_commands = vec![2]),
+            ("case.take_up_commands[1]", |c| {
+                c.take_up_commands = vec![1, 0]
+            }),
+            ("case.take_up_commands[1]", |c| {
+                c.take_up_commands = vec![0, 0]
             }),
         ];
         for (k, (field, edit)) in edits.into_iter().enumerate() {

@@ -390,6 +390,15 @@ pub fn read_guidance(dir: &Path, motors: usize) -> Result<Guidance, FileError> {
             message: format!("needs {motors} finite payout changes, m"),
         });
     }
+    if let Some(t) = &g.take_up_in_front_m {
+        if t.len() != motors || t.iter().any(|v| !v.is_finite()) {
+            return Err(FileError::Invalid {
+                path,
+                entry: "take_up_in_front_m".into(),
+                message: format!("needs {motors} finite payout changes, m"),
+            });
+        }
+    }
     if g.feedforward_splits > MAX_FEEDFORWARD_SPLITS {
         return Err(FileError::Invalid {
             path,

@@ -27,7 +27,7 @@ use nalgebra::DMatrix;
 use thiserror::Error;
 
 use super::acceptance::{refutation, Decline};
-use super::case::CaseConditions;
+use super::case::{Case, CaseConditions};
 use super::ilc::{learn_commands, IlcData, IlcUpdate};
 use super::memory::{CaseMemory, FeatureScales};
 use crate::control::Guidance;
@@ -213,17 +213,9 @@ pub fn adapt(
             l
         })
         .collect();
-    let merged = merged_tail(
-        &case.commands_m,
-        case.outcome.corrective_commands.unwrap_or(0),
-        &context.motors.max_step_m,
-        settings.ilc_max_change_m,
-    );
+    let learnt = learnt_path(case, settings, &context.motors.max_step_m);
     let data = IlcData {
-        commands_m: match settings.learnt_path {
-            LearntPath::Replayed => merged,
-            LearntPath::Paced => paced_path(&merged, &context.motors.max_step_m),
-        },
+        commands_m: learnt.commands_m,
         end_gaps_m: case.final_gap_vectors_m.clone(),
         gap_weights: context.gap_weights.clone(),
         gap_sensitivity,
@@ -243,6 +235,7 @@ pub fn adapt(
             .then(|| case.conditions.payout_scale.clone()),
         payout_scale_prior_sd: Some(settings.payout_scale_prior_sd),
         feedforward_splits: settings.feedforward_splits,
+        take_up_in_front_m: learnt.take_up_in_front_m,
     };
     Ok(Advice::Guided(Adaptation {
         case_index,
@@ -250,6 +243,122 @@ pub fn adapt(
         ilc,
         guidance,
     }))
+}
+
+/// The learnt approach's commands before the ILC update, and the take-up
+/// they hold at their front ([`learnt_path`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LearntCommands {
+    /// The commands, per command and motor, m (drum).
+    pub commands_m: Vec<Vec<f64>>,
+    /// The case's take-up motion added at their front, per motor, m;
+    /// `None` where the case recorded none or it is paced as commands.
+    pub take_up_in_front_m: Option<Vec<f64>>,
+}
+
+/// The learnt approach's commands before the ILC update: the case's
+/// commands, their trailing corrections merged ([`merged_tail`]), then
+/// along the learnt path of `settings` ([`LearntPath`]).
+///
+/// On the paced path the case's take-ups ([`Case::take_up_commands`]) get
+/// no command of their own: the other commands are paced
+/// ([`paced_path`]) and the take-ups' motion goes in front of them
+/// ([`take_up_in_front`]), where the new cycle's own take-up replaces it
+/// ([`crate::control::Guidance::take_up_in_front_m`]). A take-up moves one
+/// cable's motor; paced as a command, it became a step of a few
+/// millimetres of every motor, which reeled the other cables in while the
+/// slack one was still slack (wide 7501 scenarios 67 and 87, cycle 4: far
+/// segments of `A_cc0` already below their minimum taken 0.1–0.3 N
+/// further below). Where the motion does not fit in front within the
+/// drum steps (every command at its step), the take-ups are paced as
+/// commands, as for a case that recorded none (a memory of format 3). On
+/// the replayed path, take-ups that lead the case are in front as they
+/// are, and replaced the same way.
+pub fn learnt_path(case: &Case, settings: &MemorySettings, max_step_m: &[f64]) -> LearntCommands {
+    let corrections = case.outcome.corrective_commands.unwrap_or(0);
+    let merged = |commands: &[Vec<f64>], corrections: usize| {
+        merged_tail(commands, corrections, max_step_m, settings.ilc_max_change_m)
+    };
+    let as_they_are = |commands_m| LearntCommands {
+        commands_m,
+        take_up_in_front_m: None,
+    };
+    let recorded = !case.take_up_commands.is_empty();
+    let mut take_up_m = vec![0.0; max_step_m.len()];
+    for &j in &case.take_up_commands {
+        for (t, u) in take_up_m.iter_mut().zip(&case.commands_m[j]) {
+            *t += u;
+        }
+    }
+    match settings.learnt_path {
+        // Take-ups that lead the case are at the front as they are.
+        LearntPath::Replayed => LearntCommands {
+            commands_m: merged(&case.commands_m, corrections),
+            take_up_in_front_m: (recorded
+                && case
+                    .take_up_commands
+                    .iter()
+                    .enumerate()
+                    .all(|(k, &j)| k == j))
+            .then_some(take_up_m),
+        },
+        LearntPath::Paced => {
+            let is_take_up = |j: usize| case.take_up_commands.binary_search(&j).is_ok();
+            let moves: Vec<Vec<f64>> = (0..case.commands_m.len())
+                .filter(|&j| !is_take_up(j))
+                .map(|j| case.commands_m[j].clone())
+                .collect();
+            let first_correction = case.commands_m.len().saturating_sub(corrections);
+            let move_corrections = corrections
+                - (first_correction..case.commands_m.len())
+                    .filter(|&j| is_take_up(j))
+                    .count();
+            let paced_moves = paced_path(&merged(&moves, move_corrections), max_step_m);
+            match take_up_in_front(paced_moves, &take_up_m, max_step_m) {
+                Some(commands_m) if recorded => LearntCommands {
+                    commands_m,
+                    take_up_in_front_m: Some(take_up_m),
+                },
+                Some(commands_m) => as_they_are(commands_m),
+                None => as_they_are(paced_path(
+                    &merged(&case.commands_m, corrections),
+                    max_step_m,
+                )),
+            }
+        }
+    }
+}
+
+/// `commands_m` with the motion `take_up_m` (per motor, m) added at their
+/// front: each motor's into its first command up to its drum step
+/// `max_step_m` (m), the rest into the next, and so on. `None` where it
+/// does not fit (or a motor has no step); `commands_m` as they are where
+/// there is no motion to add.
+pub fn take_up_in_front(
+    mut commands_m: Vec<Vec<f64>>,
+    take_up_m: &[f64],
+    max_step_m: &[f64],
+) -> Option<Vec<Vec<f64>>> {
+    for (m, &motion) in take_up_m.iter().enumerate() {
+        let mut left = motion;
+        if left == 0.0 {
+            continue;
+        }
+        let step = *max_step_m.get(m)?;
+        for u in commands_m.iter_mut() {
+            let x = u.get_mut(m)?;
+            let added = left.clamp(-step - *x, step - *x);
+            *x += added;
+            left -= added;
+            if left == 0.0 {
+                break;
+            }
+        }
+        if left.abs() > 1e-12 * step {
+            return None;
+        }
+    }
+    Some(commands_m)
 }
 
 /// The straight path to where `commands_m` end, at their pace: command
@@ -457,6 +566,7 @@ mod tests {
                 payout_scale: vec![0.0; 2],
             },
             commands_m: vec![half_way.clone(); 2],
+            take_up_commands: vec![],
             measured_gaps_m: vec![vec![Some(0.08); pairs], vec![Some(approach_gap_m); pairs]],
             final_gap_vectors_m: vec![Some([final_gap_m, 0.0, 0.0]); pairs],
             prediction_error_m: vec![Some(0.001); 2],
@@ -636,6 +746,96 @@ mod tests {
                 "{u:?}"
             );
         }
+    }
+
+    /// The case's take-ups were paced as commands of every motor: the
+    /// learnt approach began with a step of a few millimetres of every
+    /// motor, taken after this cycle's own take-up, which reeled the other
+    /// cables in while the slack one's far segments stuck below their
+    /// minimum (wide 7501 scenarios 67 and 87, cycle 4). A recorded
+    /// take-up gets no command: the moves are paced and its motion goes
+    /// in front of them, within the drum step (then into the next
+    /// command), and the guidance says so (the new cycle's take-up
+    /// replaces it); where it does not fit it is paced as a command again;
+    /// an older case, with none recorded, paces every command.
+    #[test]
+    fn a_recorded_take_up_goes_in_front_of_the_learnt_approach_not_into_a_step() {
+        let closed_loop = vec![
+            vec![-0.004, 0.0, 0.0],
+            vec![-0.025, -0.025, -0.025],
+            vec![-0.05, -0.05, -0.05],
+            vec![-0.05, -0.05, -0.05],
+        ];
+        let case = |take_ups: Vec<usize>| Case {
+            conditions: CaseConditions {
+                temperature_c: None,
+                fold_m: vec![0.2; 3],
+                start_gap_m: None,
+                payout_scale: vec![],
+            },
+            commands_m: closed_loop.clone(),
+            take_up_commands: take_ups,
+            measured_gaps_m: vec![vec![None]; 4],
+            final_gap_vectors_m: vec![None],
+            prediction_error_m: vec![None; 4],
+            outcome: CaseOutcome {
+                status: "connected".into(),
+                commands: 4,
+                corrective_commands: Some(0),
+                final_gap_m: None,
+                approach_commands: None,
+            },
+            learning: None,
+            model: None,
+        };
+        let settings = MemorySettings::default();
+        let steps = [0.05; 3];
+        let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-15);
+        // The three moves, paced as they were (all one way already), the
+        // take-up's 4 mm of motor 0 in front of the first.
+        let learnt = learnt_path(&case(vec![0]), &settings, &steps);
+        assert_eq!(learnt.take_up_in_front_m, Some(vec![-0.004, 0.0, 0.0]));
+        let path = learnt.commands_m;
+        assert_eq!(path.len(), 3, "{path:?}");
+        assert!(close(&path[0], &[-0.029, -0.025, -0.025]), "{path:?}");
+        assert!(close(&path[1], &[-0.05; 3]) && close(&path[2], &[-0.05; 3]));
+        // 26 mm of take-up: 25 fit in front of the first, and the 1 mm
+        // left finds no room in the later moves, all at their step: the
+        // take-up is paced as a command.
+        let mut big = case(vec![0]);
+        big.commands_m[0][0] = -0.026;
+        let learnt = learnt_path(&big, &settings, &steps);
+        assert_eq!(learnt.take_up_in_front_m, None);
+        let path = learnt.commands_m;
+        assert_eq!(path.len(), 4, "{path:?}");
+        // With 60 mm steps all 26 mm go in front of the first move.
+        let path = learnt_path(&big, &settings, &[0.06; 3]).commands_m;
+        assert_eq!(path.len(), 3, "{path:?}");
+        assert!(close(&path[0], &[-0.051, -0.025, -0.025]), "{path:?}");
+        // None recorded (a memory of format 3): the take-up is a step of
+        // every motor.
+        let learnt = learnt_path(&case(vec![]), &settings, &steps);
+        assert_eq!(learnt.take_up_in_front_m, None);
+        // Replayed, a leading take-up is in front as it is.
+        let replayed = MemorySettings {
+            learnt_path: LearntPath::Replayed,
+            ..MemorySettings::default()
+        };
+        let learnt_replayed = learnt_path(&case(vec![0]), &replayed, &steps);
+        assert_eq!(learnt_replayed.commands_m, closed_loop);
+        assert_eq!(
+            learnt_replayed.take_up_in_front_m,
+            Some(vec![-0.004, 0.0, 0.0])
+        );
+        assert_eq!(
+            learnt_path(&case(vec![1]), &replayed, &steps).take_up_in_front_m,
+            None
+        );
+        let path = learnt.commands_m;
+        assert_eq!(path.len(), 4, "{path:?}");
+        assert!(path[0].iter().all(|x| *x < 0.0), "{:?}", path[0]);
+        assert_eq!(take_up_in_front(vec![], &[0.0; 3], &steps), Some(vec![]));
+        assert_eq!(take_up_in_front(vec![], &[-0.001, 0.0, 0.0], &steps), None);
     }
 
     /// The end reached from the as-built state (or from a cached end) must

@@ -296,6 +296,15 @@ pub struct Case {
     pub conditions: CaseConditions,
     /// The commands sent, per command and motor, m.
     pub commands_m: Vec<Vec<f64>>,
+    /// Which of `commands_m` (0 for the first, ascending) took up slack
+    /// cables ([`crate::plan::take_up`]): each slack cable's motor alone
+    /// reels in, a step that does not aim at the design. A learnt
+    /// approach keeps their motion in its totals but does not pace them
+    /// as steps of every motor ([`super::adaptation::paced_path`]); the
+    /// new cycle takes up its own slack first. Empty: none, or a case of
+    /// a memory format before 4, which did not record them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub take_up_commands: Vec<usize>,
     /// Measured gap of each midspan pair after each command, m (`None`:
     /// a reading missing).
     pub measured_gaps_m: Vec<Vec<Option<f64>>>,
@@ -368,6 +377,22 @@ impl Case {
             count(&format!("commands_m[{i}]"), row.len(), motors)?;
             for (k, &x) in row.iter().enumerate() {
                 check_value(format!("commands_m[{i}][{k}]"), x, PAYOUT_RANGE_M)?;
+            }
+        }
+        for (i, w) in self.take_up_commands.windows(2).enumerate() {
+            if w[1] <= w[0] {
+                return Err(FieldError::new(
+                    format!("take_up_commands[{}]", i + 1),
+                    format!("{} after {}: the indices must ascend", w[1], w[0]),
+                ));
+            }
+        }
+        if let Some(&k) = self.take_up_commands.last() {
+            if k >= commands {
+                return Err(FieldError::new(
+                    format!("take_up_commands[{}]", self.take_up_commands.len() - 1),
+                    format!("{k}, not a command of the {commands} the case holds (0 is the first)"),
+                ));
             }
         }
         count("measured_gaps_m", self.measured_gaps_m.len(), commands)?;
@@ -552,6 +577,7 @@ impl Case {
                 payout_scale: d.final_payout_scale.clone(),
             },
             commands_m: d.commands(),
+            take_up_commands: d.take_up_commands(),
             measured_gaps_m: d
                 .records
                 .iter()

@@ -86,6 +86,7 @@ impl CommandPlanner for NominalPlanner {
             trust_region_m: None,
             rejected_trials: 0,
             linearisations: 0,
+            take_up: false,
         }))
     }
 }
@@ -170,6 +171,7 @@ impl CommandPlanner for GreedyTreePlanner {
                         trust_region_m: None,
                         rejected_trials: rejected,
                         linearisations: 0,
+                        take_up: false,
                     }));
                 }
             }

@@ -369,6 +369,12 @@ pub struct PlannedCommand {
     /// Linearisations computed for it (QP planner: 1 for the tangent
     /// alone, 2 when the secants replaced it; 0 for the baselines).
     pub linearisations: usize,
+    /// Whether it takes up slack cables ([`super::take_up`]): each slack
+    /// cable's motor reels in its slack alone, a step that does not aim
+    /// at the design. A case memory records which of a cycle's commands
+    /// these were, so that a learnt approach does not pace them as steps
+    /// of every motor ([`crate::learn::Case::take_up_commands`]).
+    pub take_up: bool,
 }
 
 /// What a planner does next.

@@ -483,6 +483,7 @@ impl QpPlanner {
                     trust_region_m: Some(radius),
                     rejected_trials: rejected,
                     linearisations: linearisations_before + 1,
+                    take_up: false,
                 });
                 return Ok((command, ratio));
             }

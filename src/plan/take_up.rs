@@ -71,5 +71,6 @@ pub fn take_up(context: &PlanContext, state: &DeploymentState) -> Option<Planned
         trust_region_m: None,
         rejected_trials: 0,
         linearisations: 0,
+        take_up: true,
     })
 }
