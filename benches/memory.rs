@@ -33,7 +33,7 @@ fn case(k: usize) -> Case {
             payout_scale: vec![s, -s],
         },
         commands_m: vec![vec![-0.05; 10]; 8],
-        take_up_commands: vec![],
+        take_up_commands: None,
         measured_gaps_m: vec![vec![Some(0.1); 5]; 8],
         final_gap_vectors_m: vec![Some([0.01, 0.0, 0.0]); 5],
         prediction_error_m: vec![Some(0.002); 9],

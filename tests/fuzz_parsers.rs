@@ -379,7 +379,7 @@ fn memory_files() {
                 payout_scale: vec![-0.03, 0.04],
             },
             commands_m: vec![vec![-0.05; 10]],
-            take_up_commands: vec![],
+            take_up_commands: None,
             measured_gaps_m: vec![vec![Some(0.1), None, Some(0.3), Some(0.4), Some(0.5)]],
             final_gap_vectors_m: vec![Some([0.01, 0.0, 0.0])],
             prediction_error_m: vec![Some(1e-3)],
@@ -604,7 +604,7 @@ fn consistent_memory_lines() -> Vec<serde_json::Value> {
                     payout_scale: vec![1.01, 0.99],
                 },
                 commands_m: vec![vec![-0.05; 10], vec![-0.01; 10]],
-                take_up_commands: vec![],
+                take_up_commands: None,
                 measured_gaps_m: vec![
                     vec![Some(0.1); 5],
                     vec![Some(0.01), None, Some(0.02), Some(0.0), Some(0.01)],

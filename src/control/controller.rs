@@ -31,7 +31,7 @@ use super::drum_offsets::{
 };
 use super::estimation::PayoutScaleEstimator;
 use super::force_offset_filter::ForceOffsetFilter;
-use super::guidance::Guidance;
+use super::guidance::{CaseTakeUp, Guidance};
 use super::measured_offsets::{filter_force_offsets, model_correction};
 use crate::model::{DeploymentState, ForwardModel};
 use crate::plan::take_up::take_up;
@@ -141,12 +141,13 @@ pub struct Controller<'a> {
     guided_approach: bool,
     /// Feedforward commands decided so far.
     feedforward_sent: usize,
-    /// The case's take-up at the front of the feedforward, to be replaced
-    /// by this cycle's ([`Guidance::take_up_in_front_m`]); taken once.
-    case_take_up_m: Option<Vec<f64>>,
-    /// Commands sent before the feedforward: the take-up of a cable the
-    /// model sees slack (0 or 1).
-    taken_up_first: usize,
+    /// Where the feedforward holds the case's take-up
+    /// ([`Guidance::case_take_up`]); [`CaseTakeUp::None`] once this
+    /// cycle's take-up has replaced one held in front.
+    case_take_up: CaseTakeUp,
+    /// Commands sent before the feedforward: take-ups of cables the model
+    /// sees slack.
+    take_ups_first: usize,
     /// Whether the operator rejected the take-up before the feedforward:
     /// the learnt approach then goes ahead without it.
     take_up_declined: bool,
@@ -295,8 +296,8 @@ impl<'a> Controller<'a> {
             feedforward_cut: false,
             guided_approach: !guidance.feedforward_m.is_empty(),
             feedforward_sent: 0,
-            case_take_up_m: guidance.take_up_in_front_m.clone(),
-            taken_up_first: 0,
+            case_take_up: guidance.case_take_up.clone(),
+            take_ups_first: 0,
             take_up_declined: false,
             first_connecting: None,
             drum_offsets,
@@ -361,7 +362,7 @@ impl<'a> Controller<'a> {
     /// (`None`: none yet).
     pub fn approach_commands(&self) -> Option<usize> {
         if self.guided_approach {
-            Some(self.taken_up_first + self.feedforward_sent)
+            Some(self.take_ups_first + self.feedforward_sent)
         } else {
             self.first_connecting
         }
@@ -493,22 +494,17 @@ impl<'a> Controller<'a> {
     }
 
     /// The planner's take-up of a cable the model sees slack
-    /// ([`crate::plan::take_up`]), where it comes before the first
-    /// feedforward command. Spread over the learnt approach, a take-up
-    /// reels the other cables in while the slack one is still slack, and
-    /// its segments, already below their minimum, fall further
-    /// (`scenarios/wide.toml` seed 7502 scenario 20: 0.1 N below their
-    /// start in every learnt cycle, 24 violations, none without the
-    /// memory). Sent first, it replaces the case's take-up, which the
-    /// learnt approach holds at its front
-    /// ([`Guidance::take_up_in_front_m`], taken out once this one is
-    /// observed, [`Self::deduct_from_feedforward`]): the learnt moves
-    /// after it are sent as learnt, and a fold that left more slack this
-    /// time is taken up in full.
+    /// ([`crate::plan::take_up`]), while no feedforward command has been
+    /// sent (as many as the slack needs: each is at most a drum step).
+    /// Spread over the learnt approach, a take-up reels the other cables
+    /// in while the slack one is still slack, and its segments, already
+    /// below their minimum, fall further (`scenarios/wide.toml` seed 7502
+    /// scenario 20: 0.1 N below their start in every learnt cycle, 24
+    /// violations, none without the memory). What it does to the learnt
+    /// commands once observed: [`Self::after_take_up`].
     fn take_up_before_feedforward(&self) -> Option<PlannedCommand> {
         if !self.guided_approach
             || self.take_up_declined
-            || self.commands_observed > 0
             || self.feedforward_sent > 0
             || self.feedforward.is_empty()
         {
@@ -517,31 +513,67 @@ impl<'a> Controller<'a> {
         take_up(&self.context, &self.state)
     }
 
-    /// Takes the drum motion `sent_m` out of the feedforward not yet
-    /// sent, from its front: each motor's from its first learnt command
-    /// moving it the same way, the rest from the next, and so on (the
-    /// inverse of [`crate::learn::adaptation::take_up_in_front`], which
-    /// put the case's take-up there). A motor the feedforward moves less
-    /// than `sent` ends unmoved by it; learnt commands moving it the other
-    /// way are left as they are. Commands left with no motion are dropped;
-    /// a feedforward left with none is cut (no learnt approach was sent,
-    /// so none is scored).
-    fn deduct_from_feedforward(&mut self, sent_m: &[f64]) {
-        let had_commands = !self.feedforward.is_empty();
-        for (m, &sent) in sent_m.iter().enumerate() {
-            let mut left = sent;
-            for (u, _) in self.feedforward.iter_mut() {
-                let Some(x) = u.get_mut(m) else { continue };
-                if left == 0.0 {
-                    break;
+    /// What an observed take-up before the feedforward does to the learnt
+    /// commands, by where they hold the case's take-up
+    /// ([`CaseTakeUp`]): held in front, the first one replaces it (its
+    /// additions subtracted; the learnt moves are sent as learnt, and
+    /// slack beyond the case's is taken up in addition); inside, each is
+    /// taken out in proportion ([`Self::keep_learnt_totals_after`]); none,
+    /// nothing (slack the case did not have). Where the command observed
+    /// was not the controller's own take-up (a resumed session's journal
+    /// may hold another in its place), it is taken out in proportion
+    /// whatever the case: whatever it was, the learnt commands still end
+    /// at their learnt totals, and no learnt step is sent twice.
+    fn after_take_up(&mut self, sent_m: &[f64], own_decision: bool) {
+        if !own_decision {
+            self.keep_learnt_totals_after(sent_m);
+            return;
+        }
+        match std::mem::replace(&mut self.case_take_up, CaseTakeUp::None) {
+            CaseTakeUp::InFront(added) => {
+                for ((u, _), a) in self.feedforward.iter_mut().zip(&added) {
+                    for (x, d) in u.iter_mut().zip(a) {
+                        *x -= d;
+                    }
                 }
-                if *x * left > 0.0 {
-                    let taken = if x.abs() <= left.abs() { *x } else { left };
-                    *x -= taken;
-                    left -= taken;
+                self.drop_empty_feedforward();
+            }
+            CaseTakeUp::Inside => {
+                self.keep_learnt_totals_after(sent_m);
+                self.case_take_up = CaseTakeUp::Inside;
+            }
+            CaseTakeUp::None => {}
+        }
+    }
+
+    /// Takes the drum motion `sent_m` out of the feedforward not yet
+    /// sent: each motor's commands scaled by `(t − sent)/t`, `t` its total
+    /// in the feedforward, so that it still ends at its learnt total and
+    /// keeps its pace (a paced approach stays the straight path, now from
+    /// where the take-up left the motor). A motor the feedforward moves
+    /// less than `sent` is not moved by it (its commands scaled by 0: the
+    /// take-up went past its learnt total, and the motor ends there); a
+    /// motor it moves the other way, or not at all, is left as it is.
+    fn keep_learnt_totals_after(&mut self, sent_m: &[f64]) {
+        for (m, &sent) in sent_m.iter().enumerate() {
+            let total: f64 = self.feedforward.iter().filter_map(|(u, _)| u.get(m)).sum();
+            if sent == 0.0 || total * sent <= 0.0 {
+                continue;
+            }
+            let factor = ((total - sent) / total).max(0.0);
+            for (u, _) in self.feedforward.iter_mut() {
+                if let Some(x) = u.get_mut(m) {
+                    *x *= factor;
                 }
             }
         }
+        self.drop_empty_feedforward();
+    }
+
+    /// Drops learnt commands left with no motion; a feedforward left with
+    /// none is cut (no learnt approach was sent, so none is scored).
+    fn drop_empty_feedforward(&mut self) {
+        let had_commands = !self.feedforward.is_empty();
         self.feedforward
             .retain(|(u, _)| u.iter().any(|x| *x != 0.0));
         self.feedforward_cut |= had_commands && self.feedforward.is_empty();
@@ -660,16 +692,6 @@ impl<'a> Controller<'a> {
                 .all(|(a, b)| (a - b).abs() <= OWN_COMMAND_TOLERANCE_M)
         });
         let own_decision = own.is_some();
-        if take_up_pending {
-            // What was sent in the take-up's place (a resumed session's
-            // journal may hold another command) stands for it: counted in
-            // the approach, and it replaces the case's take-up at the
-            // front of the learnt commands.
-            self.taken_up_first = 1;
-            if let Some(case_take_up) = self.case_take_up_m.take() {
-                self.deduct_from_feedforward(&case_take_up);
-            }
-        }
         let (planned_m, predicted) = match own {
             Some(p) => {
                 let c = *p.command;
@@ -691,6 +713,12 @@ impl<'a> Controller<'a> {
                 (planned, trial.state)
             }
         };
+        if take_up_pending {
+            // Whatever was sent in the take-up's place stands for it in
+            // the approach's count.
+            self.take_ups_first += 1;
+            self.after_take_up(sent_m, own_decision);
+        }
         let predicted_gaps_m = self.context.gaps_m(&predicted);
         let previous_state = std::mem::replace(&mut self.state, predicted);
         if let Some(e) = self.estimator.as_mut() {
@@ -789,16 +817,19 @@ mod tests {
     }
 
     /// A 58 cm fold leaves a cable slack on the model: a guided controller
-    /// proposes the planner's take-up before the learnt commands. Sent, it
-    /// is counted in the approach, marked a take-up (so the case records
-    /// it) and replaces the case's take-up at the front of the learnt
-    /// commands (taken out of the first learnt command, then the next;
-    /// every learnt command still sent; a case that recorded none loses
-    /// nothing); another command sent in its place stands for it (review:
-    /// it was neither counted nor deducted, and a resumed session re-sent
-    /// a learnt step); rejected, the learnt approach goes ahead without it.
+    /// proposes the planner's take-up before the learnt commands, marked a
+    /// take-up (so the case records it) and counted in the approach. What
+    /// it does to the learnt commands depends on where they hold the
+    /// case's take-up: in front, it replaces it (the additions subtracted
+    /// exactly); none, nothing; inside or unknown, it is taken out in
+    /// proportion (the totals kept). Another command sent in its place
+    /// (a resumed session's journal) is taken out in proportion whatever
+    /// the case (review of the twenty-first session: a resumed session
+    /// re-sent a learnt step; review of the twenty-second: taking out only
+    /// the case's take-up brought that back). Rejected, the learnt
+    /// approach goes ahead without it.
     #[test]
-    fn a_take_up_before_the_learnt_approach_is_counted_and_taken_out_of_it() {
+    fn a_take_up_before_the_learnt_approach_replaces_the_cases_take_up() {
         let model = frictionless_model();
         let problem = DeploymentProblem {
             start_payout_m: crate::plan::PerMotor::All(0.58),
@@ -811,34 +842,40 @@ mod tests {
         // (the load cells' offsets would hold a slack far segment at 0 N
         // and stop the planner at this fold, known limitations 18).
         let first = vec![None; sensors.len()];
-        let learnt = vec![vec![-0.02; 10]; 3];
-        // The case's take-up, in front: 25 mm of motor 1 (more than its
-        // first learnt command), 5 mm of motor 6.
-        let mut case_take_up = vec![0.0; 10];
-        case_take_up[1] = -0.025;
-        case_take_up[6] = -0.005;
-        let guidance = Guidance {
+        let moves = vec![vec![-0.02; 10]; 3];
+        // The case's take-up in front: 25 mm of motor 1, 5 mm of motor 6,
+        // both in the first learnt command.
+        let mut added = vec![vec![0.0; 10]];
+        added[0][1] = -0.025;
+        added[0][6] = -0.005;
+        let mut learnt = moves.clone();
+        learnt[0][1] = -0.045;
+        learnt[0][6] = -0.025;
+        let guidance = |case_take_up: CaseTakeUp| Guidance {
             feedforward_m: learnt.clone(),
             feedforward_splits: 2,
-            take_up_in_front_m: Some(case_take_up.clone()),
+            case_take_up,
             ..Guidance::default()
         };
-        let unrecorded = Guidance {
-            take_up_in_front_m: None,
-            ..guidance.clone()
-        };
+        let in_front = guidance(CaseTakeUp::InFront(added.clone()));
         let controller = |g: &Guidance| {
             Controller::guided(&model, &problem, &policy, &sensors, &first, g).unwrap()
         };
         let commands = |c: &Controller| -> Vec<Vec<f64>> {
             c.feedforward.iter().map(|(u, _)| u.clone()).collect()
         };
-        let mut replaced = learnt.clone();
-        replaced[0][1] = 0.0;
-        replaced[1][1] = -0.015;
-        replaced[0][6] = -0.015;
+        let totals = |c: &[Vec<f64>]| -> Vec<f64> {
+            (0..10).map(|m| c.iter().map(|u| u[m]).sum()).collect()
+        };
+        let close = |a: &[Vec<f64>], b: &[Vec<f64>]| {
+            a.len() == b.len()
+                && a.iter()
+                    .flatten()
+                    .zip(b.iter().flatten())
+                    .all(|(x, y)| (x - y).abs() < 1e-15)
+        };
 
-        let mut c = controller(&guidance);
+        let mut c = controller(&in_front);
         let ControllerDecision::Send(take_up) = c.decide() else {
             panic!("no command: {:?}", c.decide());
         };
@@ -852,27 +889,45 @@ mod tests {
         );
         c.observe(&take_up.sent_m, &first).unwrap();
         assert_eq!(c.approach_commands(), Some(1));
-        assert_eq!(
-            commands(&c),
-            replaced,
-            "the case's take-up out of the front"
-        );
+        assert!(close(&commands(&c), &moves), "{:?}", commands(&c));
 
-        // A case that recorded no take-up: the learnt commands as learnt.
-        let mut c = controller(&unrecorded);
+        // A case that took up no slack: the learnt commands as learnt.
+        let mut c = controller(&guidance(CaseTakeUp::None));
         assert!(matches!(c.decide(), ControllerDecision::Send(_)));
         c.observe(&take_up.sent_m, &first).unwrap();
         assert_eq!(c.approach_commands(), Some(1));
         assert_eq!(commands(&c), learnt);
 
-        let mut c = controller(&guidance);
+        // Inside or not known: out in proportion, the totals kept.
+        let proportional = |sent: &[f64], c: &Controller| {
+            for (m, (t, t0)) in totals(&commands(c)).iter().zip(totals(&learnt)).enumerate() {
+                let expected = if t0 * sent[m] > 0.0 {
+                    (t0 - sent[m]).min(0.0)
+                } else {
+                    t0
+                };
+                assert!(
+                    (t - expected).abs() < 1e-12,
+                    "motor {m}: {t} against {expected}"
+                );
+            }
+        };
+        let mut c = controller(&guidance(CaseTakeUp::Inside));
+        assert!(matches!(c.decide(), ControllerDecision::Send(_)));
+        c.observe(&take_up.sent_m, &first).unwrap();
+        assert_eq!(c.approach_commands(), Some(1));
+        proportional(&take_up.sent_m, &c);
+
+        // Not the take-up: out in proportion, though the case's is in
+        // front.
+        let mut c = controller(&in_front);
         assert!(matches!(c.decide(), ControllerDecision::Send(_)));
         let instead = vec![-0.01; 10];
         c.observe(&instead, &first).unwrap();
         assert_eq!(c.approach_commands(), Some(1));
-        assert_eq!(commands(&c), replaced);
+        proportional(&instead, &c);
 
-        let mut c = controller(&guidance);
+        let mut c = controller(&in_front);
         assert!(matches!(c.decide(), ControllerDecision::Send(_)));
         assert!(c.reject());
         let ControllerDecision::Send(next) = c.decide() else {

@@ -138,7 +138,7 @@ pub struct Deployment {
     /// Commands after that one: the corrective commands.
     pub corrective_commands: Option<usize>,
     /// Commands of the first approach: with a feedforward
-    /// ([`super::Guidance::feedforward_m`]), the take-up sent before it,
+    /// ([`super::Guidance::feedforward_m`]), the take-ups sent before it,
     /// if any, and the feedforward commands sent (a halved learnt
     /// command's parts counted one by one); otherwise the
     /// commands up to the first the controller predicted would connect

@@ -27,14 +27,34 @@ pub struct Guidance {
     /// Absent in a file: 0.
     #[serde(default)]
     pub feedforward_splits: usize,
-    /// The take-up of the case learnt from, held at the front of
-    /// `feedforward_m` (drum, m per motor; see
-    /// `crate::learn::adaptation::learnt_path`); `None` where the case
-    /// recorded none. Where the controller takes up this cycle's slack
-    /// first, its take-up replaces the case's: this motion is taken out of
-    /// the front of the feedforward. A fold that left more slack this time
-    /// is taken up in full, and the learnt moves after it are sent as
-    /// learnt. Absent in a file: `None`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub take_up_in_front_m: Option<Vec<f64>>,
+    /// Where `feedforward_m` holds the take-up of the case it was learnt
+    /// from, and so what the controller's own take-up before it
+    /// ([`crate::plan::take_up`]) does to it. Absent in a file:
+    /// [`CaseTakeUp::Inside`], what guidance before this field meant.
+    #[serde(default)]
+    pub case_take_up: CaseTakeUp,
+}
+
+/// The take-up of the case a learnt approach comes from, as the learnt
+/// commands hold it (`crate::learn::adaptation::learnt_path`).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum CaseTakeUp {
+    /// Somewhere inside the learnt commands, or not known (a case of a
+    /// memory before format 4, or take-ups paced as commands): every
+    /// take-up sent before the feedforward is taken out of it in
+    /// proportion, each motor's commands scaled by `(t − sent)/t`, so that
+    /// they still end at their learnt totals.
+    #[default]
+    Inside,
+    /// The case took up no slack: a take-up this cycle is slack the case
+    /// did not have, taken up in addition to the learnt commands.
+    None,
+    /// Added at the front of the learnt commands: the motion added to
+    /// each of the first commands, per command and motor, m (drum). The
+    /// controller's first own take-up replaces it: these additions are
+    /// subtracted again, and the learnt moves after the take-up are sent
+    /// as learnt; a fold that left more slack this time is taken up in
+    /// full (further take-ups before the first learnt command add to it).
+    InFront(Vec<Vec<f64>>),
 }

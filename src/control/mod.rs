@@ -48,7 +48,7 @@ pub use deployment::{
 };
 pub use estimation::PayoutScaleEstimator;
 pub use force_offset_filter::ForceOffsetFilter;
-pub use guidance::Guidance;
+pub use guidance::{CaseTakeUp, Guidance};
 pub use measured_offsets::{gap_reading_sd_m, measured_gap_vectors, model_correction};
 pub use session::{
     Interlocks, Session, SessionError, SessionEvent, SessionPhase, SessionRefusal, SessionSetup,

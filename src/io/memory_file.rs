@@ -195,7 +195,7 @@ mod tests {
                 payout_scale: vec![-0.031, 0.0427],
             },
             commands_m: vec![vec![-0.05; 10], vec![-0.0123456789; 10]],
-            take_up_commands: vec![],
+            take_up_commands: None,
             measured_gaps_m: vec![vec![Some(0.1), None, Some(0.3), Some(0.4), Some(0.5)]],
             final_gap_vectors_m: vec![Some([0.01, -0.002, 0.0]), None],
             prediction_error_m: vec![Some(1e-3), None],
@@ -244,7 +244,7 @@ mod tests {
             learnt_commands: 2,
             approach_completed: true,
         });
-        learnt.take_up_commands = vec![0];
+        learnt.take_up_commands = Some(vec![0]);
         append_case(&path, &case(0)).unwrap();
         append_case(&path, &learnt).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
@@ -459,7 +459,7 @@ mod tests {
                 payout_scale: vec![0.01, -0.01],
             },
             commands_m: vec![vec![-0.05; 10], vec![-0.01; 10]],
-            take_up_commands: vec![],
+            take_up_commands: None,
             measured_gaps_m: vec![
                 vec![Some(0.1); 5],
                 vec![Some(0.01), None, Some(0.01), Some(0.02), Some(0.0)],
@@ -524,12 +524,14 @@ mod tests {
             ("case.outcome.final_gap_m", |c| {
                 c.outcome.final_gap_m = Some(1e308)
             }),
-            ("case.take_up_commands[0]", |c| c.take_up_commands = vec![2]),
-            ("case.take_up_commands[1]", |c| {
-                c.take_up_commands = vec![1, 0]
+            ("case.take_up_commands[0]", |c| {
+                c.take_up_commands = Some(vec![2])
             }),
             ("case.take_up_commands[1]", |c| {
-                c.take_up_commands = vec![0, 0]
+                c.take_up_commands = Some(vec![1, 0])
+            }),
+            ("case.take_up_commands[1]", |c| {
+                c.take_up_commands = Some(vec![0, 0])
             }),
         ];
         for (k, (field, edit)) in edits.into_iter().enumerate() {

@@ -61,7 +61,7 @@ use super::{
     FileError,
 };
 use crate::control::{
-    Guidance, Interlocks, Session, SessionEvent, SessionPhase, StepReadings,
+    CaseTakeUp, Guidance, Interlocks, Session, SessionEvent, SessionPhase, StepReadings,
     MAX_FEEDFORWARD_SPLITS, OWN_COMMAND_TOLERANCE_M,
 };
 use crate::measure::log::{Cycle, MeasurementLog};
@@ -379,24 +379,33 @@ pub fn read_guidance(dir: &Path, motors: usize) -> Result<Guidance, FileError> {
         column: e.column(),
         message: e.to_string(),
     })?;
-    if let Some(k) = g
-        .feedforward_m
-        .iter()
-        .position(|u| u.len() != motors || u.iter().any(|v| !v.is_finite()))
-    {
-        return Err(FileError::Invalid {
-            path,
-            entry: format!("feedforward_m[{k}]"),
-            message: format!("needs {motors} finite payout changes, m"),
-        });
+    // Each row one finite payout change per motor.
+    let bad_row = |rows: &[Vec<f64>], field: &str| {
+        rows.iter()
+            .position(|u| u.len() != motors || u.iter().any(|v| !v.is_finite()))
+            .map(|k| FileError::Invalid {
+                path: path.clone(),
+                entry: format!("{field}[{k}]"),
+                message: format!("needs {motors} finite payout changes, m"),
+            })
+    };
+    if let Some(e) = bad_row(&g.feedforward_m, "feedforward_m") {
+        return Err(e);
     }
-    if let Some(t) = &g.take_up_in_front_m {
-        if t.len() != motors || t.iter().any(|v| !v.is_finite()) {
+    if let CaseTakeUp::InFront(added) = &g.case_take_up {
+        if added.len() > g.feedforward_m.len() {
             return Err(FileError::Invalid {
                 path,
-                entry: "take_up_in_front_m".into(),
-                message: format!("needs {motors} finite payout changes, m"),
+                entry: "case_take_up.in_front".into(),
+                message: format!(
+                    "{} rows for {} feedforward commands",
+                    added.len(),
+                    g.feedforward_m.len()
+                ),
             });
+        }
+        if let Some(e) = bad_row(added, "case_take_up.in_front") {
+            return Err(e);
         }
     }
     if g.feedforward_splits > MAX_FEEDFORWARD_SPLITS {
@@ -743,5 +752,45 @@ mod tests {
             e.contains("guidance.json") && e.contains("feedforward_splits"),
             "{e}"
         );
+    }
+
+    /// A `guidance.json` written before the case's take-up was recorded
+    /// reads as a take-up inside the learnt commands (the controller then
+    /// takes its own out in proportion, as it did); one held in front
+    /// reads back, and rows that do not fit the feedforward or the motors
+    /// are refused naming the field.
+    #[test]
+    fn a_guidance_file_reads_where_it_holds_the_cases_take_up() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("guidance.json");
+        let old = r#"{"feedforward_m":[[-0.05,-0.05]],"payout_scale_prior":null,"payout_scale_prior_sd":null}"#;
+        std::fs::write(&path, old).unwrap();
+        assert_eq!(
+            read_guidance(dir.path(), 2).unwrap().case_take_up,
+            CaseTakeUp::Inside
+        );
+        let with =
+            |case_take_up: &str| old.replace("}", &format!(r#","case_take_up":{case_take_up}}}"#));
+        std::fs::write(&path, with(r#"{"in_front":[[-0.004,0.0]]}"#)).unwrap();
+        assert_eq!(
+            read_guidance(dir.path(), 2).unwrap().case_take_up,
+            CaseTakeUp::InFront(vec![vec![-0.004, 0.0]])
+        );
+        std::fs::write(&path, with(r#""none""#)).unwrap();
+        assert_eq!(
+            read_guidance(dir.path(), 2).unwrap().case_take_up,
+            CaseTakeUp::None
+        );
+        for (bad, field) in [
+            (
+                r#"{"in_front":[[-0.004,0.0],[0.0,0.0]]}"#,
+                "case_take_up.in_front",
+            ),
+            (r#"{"in_front":[[-0.004]]}"#, "case_take_up.in_front[0]"),
+        ] {
+            std::fs::write(&path, with(bad)).unwrap();
+            let e = read_guidance(dir.path(), 2).unwrap_err().to_string();
+            assert!(e.contains("guidance.json") && e.contains(field), "{e}");
+        }
     }
 }

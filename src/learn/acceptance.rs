@@ -181,7 +181,7 @@ mod tests {
                 payout_scale: vec![0.0; 2],
             },
             commands_m: vec![vec![-0.05; 2]; 3],
-            take_up_commands: vec![],
+            take_up_commands: None,
             measured_gaps_m: vec![
                 vec![Some(0.1); 2],
                 vec![Some(approach_gap_m); 2],

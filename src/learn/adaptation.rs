@@ -30,8 +30,8 @@ use super::acceptance::{refutation, Decline};
 use super::case::{Case, CaseConditions};
 use super::ilc::{learn_commands, IlcData, IlcUpdate};
 use super::memory::{CaseMemory, FeatureScales};
-use crate::control::Guidance;
 use crate::control::PayoutScaleEstimator;
+use crate::control::{CaseTakeUp, Guidance};
 use crate::model::{DeploymentState, RelaxStatus, SensitivityError, Workspace};
 use crate::plan::response::{IndependentParts, PayoutResponse};
 use crate::plan::search::step_data;
@@ -235,7 +235,7 @@ pub fn adapt(
             .then(|| case.conditions.payout_scale.clone()),
         payout_scale_prior_sd: Some(settings.payout_scale_prior_sd),
         feedforward_splits: settings.feedforward_splits,
-        take_up_in_front_m: learnt.take_up_in_front_m,
+        case_take_up: learnt.case_take_up,
     };
     Ok(Advice::Guided(Adaptation {
         case_index,
@@ -245,111 +245,152 @@ pub fn adapt(
     }))
 }
 
-/// The learnt approach's commands before the ILC update, and the take-up
-/// they hold at their front ([`learnt_path`]).
+/// The learnt approach's commands before the ILC update, and where they
+/// hold the case's take-up ([`learnt_path`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct LearntCommands {
     /// The commands, per command and motor, m (drum).
     pub commands_m: Vec<Vec<f64>>,
-    /// The case's take-up motion added at their front, per motor, m;
-    /// `None` where the case recorded none or it is paced as commands.
-    pub take_up_in_front_m: Option<Vec<f64>>,
+    /// Where they hold the case's take-up.
+    pub case_take_up: CaseTakeUp,
 }
 
 /// The learnt approach's commands before the ILC update: the case's
 /// commands, their trailing corrections merged ([`merged_tail`]), then
-/// along the learnt path of `settings` ([`LearntPath`]).
+/// along the learnt path of `settings` ([`LearntPath`]), and where they
+/// hold the case's take-up ([`CaseTakeUp`]).
 ///
-/// On the paced path the case's take-ups ([`Case::take_up_commands`]) get
-/// no command of their own: the other commands are paced
-/// ([`paced_path`]) and the take-ups' motion goes in front of them
-/// ([`take_up_in_front`]), where the new cycle's own take-up replaces it
-/// ([`crate::control::Guidance::take_up_in_front_m`]). A take-up moves one
-/// cable's motor; paced as a command, it became a step of a few
-/// millimetres of every motor, which reeled the other cables in while the
-/// slack one was still slack (wide 7501 scenarios 67 and 87, cycle 4: far
-/// segments of `A_cc0` already below their minimum taken 0.1–0.3 N
-/// further below). Where the motion does not fit in front within the
-/// drum steps (every command at its step), the take-ups are paced as
-/// commands, as for a case that recorded none (a memory of format 3). On
-/// the replayed path, take-ups that lead the case are in front as they
-/// are, and replaced the same way.
+/// The case's take-up is its leading take-ups ([`Case::take_up_commands`]
+/// that come before any other command). On the paced path no take-up
+/// gets a command of its own: the other commands are paced
+/// ([`paced_path`]), the case's take-up is added at their front
+/// ([`take_up_in_front`]), where the new cycle's own take-up replaces it,
+/// and a later take-up's motion after it (part of the learnt moves: the
+/// new cycle's slack shows at its fold, not later). A take-up moves one cable's
+/// motor; paced as a command, it became a step of a few millimetres of
+/// every motor, which reeled the other cables in while the slack one was
+/// still slack (wide 7501 scenarios 67 and 87, cycle 4: far segments of
+/// `A_cc0` already below their minimum taken 0.1–0.3 N further below).
+/// On the replayed path the leading take-ups are the front as they are.
+/// Where the motion does not fit at the front within the drum steps, or
+/// the case's take-ups are not known (a memory before format 4), every
+/// command is paced and the take-up is [`CaseTakeUp::Inside`].
 pub fn learnt_path(case: &Case, settings: &MemorySettings, max_step_m: &[f64]) -> LearntCommands {
+    let all = &case.commands_m;
     let corrections = case.outcome.corrective_commands.unwrap_or(0);
     let merged = |commands: &[Vec<f64>], corrections: usize| {
         merged_tail(commands, corrections, max_step_m, settings.ilc_max_change_m)
     };
-    let as_they_are = |commands_m| LearntCommands {
+    let inside = |commands_m| LearntCommands {
         commands_m,
-        take_up_in_front_m: None,
+        case_take_up: CaseTakeUp::Inside,
     };
-    let recorded = !case.take_up_commands.is_empty();
-    let mut take_up_m = vec![0.0; max_step_m.len()];
-    for &j in &case.take_up_commands {
-        for (t, u) in take_up_m.iter_mut().zip(&case.commands_m[j]) {
-            *t += u;
+    let Some(take_ups) = &case.take_up_commands else {
+        return inside(match settings.learnt_path {
+            LearntPath::Replayed => merged(all, corrections),
+            LearntPath::Paced => paced_path(&merged(all, corrections), max_step_m),
+        });
+    };
+    let is_take_up = |j: usize| take_ups.binary_search(&j).is_ok();
+    // The leading take-ups are the case's take-up, which this cycle's
+    // replaces; never the whole case.
+    let leading = take_ups
+        .iter()
+        .enumerate()
+        .take_while(|(k, &j)| *k == j)
+        .count()
+        .min(all.len().saturating_sub(1));
+    let motion = |from: usize, to: usize| {
+        let mut t = vec![0.0; max_step_m.len()];
+        for u in (from..to).filter(|&j| is_take_up(j)).map(|j| &all[j]) {
+            for (t, x) in t.iter_mut().zip(u) {
+                *t += x;
+            }
         }
-    }
-    match settings.learnt_path {
-        // Take-ups that lead the case are at the front as they are.
-        LearntPath::Replayed => LearntCommands {
-            commands_m: merged(&case.commands_m, corrections),
-            take_up_in_front_m: (recorded
-                && case
-                    .take_up_commands
-                    .iter()
-                    .enumerate()
-                    .all(|(k, &j)| k == j))
-            .then_some(take_up_m),
+        t
+    };
+    let front = |commands_m: Vec<Vec<f64>>, added: Vec<Vec<f64>>| LearntCommands {
+        commands_m,
+        case_take_up: if leading == 0 {
+            CaseTakeUp::None
+        } else {
+            CaseTakeUp::InFront(added)
         },
+    };
+    match settings.learnt_path {
+        LearntPath::Replayed => {
+            let commands_m = merged(all, corrections);
+            let added = commands_m[..leading.min(commands_m.len())].to_vec();
+            front(commands_m, added)
+        }
         LearntPath::Paced => {
-            let is_take_up = |j: usize| case.take_up_commands.binary_search(&j).is_ok();
-            let moves: Vec<Vec<f64>> = (0..case.commands_m.len())
+            // Every take-up gets no step of its own: the moves are paced,
+            // the case's take-up goes in front of them, then the later
+            // take-ups' motion (part of the learnt moves, not replaced).
+            let moves: Vec<Vec<f64>> = (0..all.len())
                 .filter(|&j| !is_take_up(j))
-                .map(|j| case.commands_m[j].clone())
+                .map(|j| all[j].clone())
                 .collect();
-            let first_correction = case.commands_m.len().saturating_sub(corrections);
+            let first_correction = all.len().saturating_sub(corrections);
             let move_corrections = corrections
-                - (first_correction..case.commands_m.len())
+                - (first_correction..all.len())
                     .filter(|&j| is_take_up(j))
                     .count();
             let paced_moves = paced_path(&merged(&moves, move_corrections), max_step_m);
-            match take_up_in_front(paced_moves, &take_up_m, max_step_m) {
-                Some(commands_m) if recorded => LearntCommands {
-                    commands_m,
-                    take_up_in_front_m: Some(take_up_m),
+            let fitted = take_up_in_front(paced_moves, &motion(0, leading), max_step_m).and_then(
+                |(commands_m, added)| {
+                    let later = motion(leading, all.len());
+                    take_up_in_front(commands_m, &later, max_step_m)
+                        .map(|(commands_m, _)| (commands_m, added))
                 },
-                Some(commands_m) => as_they_are(commands_m),
-                None => as_they_are(paced_path(
-                    &merged(&case.commands_m, corrections),
-                    max_step_m,
-                )),
+            );
+            match fitted {
+                Some((commands_m, added)) if !moves.is_empty() => front(commands_m, added),
+                _ => inside(paced_path(&merged(all, corrections), max_step_m)),
             }
         }
     }
 }
 
+/// Commands (per command and motor, m) and the motion added to each of
+/// the first of them (as many rows as commands were added to), m.
+pub type CommandsWithAdded = (Vec<Vec<f64>>, Vec<Vec<f64>>);
+
 /// `commands_m` with the motion `take_up_m` (per motor, m) added at their
 /// front: each motor's into its first command up to its drum step
-/// `max_step_m` (m), the rest into the next, and so on. `None` where it
-/// does not fit (or a motor has no step); `commands_m` as they are where
-/// there is no motion to add.
+/// `max_step_m` (m), the rest into the next, and so on; with the motion
+/// added to each command (as many rows as commands were added to). `None`
+/// where it does not fit, or a step is not positive and finite, or a
+/// number is not finite; `commands_m` as they are where there is no motion
+/// to add.
 pub fn take_up_in_front(
     mut commands_m: Vec<Vec<f64>>,
     take_up_m: &[f64],
     max_step_m: &[f64],
-) -> Option<Vec<Vec<f64>>> {
+) -> Option<CommandsWithAdded> {
+    let finite = |x: &f64| x.is_finite();
+    if !take_up_m.iter().all(finite) || !commands_m.iter().flatten().all(finite) {
+        return None;
+    }
+    let mut added: Vec<Vec<f64>> = Vec::new();
     for (m, &motion) in take_up_m.iter().enumerate() {
-        let mut left = motion;
-        if left == 0.0 {
+        if motion == 0.0 {
             continue;
         }
         let step = *max_step_m.get(m)?;
-        for u in commands_m.iter_mut() {
+        if !(step > 0.0 && step.is_finite()) {
+            return None;
+        }
+        let mut left = motion;
+        for (j, u) in commands_m.iter_mut().enumerate() {
             let x = u.get_mut(m)?;
-            let added = left.clamp(-step - *x, step - *x);
-            *x += added;
-            left -= added;
+            let add = left.clamp((-step - *x).min(0.0), (step - *x).max(0.0));
+            *x += add;
+            left -= add;
+            if added.len() <= j {
+                added.resize(j + 1, vec![0.0; take_up_m.len()]);
+            }
+            added[j][m] = add;
             if left == 0.0 {
                 break;
             }
@@ -358,7 +399,7 @@ pub fn take_up_in_front(
             return None;
         }
     }
-    Some(commands_m)
+    Some((commands_m, added))
 }
 
 /// The straight path to where `commands_m` end, at their pace: command
@@ -566,7 +607,7 @@ mod tests {
                 payout_scale: vec![0.0; 2],
             },
             commands_m: vec![half_way.clone(); 2],
-            take_up_commands: vec![],
+            take_up_commands: None,
             measured_gaps_m: vec![vec![Some(0.08); pairs], vec![Some(approach_gap_m); pairs]],
             final_gap_vectors_m: vec![Some([final_gap_m, 0.0, 0.0]); pairs],
             prediction_error_m: vec![Some(0.001); 2],
@@ -752,90 +793,153 @@ mod tests {
     /// learnt approach began with a step of a few millimetres of every
     /// motor, taken after this cycle's own take-up, which reeled the other
     /// cables in while the slack one's far segments stuck below their
-    /// minimum (wide 7501 scenarios 67 and 87, cycle 4). A recorded
-    /// take-up gets no command: the moves are paced and its motion goes
-    /// in front of them, within the drum step (then into the next
-    /// command), and the guidance says so (the new cycle's take-up
-    /// replaces it); where it does not fit it is paced as a command again;
-    /// an older case, with none recorded, paces every command.
+    /// minimum (wide 7501 scenarios 67 and 87, cycle 4). No take-up gets
+    /// a command: the moves are paced and the case's leading take-ups'
+    /// motion is added in front, within the drum step (then into the next
+    /// command), and the guidance holds what was added; a later take-up's
+    /// motion goes in front too, as part of the moves; where it does not fit,
+    /// or the case's take-ups are not known (format 3), every command is
+    /// paced and the take-up is inside; a case known to have none says so.
     #[test]
-    fn a_recorded_take_up_goes_in_front_of_the_learnt_approach_not_into_a_step() {
+    fn a_cases_take_up_goes_in_front_of_the_learnt_approach_not_into_a_step() {
         let closed_loop = vec![
             vec![-0.004, 0.0, 0.0],
             vec![-0.025, -0.025, -0.025],
             vec![-0.05, -0.05, -0.05],
             vec![-0.05, -0.05, -0.05],
         ];
-        let case = |take_ups: Vec<usize>| Case {
-            conditions: CaseConditions {
-                temperature_c: None,
-                fold_m: vec![0.2; 3],
-                start_gap_m: None,
-                payout_scale: vec![],
-            },
-            commands_m: closed_loop.clone(),
-            take_up_commands: take_ups,
-            measured_gaps_m: vec![vec![None]; 4],
-            final_gap_vectors_m: vec![None],
-            prediction_error_m: vec![None; 4],
-            outcome: CaseOutcome {
-                status: "connected".into(),
-                commands: 4,
-                corrective_commands: Some(0),
-                final_gap_m: None,
-                approach_commands: None,
-            },
-            learning: None,
-            model: None,
+        let case = |commands_m: Vec<Vec<f64>>, take_ups: Option<Vec<usize>>, corrections| {
+            let n = commands_m.len();
+            Case {
+                conditions: CaseConditions {
+                    temperature_c: None,
+                    fold_m: vec![0.2; 3],
+                    start_gap_m: None,
+                    payout_scale: vec![],
+                },
+                commands_m,
+                take_up_commands: take_ups,
+                measured_gaps_m: vec![vec![None]; n],
+                final_gap_vectors_m: vec![None],
+                prediction_error_m: vec![None; n],
+                outcome: CaseOutcome {
+                    status: "connected".into(),
+                    commands: n,
+                    corrective_commands: Some(corrections),
+                    final_gap_m: None,
+                    approach_commands: None,
+                },
+                learning: None,
+                model: None,
+            }
         };
         let settings = MemorySettings::default();
         let steps = [0.05; 3];
         let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-15);
         // The three moves, paced as they were (all one way already), the
         // take-up's 4 mm of motor 0 in front of the first.
-        let learnt = learnt_path(&case(vec![0]), &settings, &steps);
-        assert_eq!(learnt.take_up_in_front_m, Some(vec![-0.004, 0.0, 0.0]));
-        let path = learnt.commands_m;
+        let learnt = learnt_path(
+            &case(closed_loop.clone(), Some(vec![0]), 0),
+            &settings,
+            &steps,
+        );
+        let path = &learnt.commands_m;
         assert_eq!(path.len(), 3, "{path:?}");
         assert!(close(&path[0], &[-0.029, -0.025, -0.025]), "{path:?}");
         assert!(close(&path[1], &[-0.05; 3]) && close(&path[2], &[-0.05; 3]));
-        // 26 mm of take-up: 25 fit in front of the first, and the 1 mm
-        // left finds no room in the later moves, all at their step: the
-        // take-up is paced as a command.
-        let mut big = case(vec![0]);
-        big.commands_m[0][0] = -0.026;
-        let learnt = learnt_path(&big, &settings, &steps);
-        assert_eq!(learnt.take_up_in_front_m, None);
-        let path = learnt.commands_m;
-        assert_eq!(path.len(), 4, "{path:?}");
+        assert_eq!(
+            learnt.case_take_up,
+            CaseTakeUp::InFront(vec![vec![-0.004, 0.0, 0.0]])
+        );
+        // A trailing correction merges with the move before it (−10 and
+        // −30 mm, within the 50 mm step less the ILC's 4 mm room): three
+        // moves, the take-up in front of the first.
+        let mut with_correction = closed_loop.clone();
+        with_correction[3] = vec![-0.03; 3];
+        with_correction.push(vec![-0.01; 3]);
+        let learnt = learnt_path(&case(with_correction, Some(vec![0]), 1), &settings, &steps);
+        assert_eq!(learnt.commands_m.len(), 3, "{:?}", learnt.commands_m);
+        assert!(close(&learnt.commands_m[0], &[-0.029, -0.025, -0.025]));
+        // 26 mm of take-up: 25 fit in front of the first move, and the
+        // 1 mm left finds no room in the later moves, all at their step:
+        // every command is paced, the take-up inside.
+        let mut big = closed_loop.clone();
+        big[0][0] = -0.026;
+        let learnt = learnt_path(&case(big.clone(), Some(vec![0]), 0), &settings, &steps);
+        assert_eq!(learnt.commands_m.len(), 4, "{:?}", learnt.commands_m);
+        assert_eq!(learnt.case_take_up, CaseTakeUp::Inside);
         // With 60 mm steps all 26 mm go in front of the first move.
-        let path = learnt_path(&big, &settings, &[0.06; 3]).commands_m;
-        assert_eq!(path.len(), 3, "{path:?}");
-        assert!(close(&path[0], &[-0.051, -0.025, -0.025]), "{path:?}");
-        // None recorded (a memory of format 3): the take-up is a step of
-        // every motor.
-        let learnt = learnt_path(&case(vec![]), &settings, &steps);
-        assert_eq!(learnt.take_up_in_front_m, None);
-        // Replayed, a leading take-up is in front as it is.
+        let learnt = learnt_path(&case(big, Some(vec![0]), 0), &settings, &[0.06; 3]);
+        assert!(
+            close(&learnt.commands_m[0], &[-0.051, -0.025, -0.025]),
+            "{:?}",
+            learnt.commands_m
+        );
+        // Take-ups not known (format 3): every command paced, the take-up
+        // inside; known to be none: paced the same, and said so.
+        let unknown = learnt_path(&case(closed_loop.clone(), None, 0), &settings, &steps);
+        assert_eq!(unknown.commands_m.len(), 4);
+        assert_eq!(unknown.case_take_up, CaseTakeUp::Inside);
+        let none = learnt_path(
+            &case(closed_loop.clone(), Some(vec![]), 0),
+            &settings,
+            &steps,
+        );
+        assert_eq!(none.commands_m, unknown.commands_m);
+        assert_eq!(none.case_take_up, CaseTakeUp::None);
+        // A take-up later in the case (a cable slack after the first
+        // move) gets no step either: its motion goes in front of the
+        // moves, as part of them (the case's take-up is none).
+        let later_take_up = vec![
+            vec![-0.025; 3],
+            vec![0.0, -0.003, 0.0],
+            vec![-0.05; 3],
+            vec![-0.05; 3],
+        ];
+        let later = learnt_path(&case(later_take_up, Some(vec![1]), 0), &settings, &steps);
+        assert_eq!(later.case_take_up, CaseTakeUp::None);
+        assert_eq!(later.commands_m.len(), 3, "{:?}", later.commands_m);
+        assert!(close(&later.commands_m[0], &[-0.025, -0.028, -0.025]));
+        // Replayed, the leading take-up is the front as it is.
         let replayed = MemorySettings {
             learnt_path: LearntPath::Replayed,
             ..MemorySettings::default()
         };
-        let learnt_replayed = learnt_path(&case(vec![0]), &replayed, &steps);
-        assert_eq!(learnt_replayed.commands_m, closed_loop);
-        assert_eq!(
-            learnt_replayed.take_up_in_front_m,
-            Some(vec![-0.004, 0.0, 0.0])
+        let learnt = learnt_path(
+            &case(closed_loop.clone(), Some(vec![0]), 0),
+            &replayed,
+            &steps,
         );
+        assert_eq!(learnt.commands_m, closed_loop);
         assert_eq!(
-            learnt_path(&case(vec![1]), &replayed, &steps).take_up_in_front_m,
+            learnt.case_take_up,
+            CaseTakeUp::InFront(vec![vec![-0.004, 0.0, 0.0]])
+        );
+        // A take-up against the moves' way (they pay out) is added all the
+        // same, and what was added is what the controller subtracts.
+        let (commands, added) =
+            take_up_in_front(vec![vec![0.01; 3]; 3], &[-0.004, 0.0, 0.0], &steps).unwrap();
+        assert!(close(&commands[0], &[0.006, 0.01, 0.01]), "{commands:?}");
+        assert_eq!(added, vec![vec![-0.004, 0.0, 0.0]]);
+        // Nothing to add; no room; steps or numbers that are not usable.
+        assert_eq!(
+            take_up_in_front(vec![], &[0.0; 3], &steps),
+            Some((vec![], vec![]))
+        );
+        assert_eq!(take_up_in_front(vec![], &[-0.001, 0.0, 0.0], &steps), None);
+        let one = vec![vec![-0.01; 3]];
+        assert_eq!(
+            take_up_in_front(one.clone(), &[-0.001, 0.0, 0.0], &[-0.05; 3]),
             None
         );
-        let path = learnt.commands_m;
-        assert_eq!(path.len(), 4, "{path:?}");
-        assert!(path[0].iter().all(|x| *x < 0.0), "{:?}", path[0]);
-        assert_eq!(take_up_in_front(vec![], &[0.0; 3], &steps), Some(vec![]));
-        assert_eq!(take_up_in_front(vec![], &[-0.001, 0.0, 0.0], &steps), None);
+        assert_eq!(
+            take_up_in_front(one.clone(), &[f64::NAN, 0.0, 0.0], &steps),
+            None
+        );
+        assert_eq!(
+            take_up_in_front(vec![vec![f64::NAN; 3]], &[-0.001, 0.0, 0.0], &steps),
+            None
+        );
     }
 
     /// The end reached from the as-built state (or from a cached end) must

@@ -298,13 +298,13 @@ pub struct Case {
     pub commands_m: Vec<Vec<f64>>,
     /// Which of `commands_m` (0 for the first, ascending) took up slack
     /// cables ([`crate::plan::take_up`]): each slack cable's motor alone
-    /// reels in, a step that does not aim at the design. A learnt
-    /// approach keeps their motion in its totals but does not pace them
-    /// as steps of every motor ([`super::adaptation::paced_path`]); the
-    /// new cycle takes up its own slack first. Empty: none, or a case of
-    /// a memory format before 4, which did not record them.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub take_up_commands: Vec<usize>,
+    /// reels in, a step that does not aim at the design. Those that lead
+    /// the case are the case's take-up, which a learnt approach holds at
+    /// its front for the new cycle's own take-up to replace
+    /// ([`super::adaptation::learnt_path`]). `Some(vec![])`: none;
+    /// `None`: not known (a case of a memory format before 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub take_up_commands: Option<Vec<usize>>,
     /// Measured gap of each midspan pair after each command, m (`None`:
     /// a reading missing).
     pub measured_gaps_m: Vec<Vec<Option<f64>>>,
@@ -379,7 +379,8 @@ impl Case {
                 check_value(format!("commands_m[{i}][{k}]"), x, PAYOUT_RANGE_M)?;
             }
         }
-        for (i, w) in self.take_up_commands.windows(2).enumerate() {
+        let take_ups = self.take_up_commands.as_deref().unwrap_or_default();
+        for (i, w) in take_ups.windows(2).enumerate() {
             if w[1] <= w[0] {
                 return Err(FieldError::new(
                     format!("take_up_commands[{}]", i + 1),
@@ -387,10 +388,10 @@ impl Case {
                 ));
             }
         }
-        if let Some(&k) = self.take_up_commands.last() {
+        if let Some(&k) = take_ups.last() {
             if k >= commands {
                 return Err(FieldError::new(
-                    format!("take_up_commands[{}]", self.take_up_commands.len() - 1),
+                    format!("take_up_commands[{}]", take_ups.len() - 1),
                     format!("{k}, not a command of the {commands} the case holds (0 is the first)"),
                 ));
             }
@@ -577,7 +578,7 @@ impl Case {
                 payout_scale: d.final_payout_scale.clone(),
             },
             commands_m: d.commands(),
-            take_up_commands: d.take_up_commands(),
+            take_up_commands: Some(d.take_up_commands()),
             measured_gaps_m: d
                 .records
                 .iter()

@@ -145,7 +145,7 @@ mod tests {
                 payout_scale: vec![scale, scale],
             },
             commands_m: vec![vec![-0.05; 10]],
-            take_up_commands: vec![],
+            take_up_commands: None,
             measured_gaps_m: vec![vec![Some(0.1); 5]],
             final_gap_vectors_m: vec![Some([0.01, 0.0, 0.0]); 5],
             prediction_error_m: vec![Some(0.002)],
